@@ -1,0 +1,22 @@
+"""lidar_sig: augmented semantic signatures of airborne LiDAR point clouds, for comparison.
+
+Sreevalsan-Nair & Mohapatra, "Augmented Semantic Signatures of Airborne LiDAR Point Clouds
+for Comparison". A cloud's per-point saliency map (Cl, Cs, Cp), placed in barycentric
+coordinates of a fixed triangle, makes an image: the geometric signature Sg, or coloured by
+semantic class, the augmented semantic signature Sas; metrics between signatures compare clouds.
+"""
+__version__ = "0.1.0"
+
+from .classes import ASPRS, PAPER, ClassTable, class_table  # noqa: E402
+from .cloud import PointCloud  # noqa: E402
+from .errors import LidarSigError  # noqa: E402
+from .io import read  # noqa: E402
+from .metrics import compare  # noqa: E402
+from .pipeline import Pipeline, Result  # noqa: E402
+from .saliency import Saliency  # noqa: E402
+from .scales import Scales, knn, radii  # noqa: E402
+from .signature import Frame, Signature  # noqa: E402
+
+__all__ = ["ASPRS", "PAPER", "ClassTable", "Frame", "LidarSigError", "Pipeline", "PointCloud",
+           "Result", "Saliency", "Scales", "Signature", "class_table", "compare", "knn", "radii",
+           "read"]

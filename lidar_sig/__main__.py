@@ -1,0 +1,4 @@
+"""``python -m lidar_sig`` runs the command line."""
+from .cli import main
+
+main()

@@ -1,0 +1,65 @@
+"""PointCloud: coordinates, optional semantic labels and the source file's own record."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .errors import LidarSigError
+
+
+@dataclass
+class PointCloud:
+    """N points x_i in R^3 (metres or any linear unit, z up).
+
+    Attributes
+    ----------
+    xyz : (N, 3) float64 array
+        Coordinates as stored in the file (scaled and offset for LAS).
+    labels : (N,) int array or None
+        Semantic class code per point (ASPRS codes for LAS), None when unlabeled.
+    source : object or None
+        The reader's full record of the file (``laspy.LasData`` for LAS/LAZ), kept so that
+        writers can return every original dimension and VLR unchanged.
+    path : str or None
+        Where the cloud was read from, for messages and metadata.
+    """
+
+    xyz: np.ndarray
+    labels: np.ndarray | None = None
+    source: Any = None
+    path: str | None = None
+    attributes: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        xyz = np.asarray(self.xyz, dtype=np.float64)
+        if xyz.ndim != 2 or xyz.shape[1] != 3:
+            raise LidarSigError(f"coordinates must have shape (N, 3), got {xyz.shape}", path=self.path)
+        if xyz.shape[0] == 0:
+            raise LidarSigError("the file holds no points; give a file with points", path=self.path)
+        bad = ~np.isfinite(xyz).all(axis=1)
+        if bad.any():
+            raise LidarSigError(
+                f"{int(bad.sum())} points have NaN or infinite coordinates (first at index "
+                f"{int(np.argmax(bad))}); remove them before running", path=self.path)
+        self.xyz = xyz
+        if self.labels is not None:
+            self.labels = np.asarray(self.labels)
+            if self.labels.shape != (xyz.shape[0],):
+                raise LidarSigError(
+                    f"labels must have one value per point: {self.labels.shape} for {xyz.shape[0]} points",
+                    path=self.path)
+
+    def __len__(self):
+        return self.xyz.shape[0]
+
+    @property
+    def extent(self):
+        """Side lengths (dx, dy, dz) of the axis-aligned bounding box, in coordinate units."""
+        return self.xyz.max(axis=0) - self.xyz.min(axis=0)
+
+    @property
+    def half_longest_side(self):
+        """Half the longest bounding-box side: one normalized unit in coordinate units (SPEC 2)."""
+        return float(self.extent.max()) / 2.0

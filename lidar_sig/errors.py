@@ -1,0 +1,13 @@
+"""Errors a user can cause and fix.
+
+The command line turns a :class:`LidarSigError` into one line on stderr and exit status 2;
+anything else is a bug and keeps its traceback.
+"""
+
+
+class LidarSigError(ValueError):
+    """A problem with the user's input, options or output path; the message names the fix."""
+
+    def __init__(self, message, *, path=None):
+        self.path = None if path is None else str(path)
+        super().__init__(f"{self.path}: {message}" if self.path else message)

@@ -1,0 +1,95 @@
+"""Compiled per-neighbour kernels (numba), shared by the descriptors.
+
+Each kernel walks the distance-sorted neighbour list of a query point once, keeps running sums,
+and reads off every scale when the walk reaches that scale's neighbour count (SPEC 2:
+smaller scales are prefixes of the largest). Work is spread over the cores with ``prange``.
+"""
+import numpy as np
+from numba import njit, prange
+
+
+@njit(cache=True, inline="always")
+def _rotate(app, aqq, apq, arp, arq):
+    # One Jacobi rotation zeroing a_pq; r is the third index (Numerical Recipes, 11.1).
+    if apq == 0.0:
+        return app, aqq, arp, arq
+    theta = (aqq - app) / (2.0 * apq)
+    t = 1.0 / (abs(theta) + np.sqrt(theta * theta + 1.0))
+    if theta < 0.0:
+        t = -t
+    c = 1.0 / np.sqrt(t * t + 1.0)
+    s = t * c
+    return app - t * apq, aqq + t * apq, c * arp - s * arq, s * arp + c * arq
+
+
+@njit(cache=True)
+def eigvalsh3(a00, a11, a22, a01, a02, a12):
+    """Eigenvalues of a symmetric 3x3 matrix, sorted descending (cyclic Jacobi).
+
+    Jacobi keeps full relative accuracy for close eigenvalues, where the closed-form
+    trigonometric solution loses half the digits (a plane's two in-plane eigenvalues).
+    """
+    for _ in range(16):
+        off = a01 * a01 + a02 * a02 + a12 * a12
+        if off <= 1e-34 * (a00 * a00 + a11 * a11 + a22 * a22 + off):
+            break
+        a00, a11, a02, a12 = _rotate(a00, a11, a01, a02, a12)
+        a01 = 0.0
+        a00, a22, a01, a12 = _rotate(a00, a22, a02, a01, a12)
+        a02 = 0.0
+        a11, a22, a01, a02 = _rotate(a11, a22, a12, a01, a02)
+        a12 = 0.0
+    # sort descending
+    if a00 < a11:
+        a00, a11 = a11, a00
+    if a11 < a22:
+        a11, a22 = a22, a11
+    if a00 < a11:
+        a00, a11 = a11, a00
+    return a00, a11, a22
+
+
+@njit(cache=True, parallel=True)
+def covariance_eigenvalues(xyz, rows, idx, counts):
+    """Eigenvalues (B, S, 3) of the covariance tensor (C3DCM) at every scale.
+
+    T = (1/n) sum (q - qbar)(q - qbar)^T over the first ``counts[b, s]`` neighbours, from
+    running sums of offsets to the query point (small numbers, so no cancellation against
+    UTM-sized coordinates). Negative round-off is clamped to 0; count 0 gives NaN.
+    """
+    B = idx.shape[0]
+    S = counts.shape[1]
+    out = np.empty((B, S, 3))
+    for b in prange(B):
+        i = rows[b]
+        cx, cy, cz = xyz[i, 0], xyz[i, 1], xyz[i, 2]
+        sx = sy = sz = sxx = syy = szz = sxy = sxz = syz = 0.0
+        n = 0
+        for s in range(S):
+            target = counts[b, s]
+            while n < target:
+                j = idx[b, n]
+                dx = xyz[j, 0] - cx
+                dy = xyz[j, 1] - cy
+                dz = xyz[j, 2] - cz
+                sx += dx
+                sy += dy
+                sz += dz
+                sxx += dx * dx
+                syy += dy * dy
+                szz += dz * dz
+                sxy += dx * dy
+                sxz += dx * dz
+                syz += dy * dz
+                n += 1
+            if target == 0:
+                out[b, s, 0] = out[b, s, 1] = out[b, s, 2] = np.nan
+                continue
+            w = 1.0 / n
+            mx, my, mz = sx * w, sy * w, sz * w
+            l0, l1, l2 = eigvalsh3(sxx * w - mx * mx, syy * w - my * my, szz * w - mz * mz,
+                                   sxy * w - mx * my, sxz * w - mx * mz, syz * w - my * mz)
+            out[b, s, 0] = max(l0, 0.0)
+            out[b, s, 1] = max(l1, 0.0)
+            out[b, s, 2] = max(l2, 0.0)
+    return out

@@ -1,0 +1,1 @@
+"""Built-in local geometric descriptors (SPEC 3)."""

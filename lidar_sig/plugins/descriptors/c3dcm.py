@@ -1,0 +1,18 @@
+"""C3DCM: the covariance tensor of a neighbourhood (SPEC 3)."""
+from ...kernels import covariance_eigenvalues
+from ..base import Descriptor
+
+
+class C3DCM(Descriptor):
+    """3D covariance matrix T = (1/n) sum (q - qbar)(q - qbar)^T, x_i included.
+
+    References
+    ----------
+    Sreevalsan-Nair & Kumari (2017); Sreevalsan-Nair & Mohapatra, section on descriptors.
+    """
+
+    name = "c3dcm"
+    summary = "covariance tensor of the neighbourhood (C3DCM)"
+
+    def eigenvalues(self, batch):
+        return covariance_eigenvalues(batch.xyz, batch.rows, batch.idx, batch.counts)

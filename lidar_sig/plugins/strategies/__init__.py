@@ -1,0 +1,1 @@
+"""Built-in scale strategies (SPEC 4)."""

@@ -1,0 +1,195 @@
+"""Signatures (SPEC 5): the barycentric frame, count rasters, Sg and Sas renderings.
+
+A signature's lossless core is ``counts[class, y, x]``, the number of points of each semantic
+class whose saliency map falls in each pixel of a fixed reference triangle; every rendering and
+metric is a deterministic function of it. Rasters are additive over disjoint tiles.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .classes import ClassTable
+from .errors import LidarSigError
+from .saliency import LN3
+
+#: Density transfer (see :func:`transfer`): per-pixel point share of the log knee, and the share
+#: at which a pixel saturates.
+DENSITY_REF = 1e-6
+DENSITY_SAT = 1e-2
+
+
+@dataclass(frozen=True)
+class Frame:
+    """Reference triangle of a signature image (SPEC 5), in pixel coordinates.
+
+    Equilateral, line vertex V_l at the top, point vertex V_p bottom-left, surface vertex V_s
+    bottom-right, ``margin`` pixels from the left and right borders, centred vertically.
+    Pixel (row, col) covers x in [col, col+1), y in [row, row+1); y grows downwards.
+    """
+
+    size: int = 512
+    margin: int = 16
+
+    def __post_init__(self):
+        if self.size < 16 or not 0 <= self.margin < self.size // 4:
+            raise LidarSigError(f"signature size {self.size} px with margin {self.margin} px is too small")
+
+    @property
+    def vertices(self):
+        """(3, 2) array of (x, y) pixel positions of V_l, V_s, V_p, in that order (Cl, Cs, Cp)."""
+        side = self.size - 2 * self.margin
+        height = side * np.sqrt(3.0) / 2.0
+        top = (self.size - height) / 2.0
+        bottom = top + height
+        return np.array([[self.size / 2.0, top], [self.size - self.margin, bottom],
+                         [float(self.margin), bottom]])
+
+    def positions(self, sal):
+        """(M, 2) (x, y) positions Cl V_l + Cs V_s + Cp V_p of saliency maps (M, 3)."""
+        return np.asarray(sal, dtype=np.float64) @ self.vertices
+
+    def pixels(self, sal):
+        """(row, col) integer pixel of each saliency map, clipped to the image."""
+        xy = np.floor(self.positions(sal)).astype(np.int64)
+        np.clip(xy, 0, self.size - 1, out=xy)
+        return xy[:, 1], xy[:, 0]
+
+    def mask(self):
+        """(size, size) bool: pixels that touch the triangle (centre within half a diagonal)."""
+        c = np.arange(self.size) + 0.5
+        x, y = np.meshgrid(c, c)
+        v = self.vertices
+        inside = np.ones((self.size, self.size), bool)
+        for a, b, o in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
+            # signed distance to edge (a, b), positive towards the opposite vertex o
+            ex, ey = v[b] - v[a]
+            norm = np.hypot(ex, ey)
+            side = np.sign((v[o, 0] - v[a, 0]) * ey - (v[o, 1] - v[a, 1]) * ex)
+            dist = side * ((x - v[a, 0]) * ey - (y - v[a, 1]) * ex) / norm
+            inside &= dist >= -np.sqrt(0.5)
+        return inside
+
+
+def transfer(share):
+    """Density transfer of Sg/Sas: per-pixel share of points p in [0, 1] -> intensity in [0, 1].
+
+    min(1, log(1 + p / p_ref) / log(1 + p_sat / p_ref)) with p_ref = 1e-6, p_sat = 0.01:
+    monotone, 0 for an empty pixel, 1 for a pixel holding 1% of the points or more; one point
+    of 25,000 renders at about 0.4. It depends on shares, not counts, so two clouds with the
+    same distribution and different point counts render alike.
+    """
+    v = np.log1p(np.asarray(share) / DENSITY_REF) / np.log1p(DENSITY_SAT / DENSITY_REF)
+    return np.minimum(v, 1.0)
+
+
+@dataclass
+class Signature:
+    """The signature of one cloud: count raster per class plus its Egeom histogram.
+
+    Attributes
+    ----------
+    counts : (C, H, W) int64
+        Points of each class (class table order, ``other`` last) per pixel of the frame.
+    frame : Frame
+    classes : ClassTable
+    egeom_counts : (bins,) int64
+        Histogram of Egeom over [0, ln 3] nats (SPEC 6, d_EMD-Info).
+    n_undefined : int
+        Points left out because their saliency is undefined at every scale.
+    metadata : dict
+        Descriptor, strategy, scales and sources that made it.
+    """
+
+    counts: np.ndarray
+    frame: Frame
+    classes: ClassTable
+    egeom_counts: np.ndarray
+    n_undefined: int = 0
+    metadata: dict = field(default_factory=dict)
+
+    @classmethod
+    def from_saliency(cls, sal, class_index, *, classes, frame=None, egeom=None, egeom_bins=100,
+                      metadata=None):
+        """Build a signature from per-point saliency (N, 3) and class indices (N,).
+
+        Points with NaN saliency are excluded and counted in ``n_undefined``.
+        """
+        frame = frame or Frame()
+        sal = np.asarray(sal, dtype=np.float64)
+        ok = ~np.isnan(sal).any(axis=1)
+        rows, cols = frame.pixels(sal[ok])
+        n_classes = len(classes)
+        flat = (np.asarray(class_index)[ok] * frame.size + rows) * frame.size + cols
+        counts = np.bincount(flat, minlength=n_classes * frame.size ** 2)
+        counts = counts.reshape(n_classes, frame.size, frame.size).astype(np.int64)
+        if egeom is None:
+            from .saliency import geometric_entropy
+            egeom = geometric_entropy(sal)
+        hist, _ = np.histogram(np.asarray(egeom)[ok], bins=egeom_bins, range=(0.0, LN3))
+        return cls(counts, frame, classes, hist.astype(np.int64), int((~ok).sum()), dict(metadata or {}))
+
+    @property
+    def n_points(self):
+        """Points in the signature (undefined ones excluded)."""
+        return int(self.counts.sum())
+
+    @property
+    def class_counts(self):
+        """(C,) points per class."""
+        return self.counts.sum(axis=(1, 2))
+
+    @property
+    def total(self):
+        """(H, W) points per pixel, all classes."""
+        return self.counts.sum(axis=0)
+
+    def sg(self, mode="density"):
+        """Geometric signature Sg, (H, W) float64 in [0, 1] (SPEC 5).
+
+        ``"density"``: :func:`transfer` of each pixel's share of points (default).
+        ``"points"``: 1 where any point falls (the paper's rendering), else 0.
+        """
+        total = self.total
+        if mode == "points":
+            return (total > 0).astype(np.float64)
+        if mode != "density":
+            raise LidarSigError(f"unknown Sg mode {mode!r}; use 'density' or 'points'")
+        return transfer(total / max(self.n_points, 1))
+
+    def sas(self, mode="density"):
+        """Augmented semantic signature Sas, (H, W, 3) float64 RGB in [0, 1] (SPEC 5).
+
+        Each pixel is the count-weighted mean colour of its classes, blended over a white
+        background by the Sg intensity (white where no point falls), so no class hides another
+        by drawing order.
+        """
+        total = self.total
+        rgb = np.tensordot(self.counts, self.classes.class_colors, axes=([0], [0]))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            mean = np.where(total[..., None] > 0, rgb / total[..., None], 1.0)
+        return 1.0 - self.sg(mode)[..., None] * (1.0 - mean)
+
+    def check_comparable(self, other):
+        """Raise LidarSigError unless frames, class tables and Egeom bins agree (SPEC 5)."""
+        if self.frame != other.frame:
+            raise LidarSigError(f"signatures have different frames ({self.frame} and {other.frame}); "
+                                "make both with the same image size")
+        if self.classes != other.classes:
+            raise LidarSigError(f"signatures use different class tables ({self.classes.name!r} and "
+                                f"{other.classes.name!r}); make both with the same --classes")
+        if len(self.egeom_counts) != len(other.egeom_counts):
+            raise LidarSigError("signatures have different Egeom histogram bins")
+
+    def __add__(self, other):
+        """Signature of the union of two disjoint clouds (counts are additive)."""
+        self.check_comparable(other)
+        return Signature(self.counts + other.counts, self.frame, self.classes,
+                         self.egeom_counts + other.egeom_counts,
+                         self.n_undefined + other.n_undefined, dict(self.metadata))
+
+
+def to_uint8(image):
+    """Float image in [0, 1] -> uint8 by rounding, as stored in PNG."""
+    return np.clip(np.rint(np.asarray(image) * 255.0), 0, 255).astype(np.uint8)

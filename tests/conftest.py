@@ -1,0 +1,38 @@
+"""Shared fixtures: the real survey data beside the project, and small synthetic clouds."""
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+DATA = ROOT.parent / "shared" / "data"
+IGN = DATA / "ign_lidarhd_montpellier"
+IGN_FILES = sorted(IGN.glob("*.laz"))
+SAMPLES = ROOT / "data_samples"
+
+
+def need_data(path):
+    """Skip (saying why) when the shared survey data is not beside the project."""
+    if not Path(path).exists():
+        pytest.skip(f"real survey data not found at {path} (expected ../shared/data beside the project)")
+    return Path(path)
+
+
+def airborne_like(n=4000, seed=0, quantum=2.0 ** -10):
+    """A small airborne-like scene: bumpy ground, a box roof, a tree blob; labels 2, 6, 5.
+
+    Coordinates are quantized to ``quantum`` (as LAS stores integers) so that adding a
+    UTM-sized offset is exact in float64.
+    """
+    rng = np.random.default_rng(seed)
+    n_ground, n_roof, n_tree = n // 2, n // 4, n - n // 2 - n // 4
+    g = rng.uniform(0, 40, (n_ground, 2))
+    ground = np.column_stack([g, 0.3 * np.sin(g[:, 0] / 5) + 0.02 * rng.standard_normal(n_ground)])
+    r = rng.uniform(5, 15, (n_roof, 2))
+    roof = np.column_stack([r, 8 + 0.4 * np.abs(r[:, 0] - 10) + 0.02 * rng.standard_normal(n_roof)])
+    tree = rng.normal([28, 28, 7], [1.5, 1.5, 1.5], (n_tree, 3))
+    xyz = np.vstack([ground, roof, tree])
+    labels = np.repeat([2, 6, 5], [n_ground, n_roof, n_tree])
+    if quantum:
+        xyz = np.round(xyz / quantum) * quantum
+    return xyz, labels

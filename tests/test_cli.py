@@ -1,0 +1,150 @@
+"""The command line as a user runs it: real processes, exit codes, one-line errors."""
+import json
+import subprocess
+import sys
+
+import laspy
+import numpy as np
+import pytest
+
+from conftest import IGN, SAMPLES, need_data
+
+WEST = IGN / "test_data_77050_627755_LA93_IGN69.laz"
+EAST = IGN / "test_data_77060_627755_LA93_IGN69.laz"
+SMALL = IGN / "test_data_77060_627760_LA93_IGN69.laz"
+
+
+def run(*args):
+    return subprocess.run([sys.executable, "-m", "lidar_sig", *map(str, args)],
+                          capture_output=True, text=True, timeout=600)
+
+
+def assert_user_error(proc, name):
+    assert proc.returncode == 2, proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1, proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert name in lines[0]
+
+
+def assert_nothing_written(folder, output):
+    assert not output.exists()
+    assert not [p for p in folder.iterdir() if p.name.startswith(".") and p.suffix == ".tmp"]
+
+
+def test_compare_real_ign_columns_prints_every_metric():
+    need_data(WEST), need_data(EAST)
+    proc = run("compare", WEST, EAST, "--json")
+    assert proc.returncode == 0, proc.stderr
+    out = json.loads(proc.stdout)
+    for key in ("bhattacharyya", "ssim", "emd_info", "kl", "l1"):
+        assert isinstance(out[key], float), key
+    assert 0 <= out["bhattacharyya"] <= 1 and -1 <= out["ssim"] <= 1
+    assert out["bhattacharyya"] > 0 and out["ssim"] < 1 and out["kl"] > 0 and out["l1"] > 0
+    table = run("compare", WEST, EAST)
+    assert table.returncode == 0
+    for name in ("d_BD-Img", "s_SSIM", "d_EMD-Info", "delta_KL", "L1"):
+        assert name in table.stdout
+
+
+def test_compare_file_with_itself_gives_zero_distances():
+    need_data(SMALL)
+    out = json.loads(run("compare", SMALL, SMALL, "--json", "--strategy", "optimal").stdout)
+    assert out["ssim"] == 1.0
+    assert out["bhattacharyya"] == out["emd_info"] == out["kl"] == out["l1"] == 0.0
+
+
+def test_compare_warns_when_normalized_radii_differ():
+    e1, e2 = SAMPLES / "epoch1.laz", SAMPLES / "epoch2.laz"
+    proc = run("compare", e1, e2, "--json")
+    assert proc.returncode == 0, proc.stderr
+    assert "--units metric" in proc.stderr
+    out = json.loads(proc.stdout)
+    assert out["a"]["scales"] != out["b"]["scales"]
+    metric = json.loads(run("compare", e1, e2, "--json", "--units", "metric",
+                            "--radii", "0.5,0.6,0.7").stdout)
+    assert metric["a"]["scales"] == metric["b"]["scales"] == [0.5, 0.6, 0.7]
+    assert metric["warnings"] == []
+
+
+def test_saliency_writes_laz_and_refuses_existing_output(tmp_path):
+    src = need_data(SMALL)
+    out = tmp_path / "sal.laz"
+    proc = run("saliency", src, "-o", out, "--strategy", "optimal")
+    assert proc.returncode == 0, proc.stderr
+    assert "OptimalScale" in laspy.read(out).point_format.extra_dimension_names
+    before = out.read_bytes()
+    again = run("saliency", src, "-o", out)
+    assert_user_error(again, str(out))
+    assert "--overwrite" in again.stderr and out.read_bytes() == before
+    assert run("saliency", src, "-o", out, "--overwrite", "-q").returncode == 0
+    assert "OptimalScale" not in laspy.read(out).point_format.extra_dimension_names
+
+
+def test_signature_writes_png(tmp_path):
+    out, sg = tmp_path / "sas.png", tmp_path / "sg.png"
+    proc = run("signature", SAMPLES / "epoch1.laz", "-o", out, "--sg", sg, "--classes", "paper")
+    assert proc.returncode == 0, proc.stderr
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and sg.exists()
+
+
+def _las(path, xyz):
+    header = laspy.LasHeader(point_format=6, version="1.4")
+    header.scales = [0.01, 0.01, 0.01]
+    las = laspy.LasData(header)
+    if len(xyz):
+        las.x, las.y, las.z = xyz[:, 0], xyz[:, 1], xyz[:, 2]
+    las.write(path)
+    return path
+
+
+def _bad_inputs(tmp_path):
+    text = tmp_path / "text.laz"
+    text.write_text("this is not a point cloud\n")
+    truncated = tmp_path / "truncated.laz"
+    if SMALL.exists():
+        truncated.write_bytes(SMALL.read_bytes()[:150_000])
+    nan = tmp_path / "nan.xyz"
+    nan.write_text("0 0 0\n1 0 0\nnan 1 0\n0 1 1\n")
+    return {
+        "missing": (tmp_path / "missing.laz", []),
+        "text named .laz": (text, []),
+        "truncated": (truncated, []),
+        "no points": (_las(tmp_path / "empty.laz", np.zeros((0, 3))), []),
+        "fewer points than k": (_las(tmp_path / "five.laz", np.random.default_rng(0).uniform(0, 9, (5, 3))),
+                                ["--strategy", "optimal"]),
+        "fewer points than a neighbourhood": (_las(tmp_path / "two.las", np.array([[0, 0, 0], [1, 1, 1.0]])), []),
+        "NaN coordinates": (nan, []),
+    }
+
+
+@pytest.mark.parametrize("case", ["missing", "text named .laz", "truncated", "no points",
+                                  "fewer points than k", "fewer points than a neighbourhood",
+                                  "NaN coordinates"])
+@pytest.mark.parametrize("command", ["saliency", "signature", "compare"])
+def test_bad_input_exits_2_with_one_line_and_no_output(tmp_path, case, command):
+    if case == "truncated":
+        need_data(SMALL)
+    src, extra = _bad_inputs(tmp_path)[case]
+    outdir = tmp_path / "out"
+    outdir.mkdir()
+    output = outdir / ("o.png" if command == "signature" else "o.laz")
+    args = [command, src] + (["-o", output] if command != "compare" else [src]) + extra
+    proc = run(*args)
+    assert_user_error(proc, src.name)
+    assert_nothing_written(outdir, output)
+
+
+def test_bad_option_values_exit_2(tmp_path):
+    src = SAMPLES / "epoch1.laz"
+    for args in (["--radii", "a,b"], ["--units", "metric"], ["--descriptor", "nope"], ["--k", "1.5"]):
+        proc = run("saliency", src, "-o", tmp_path / "o.laz", *args)
+        assert proc.returncode == 2 and "Traceback" not in proc.stderr, args
+        assert not (tmp_path / "o.laz").exists()
+
+
+def test_plugins_lists_builtins():
+    proc = run("plugins")
+    assert proc.returncode == 0
+    for name in ("c3dcm", "multiscale", "optimal"):
+        assert name in proc.stdout

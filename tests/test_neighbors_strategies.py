@@ -1,0 +1,87 @@
+"""Neighbourhood queries (SPEC 2) and the two scale strategies (SPEC 4)."""
+import numpy as np
+import pytest
+
+import lidar_sig as ls
+from lidar_sig.neighbors import NeighborIndex
+from lidar_sig.plugins import get_strategy
+from lidar_sig.saliency import geometric_entropy
+
+
+@pytest.fixture
+def pts():
+    return np.random.default_rng(7).uniform(-5, 5, (3000, 3)) * [1, 1, 0.3]
+
+
+def test_spherical_counts_match_brute_force_and_are_prefixes(pts):
+    radii = np.array([0.4, 0.7, 1.1])
+    index = NeighborIndex(pts, "radius", radii, max_neighbors=512, min_neighbors=1)
+    rows = np.arange(0, 3000, 37)
+    batch = index.query(rows)
+    for b, row in enumerate(rows):
+        d = np.linalg.norm(pts - pts[row], axis=1)
+        for s, r in enumerate(radii):
+            assert batch.counts[b, s] == np.sum(d <= r)
+            got = set(batch.idx[b, :batch.counts[b, s]].tolist())
+            assert got == set(np.flatnonzero(d <= r).tolist())
+        assert np.all(np.diff(batch.dist[b][np.isfinite(batch.dist[b])]) >= 0)
+
+
+def test_spherical_cap_keeps_nearest_and_is_reported(pts):
+    index = NeighborIndex(pts, "radius", np.array([3.0]), max_neighbors=20, min_neighbors=1)
+    batch = index.query(np.arange(10))
+    assert (batch.counts[:, 0] == 20).all()
+    assert batch.capped.all()
+    d = np.linalg.norm(pts[None, :, :] - pts[:10, None, :], axis=2)
+    np.testing.assert_allclose(batch.dist[:, :20], np.sort(d, axis=1)[:, :20])
+
+
+def test_knn_includes_query_point_and_sigma_is_kth_distance(pts):
+    index = NeighborIndex(pts, "knn", np.array([5, 10]))
+    batch = index.query(np.arange(50))
+    assert (batch.idx[:, 0] == np.arange(50)).all()
+    np.testing.assert_allclose(batch.sigma[:, 1], batch.dist[:, 9])
+
+
+def test_scales_below_min_neighbors_are_undefined(pts):
+    index = NeighborIndex(pts, "radius", np.array([1e-6, 1.0]), min_neighbors=3)
+    batch = index.query(np.arange(20))
+    assert (batch.counts[:, 0] == 0).all() and (batch.counts[:, 1] >= 3).all()
+
+
+def test_multiscale_averages_defined_scales_only():
+    per = np.array([[[0.2, 0.7, 0.1], [np.nan] * 3, [0.4, 0.5, 0.1]]])
+    sal, chosen = get_strategy("multiscale").combine(per)
+    np.testing.assert_allclose(sal, [[0.3, 0.6, 0.1]])
+    assert chosen is None
+
+
+def test_optimal_scale_picks_minimum_entropy_first_on_ties():
+    per = np.array([[[0.5, 0.5, 0.0], [0.9, 0.1, 0.0], [0.1, 0.9, 0.0], [np.nan] * 3]])
+    sal, chosen = get_strategy("optimal").combine(per)
+    e = geometric_entropy(per[0, :3])
+    assert chosen[0] == int(np.argmin(e)) == 1  # entropies of scales 1 and 2 tie; first wins
+    np.testing.assert_allclose(sal[0], per[0, 1])
+
+
+def test_optimal_scale_result_reports_chosen_scale():
+    xyz, labels = __import__("conftest").airborne_like(2000)
+    result = ls.Pipeline(strategy="optimal").run(ls.PointCloud(xyz, labels))
+    chosen = result.saliency.optimal_scale
+    assert chosen.shape == (2000,) and chosen.min() >= 0 and chosen.max() <= 9
+    assert len(np.unique(chosen)) > 1
+
+
+def test_unknown_plugin_lists_available():
+    with pytest.raises(ls.LidarSigError, match="available: .*c3dcm"):
+        ls.Pipeline(descriptor="nope")
+    with pytest.raises(ls.LidarSigError, match="multiscale, optimal"):
+        ls.Pipeline(strategy="nope")
+
+
+def test_scales_validation():
+    with pytest.raises(ls.LidarSigError):
+        ls.radii(-1.0)
+    with pytest.raises(ls.LidarSigError):
+        ls.knn(1)
+    assert ls.radii(0.011, 0.009, 0.010).values == (0.009, 0.010, 0.011)

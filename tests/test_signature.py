@@ -1,0 +1,98 @@
+"""Signatures (SPEC 5): frame, count rasters, renderings."""
+import numpy as np
+import pytest
+
+import lidar_sig as ls
+from lidar_sig.classes import ASPRS, PAPER, UNLABELED
+from lidar_sig.signature import Frame, Signature
+
+
+def _sig(sal, labels, classes=ASPRS, frame=None):
+    return Signature.from_saliency(sal, classes.index(labels), classes=classes, frame=frame)
+
+
+def test_vertices_receive_pure_saliencies():
+    frame = Frame()
+    sal = np.eye(3)  # pure line, surface, point
+    rows, cols = frame.pixels(sal)
+    v = frame.vertices
+    assert rows[0] < rows[1] == rows[2]          # line vertex at the top
+    assert cols[2] < cols[0] < cols[1]           # point bottom-left, surface bottom-right
+    np.testing.assert_allclose(np.linalg.norm(v[0] - v[1]), np.linalg.norm(v[1] - v[2]))
+    mask = frame.mask()
+    assert mask[rows, cols].all() and not mask[0, 0] and not mask[-1, -1]
+
+
+def test_every_saliency_lands_inside_the_mask():
+    sal = np.random.default_rng(0).dirichlet([0.3, 0.3, 0.3], 100000)
+    rows, cols = Frame().pixels(sal)
+    assert Frame().mask()[rows, cols].all()
+
+
+def test_counts_are_additive_over_disjoint_parts():
+    rng = np.random.default_rng(1)
+    sal = rng.dirichlet([1, 1, 1], 5000)
+    labels = rng.choice([2, 5, 6], 5000)
+    whole = _sig(sal, labels)
+    parts = _sig(sal[:2000], labels[:2000]) + _sig(sal[2000:], labels[2000:])
+    assert np.array_equal(whole.counts, parts.counts)
+    assert np.array_equal(whole.egeom_counts, parts.egeom_counts)
+    assert whole.class_counts[[2, 5, 6]].tolist() == [np.sum(labels == c) for c in (2, 5, 6)]
+
+
+def test_signature_is_independent_of_point_order():
+    rng = np.random.default_rng(2)
+    sal = rng.dirichlet([1, 1, 1], 3000)
+    labels = rng.choice([2, 6], 3000)
+    order = rng.permutation(3000)
+    assert np.array_equal(_sig(sal, labels).counts, _sig(sal[order], labels[order]).counts)
+
+
+def test_density_rendering_ignores_point_count_points_mode_marks_pixels():
+    rng = np.random.default_rng(3)
+    sal = rng.dirichlet([1, 2, 1], 2000)
+    labels = rng.choice([2, 6], 2000)
+    one = _sig(sal, labels)
+    twice = _sig(np.vstack([sal, sal]), np.concatenate([labels, labels]))
+    np.testing.assert_allclose(one.sg(), twice.sg())
+    np.testing.assert_allclose(one.sas(), twice.sas())
+    assert set(np.unique(one.sg("points"))) == {0.0, 1.0}
+    assert (one.sg() > 0).sum() == (one.sg("points") > 0).sum()
+    assert one.sg().max() <= 1 and one.sas().min() >= 0
+
+
+def test_sas_mixes_class_colours_by_count():
+    sal = np.tile([[0.2, 0.5, 0.3]], (4, 1))
+    sig = _sig(sal, np.array([6, 6, 6, 5]), classes=PAPER)
+    r, c = Frame().pixels(sal[:1])
+    colors = PAPER.class_colors
+    mean = (3 * colors[1] + colors[0]) / 4  # building x3, tree x1
+    v = sig.sg()[r[0], c[0]]
+    np.testing.assert_allclose(sig.sas()[r[0], c[0]], 1 - v * (1 - mean))
+
+
+def test_class_tables_map_codes_and_other():
+    assert ASPRS.index(np.array([2, 6, 64, 18])).tolist() == [2, 6, len(ASPRS) - 1, 18]
+    assert PAPER.index(np.array([4, 5, 6, 3, 2, 11, 1])).tolist() == [0, 0, 1, 2, 3, 3, 4]
+    assert UNLABELED.index(np.array([1, 2])).tolist() == [0, 0]
+
+
+def test_unlabeled_cloud_gives_geometric_metrics_only():
+    rng = np.random.default_rng(4)
+    xyz = rng.uniform(0, 20, (2000, 3)) * [1, 1, 0.05]
+    res = ls.Pipeline(scales=ls.knn(10, 20)).run(ls.PointCloud(xyz))
+    assert res.signature.classes == UNLABELED
+    out = ls.compare(res.signature, res.signature)
+    assert out["kl"] is None and out["l1"] is None and out["ssim"] == 1.0
+
+
+def test_write_png(tmp_path):
+    rng = np.random.default_rng(5)
+    xyz = rng.uniform(0, 20, (2000, 3)) * [1, 1, 0.05]
+    res = ls.Pipeline(scales=ls.knn(10)).run(ls.PointCloud(xyz, rng.choice([2, 6], 2000)))
+    res.write(tmp_path / "s.png")
+    from PIL import Image
+    img = np.asarray(Image.open(tmp_path / "s.png"))
+    assert img.shape == (512, 512, 3)
+    with pytest.raises(ls.LidarSigError, match="--overwrite"):
+        res.write(tmp_path / "s.png")
