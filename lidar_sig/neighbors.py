@@ -1,7 +1,10 @@
-"""Neighbourhoods (SPEC 2): one query at the largest scale, sorted by distance, in blocks.
+"""Neighbourhoods (SPEC 2): one query at the largest scale, in blocks of points.
 
-Every scale of a run is a prefix of the distance-sorted neighbour list of its largest scale,
-so one k-d tree query per block of points serves them all.
+Every scale of a run is a prefix of the neighbour list of its largest scale, so one search per
+block of points serves them all. The search runs on a voxel grid (:mod:`lidar_sig.grid`); the
+few queries it cannot settle within a few voxel shells (isolated outliers) go to a k-d tree.
+The index works on the points sorted by voxel: ``NeighborIndex.xyz`` is the sorted cloud and
+``order`` maps its rows back to the input.
 """
 from __future__ import annotations
 
@@ -10,54 +13,69 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-# A spherical query first asks for this many neighbours and only re-asks for max_neighbors
-# for the points whose sphere holds more: airborne neighbourhoods at the paper's radii are
-# mostly small, and a k-d tree query costs in proportion to k.
-_FIRST_K = 64
-# Bytes of neighbour lists (index + distance) held at once; bounds memory per block.
+from .grid import VoxelGrid
+
+# Bytes of neighbour lists (squared distance + index) held at once; bounds memory per block.
 _BLOCK_BYTES = 96 * 2**20
+# Voxel shells a k-nearest query may grow before it is handed to the k-d tree.
+_KNN_SHELLS = 6
 
 
 @dataclass
 class NeighborhoodBatch:
-    """Neighbourhoods of a block of query points.
+    """Neighbourhoods of a block of query points (all indices refer to the sorted cloud).
 
     Attributes
     ----------
     xyz : (N, 3) float64
-        All coordinates of the cloud (centred), shared by every batch.
+        The whole cloud, centred and sorted by voxel (``NeighborIndex.xyz``).
     rows : (B,) int64
-        Indices of the query points x_i.
+        Query points x_i.
+    ids : (B,) int64
+        The same points' indices in the input cloud.
     idx : (B, K) int64
-        Neighbour indices sorted by distance (x_i or a duplicate of it first); -1 pads.
-    dist : (B, K) float64
-        Distances matching ``idx``; inf pads.
+        Neighbours; k-nearest lists are sorted by distance, spherical ones grouped by scale
+        (scale s a prefix of scale s + 1). Row b holds ``n[b]`` of them; the rest of the row
+        is undefined.
+    d2 : (B, K) float64
+        Squared distances matching ``idx`` (``dist`` gives the distances).
+    n : (B,) int64
+        Neighbours found at the largest scale.
     counts : (B, S) int64
-        Number of neighbours within each scale, x_i included (a prefix length of ``idx``);
-        0 where fewer than ``min_neighbors`` (undefined saliency).
+        Neighbours within each scale, x_i included (a prefix length of ``idx``); 0 where fewer
+        than ``min_neighbors`` (undefined saliency).
     sigma : (B, S) float64
         Scale radius per point: the radius, or for k-nearest scales the distance to the k-th
-        neighbour (used by tensor voting as the Gaussian decay).
+        neighbour (the Gaussian decay of tensor voting).
     capped : (B,) bool
         Spherical neighbourhoods cut at ``max_neighbors`` nearest.
     """
 
     xyz: np.ndarray
     rows: np.ndarray
+    ids: np.ndarray
     idx: np.ndarray
-    dist: np.ndarray
+    d2: np.ndarray
+    n: np.ndarray
     counts: np.ndarray
     sigma: np.ndarray
     capped: np.ndarray
 
+    @property
+    def dist(self):
+        """(B, K) distances matching ``idx``; inf past ``n``."""
+        dist = np.sqrt(self.d2)
+        dist[np.arange(dist.shape[1])[None, :] >= self.n[:, None]] = np.inf
+        return dist
+
 
 class NeighborIndex:
-    """A k-d tree over a cloud that answers block queries at a set of resolved scales.
+    """Neighbour search over a cloud at a set of resolved scales, block by block.
 
     Parameters
     ----------
     xyz : (N, 3) float64
-        Coordinates, preferably centred (the tree and the kernels only see differences).
+        Coordinates, preferably centred (the search and the kernels only see differences).
     kind : {"radius", "knn"}
     scales : (S,) array
         Radii in coordinate units, or k values; ascending.
@@ -65,77 +83,117 @@ class NeighborIndex:
         Cap of a spherical neighbourhood (nearest first), SPEC 2; default 512.
     min_neighbors : int
         A scale holding fewer neighbours (x_i included) gets count 0: undefined saliency.
-    workers : int
-        Threads for the k-d tree query (-1: all cores).
     """
 
-    def __init__(self, xyz, kind, scales, *, max_neighbors=512, min_neighbors=3, workers=-1):
-        self.xyz = xyz
+    def __init__(self, xyz, kind, scales, *, max_neighbors=512, min_neighbors=3):
+        xyz = np.asarray(xyz, dtype=np.float64)
         self.kind = kind
         self.scales = np.asarray(scales)
         self.max_neighbors = int(max_neighbors)
         self.min_neighbors = int(min_neighbors)
-        self.workers = workers
-        self.tree = cKDTree(xyz, balanced_tree=False, compact_nodes=False)
         n = len(xyz)
-        self.k_max = int(min(self.scales.max(), n)) if kind == "knn" else min(self.max_neighbors, n)
+        if kind == "knn":
+            self.width = int(min(self.scales.max(), n))
+            cell = _knn_cell(xyz, self.width)
+            self.s_max = _KNN_SHELLS
+        else:
+            self.width = min(self.max_neighbors, n)
+            cell = float(self.scales.max())
+            self.s_max = 1  # a voxel as large as the radius: its 27 neighbours hold the sphere
+        self.grid = VoxelGrid(xyz, cell)
+        self.xyz = self.grid.points
+        self.order = self.grid.order
+        self._tree = None
+        self._buffers = None
+
+    def rows_of(self, ids):
+        """Sorted-order rows of input point indices ``ids``."""
+        inverse = np.empty_like(self.order)
+        inverse[self.order] = np.arange(len(self.order))
+        return inverse[np.asarray(ids)]
 
     def block_size(self):
         """Query points per block so that one block's neighbour lists fit in _BLOCK_BYTES."""
-        return max(1024, _BLOCK_BYTES // (16 * self.k_max))
+        return max(1024, _BLOCK_BYTES // (16 * self.width))
 
-    def blocks(self, rows=None):
-        """Split ``rows`` (default: all points) into consecutive blocks of query indices."""
-        rows = np.arange(len(self.xyz)) if rows is None else np.asarray(rows)
-        step = self.block_size()
-        return [rows[s:s + step] for s in range(0, len(rows), step)]
+    def blocks(self):
+        """Consecutive blocks of query rows (sorted order) covering the cloud."""
+        n, step = len(self.xyz), self.block_size()
+        return [np.arange(s, min(n, s + step)) for s in range(0, n, step)]
 
     def query(self, rows):
-        """Neighbourhoods of the points ``rows`` at every scale, as a NeighborhoodBatch."""
+        """Neighbourhoods of the sorted-order points ``rows`` at every scale.
+
+        The arrays of the returned batch live in buffers reused by the next call.
+        """
         rows = np.asarray(rows, dtype=np.int64)
-        q = self.xyz[rows]
+        b = len(rows)
+        if self._buffers is None or self._buffers[0].shape[0] < b:
+            self._buffers = (np.empty((max(b, self.block_size()), self.width)),
+                             np.empty((max(b, self.block_size()), self.width), dtype=np.int64))
+        d2, idx = self._buffers[0][:b], self._buffers[1][:b]
+        n = np.zeros(b, np.int64)
+        counts = np.zeros((b, len(self.scales)), np.int64)
+        done = np.zeros(b, np.bool_)
         if self.kind == "knn":
-            dist, idx = self.tree.query(q, k=self.k_max, workers=self.workers)
-            dist, idx = _as_2d(dist, idx)
-            counts = np.minimum(self.scales[None, :], np.isfinite(dist).sum(1)[:, None])
-            sigma = np.take_along_axis(dist, np.maximum(counts - 1, 0), axis=1)
-            capped = np.zeros(len(rows), bool)
+            self.grid.search(rows, d2, idx, n, counts, done, ks=self.scales.astype(np.int64),
+                             s_max=self.s_max)
         else:
-            dist, idx, capped = self._query_radius(q)
-            counts = np.stack([(dist <= r).sum(1) for r in self.scales], axis=1)
-            sigma = np.broadcast_to(self.scales[None, :], counts.shape)
-        idx = np.where(np.isfinite(dist), idx, -1)
-        counts = np.where(counts >= self.min_neighbors, counts, 0)
-        return NeighborhoodBatch(self.xyz, rows, idx, dist, counts.astype(np.int64),
-                                 np.ascontiguousarray(sigma, dtype=np.float64), capped)
+            self.grid.search(rows, d2, idx, n, counts, done, cap=self.width, s_max=self.s_max,
+                             radii2=self.scales.astype(np.float64) ** 2)
+        if not done.all():
+            self._complete(rows, d2, idx, n, counts, done)
+        width = max(1, int(n.max()))
+        d2, idx = d2[:, :width], idx[:, :width]
+        if self.kind == "knn":
+            counts = np.minimum(self.scales[None, :], n[:, None])
+            sigma = np.sqrt(np.take_along_axis(d2, np.maximum(counts - 1, 0), axis=1))
+            capped = np.zeros(b, bool)
+        else:
+            sigma = np.broadcast_to(self.scales[None, :].astype(np.float64), counts.shape)
+            capped = n == self.max_neighbors
+            if capped.any():  # capped only if a farther point was inside the sphere too
+                capped[capped] = self._more_inside(rows[capped])
+        counts = np.where(counts >= self.min_neighbors, counts, 0).astype(np.int64)
+        return NeighborhoodBatch(self.xyz, rows, self.order[rows], idx, d2, n, counts,
+                                 np.ascontiguousarray(sigma), capped)
 
-    def _query_radius(self, q):
-        # cKDTree keeps distances strictly below the bound: nudge it so that d <= r_max counts.
+    def _kdtree(self):
+        if self._tree is None:
+            self._tree = cKDTree(self.xyz)
+        return self._tree
+
+    def _complete(self, rows, d2, idx, n, counts, done):
+        # Queries the voxel shells could not settle (isolated points far from the rest).
+        todo = np.flatnonzero(~done)
+        q = self.xyz[rows[todo]]
+        if self.kind == "knn":
+            dist, nb = self._kdtree().query(q, k=self.width)
+        else:
+            bound = np.nextafter(float(self.scales.max()), np.inf)
+            dist, nb = self._kdtree().query(q, k=self.width, distance_upper_bound=bound)
+        dist, nb = dist.reshape(len(todo), -1), nb.reshape(len(todo), -1)
+        found = np.isfinite(dist)
+        n[todo] = found.sum(1)
+        d2[todo] = np.where(found, dist * dist, np.inf)
+        idx[todo] = np.where(found, nb, -1)
+        if self.kind == "radius":
+            counts[todo] = np.stack([(dist <= r).sum(1) for r in self.scales], axis=1)
+
+    def _more_inside(self, rows):
         bound = np.nextafter(float(self.scales.max()), np.inf)
-        k0 = min(_FIRST_K, self.k_max)
-        dist, idx = _as_2d(*self.tree.query(q, k=k0, distance_upper_bound=bound, workers=self.workers))
-        full = np.isfinite(dist[:, -1])
-        # A neighbourhood is capped when the max_neighbors-th neighbour is still inside r_max.
-        capped = full if k0 == self.max_neighbors else np.zeros(len(q), bool)
-        if full.any() and self.k_max > k0:
-            d2, i2 = _as_2d(*self.tree.query(q[full], k=self.k_max, distance_upper_bound=bound,
-                                              workers=self.workers))
-            width = int(np.isfinite(d2).sum(1).max())
-            pad_d = np.full((len(q), width), np.inf)
-            pad_i = np.full((len(q), width), len(self.xyz), dtype=np.int64)
-            pad_d[:, :k0], pad_i[:, :k0] = dist, idx
-            pad_d[full], pad_i[full] = d2[:, :width], i2[:, :width]
-            dist, idx = pad_d, pad_i
-            if self.k_max == self.max_neighbors:
-                capped[full] = np.isfinite(d2[:, -1])
-        else:
-            width = max(1, int(np.isfinite(dist).sum(1).max()))
-            dist, idx = dist[:, :width], idx[:, :width]
-        return dist, idx, capped
+        dist, _ = self._kdtree().query(self.xyz[rows], k=self.width + 1, distance_upper_bound=bound)
+        return np.isfinite(dist[:, -1])
 
 
-def _as_2d(dist, idx):
-    # cKDTree squeezes the last axis when k == 1.
-    if dist.ndim == 1:
-        dist, idx = dist[:, None], idx[:, None]
-    return dist, idx.astype(np.int64)
+def _knn_cell(xyz, k):
+    """Voxel side for k-nearest search: about the k-th neighbour distance of an airborne cloud.
+
+    Estimated from the density over the two longest bounding-box sides (airborne clouds are
+    nearly 2.5D); a poor guess costs time, never correctness.
+    """
+    extent = np.sort(xyz.max(axis=0) - xyz.min(axis=0))[::-1]
+    area = max(extent[0] * extent[1], 1e-12)
+    density = len(xyz) / area
+    cell = 0.9 * np.sqrt(k / (np.pi * density))
+    return float(cell) if np.isfinite(cell) and cell > 0 else 1.0

@@ -106,10 +106,9 @@ class Pipeline:
         """Per-point Saliency of ``cloud`` and run statistics (undefined and capped counts)."""
         self._check_size(cloud)
         scales = self.resolved_scales(cloud)
-        # Centre on the bounding box once: the tree and kernels then see small numbers.
+        # Centre on the bounding box once: the search and kernels then see small numbers.
         centre = (cloud.xyz.min(axis=0) + cloud.xyz.max(axis=0)) / 2.0
-        xyz = cloud.xyz - centre
-        index = NeighborIndex(xyz, self.scales.kind, scales, max_neighbors=self.max_neighbors,
+        index = NeighborIndex(cloud.xyz - centre, self.scales.kind, scales, max_neighbors=self.max_neighbors,
                               min_neighbors=self.min_neighbors)
         n = len(cloud)
         values = np.empty((n, 3))
@@ -121,11 +120,11 @@ class Pipeline:
             batch = index.query(rows)
             per_scale = self.descriptor.saliency(batch)
             combined, pick = self.strategy.combine(per_scale)
-            values[rows] = combined
+            values[batch.ids] = combined
             if pick is not None:
                 if chosen is None:
                     chosen = np.full(n, -1, dtype=np.int64)
-                chosen[rows] = pick
+                chosen[batch.ids] = pick
             n_capped += int(batch.capped.sum())
         sal = Saliency.from_values(values, chosen)
         n_undefined = int((~sal.defined).sum())

@@ -4,6 +4,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit, prange
 
 LN3 = float(np.log(3.0))
 #: Codes of the deterministic geometric class, as written to LAS (GeomClass).
@@ -16,22 +17,48 @@ def saliency_from_eigenvalues(ev):
     Cl = (l0 - l1)/S, Cs = 2 (l1 - l2)/S, Cp = 3 l2/S with S = l0 + l1 + l2; they sum to 1.
     NaN where S = 0 or the eigenvalues are NaN (undefined saliency).
     """
-    ev = np.asarray(ev, dtype=np.float64)
-    l0, l1, l2 = ev[..., 0], ev[..., 1], ev[..., 2]
-    total = l0 + l1 + l2
-    with np.errstate(invalid="ignore", divide="ignore"):
-        inv = np.where(total > 0, 1.0 / total, np.nan)
-    return np.stack([(l0 - l1) * inv, 2.0 * (l1 - l2) * inv, 3.0 * l2 * inv], axis=-1)
+    ev = np.ascontiguousarray(ev, dtype=np.float64)
+    out = np.empty_like(ev)
+    _saliency_rows(ev.reshape(-1, 3), out.reshape(-1, 3))
+    return out
 
 
 def geometric_entropy(sal):
-    """Egeom = -(Cl ln Cl + Cs ln Cs + Cp ln Cp), 0 ln 0 = 0; in [0, ln 3] nats (SPEC 1)."""
-    sal = np.asarray(sal, dtype=np.float64)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        terms = np.where(sal > 0, sal * np.log(sal), 0.0)
-    out = -terms.sum(axis=-1)
-    out[np.isnan(sal).any(axis=-1)] = np.nan
-    return np.clip(out, 0.0, LN3)
+    """Egeom = -(Cl ln Cl + Cs ln Cs + Cp ln Cp), 0 ln 0 = 0; in [0, ln 3] nats (SPEC 1).
+
+    NaN where the saliency is undefined.
+    """
+    sal = np.ascontiguousarray(sal, dtype=np.float64)
+    out = np.empty(sal.shape[:-1])
+    _entropy_rows(sal.reshape(-1, 3), out.reshape(-1))
+    return out
+
+
+@njit(cache=True, parallel=True)
+def _saliency_rows(ev, out):
+    for i in prange(ev.shape[0]):
+        l0, l1, l2 = ev[i, 0], ev[i, 1], ev[i, 2]
+        total = l0 + l1 + l2
+        if total > 0.0:  # False for NaN too
+            out[i, 0] = (l0 - l1) / total
+            out[i, 1] = 2.0 * (l1 - l2) / total
+            out[i, 2] = 3.0 * l2 / total
+        else:
+            out[i, 0] = out[i, 1] = out[i, 2] = np.nan
+
+
+@njit(cache=True, parallel=True)
+def _entropy_rows(sal, out):
+    for i in prange(sal.shape[0]):
+        e = 0.0
+        for j in range(3):
+            c = sal[i, j]
+            if c > 0.0:
+                e -= c * np.log(c)
+            elif c != c:  # NaN
+                e = np.nan
+                break
+        out[i] = min(max(e, 0.0), LN3) if e == e else e
 
 
 def geometric_class(sal):

@@ -1,8 +1,10 @@
 """Neighbourhood queries (SPEC 2) and the two scale strategies (SPEC 4)."""
 import numpy as np
 import pytest
+from scipy.spatial import cKDTree
 
 import lidar_sig as ls
+from conftest import airborne_like
 from lidar_sig.neighbors import NeighborIndex
 from lidar_sig.plugins import get_strategy
 from lidar_sig.saliency import geometric_entropy
@@ -13,18 +15,36 @@ def pts():
     return np.random.default_rng(7).uniform(-5, 5, (3000, 3)) * [1, 1, 0.3]
 
 
-def test_spherical_counts_match_brute_force_and_are_prefixes(pts):
+def test_spherical_neighbourhoods_match_brute_force_grouped_by_scale(pts):
     radii = np.array([0.4, 0.7, 1.1])
     index = NeighborIndex(pts, "radius", radii, max_neighbors=512, min_neighbors=1)
     rows = np.arange(0, 3000, 37)
     batch = index.query(rows)
     for b, row in enumerate(rows):
-        d = np.linalg.norm(pts - pts[row], axis=1)
+        d = np.linalg.norm(index.xyz - index.xyz[row], axis=1)
         for s, r in enumerate(radii):
             assert batch.counts[b, s] == np.sum(d <= r)
             got = set(batch.idx[b, :batch.counts[b, s]].tolist())
             assert got == set(np.flatnonzero(d <= r).tolist())
-        assert np.all(np.diff(batch.dist[b][np.isfinite(batch.dist[b])]) >= 0)
+        assert index.order[row] == batch.ids[b]
+
+
+def test_knn_matches_kdtree_sorted_and_includes_query_point(pts):
+    index = NeighborIndex(pts, "knn", np.array([5, 10, 40]))
+    batch = index.query(np.arange(3000))
+    ref, _ = cKDTree(index.xyz).query(index.xyz, k=40)
+    np.testing.assert_allclose(batch.dist, ref, rtol=1e-12)
+    assert (batch.dist[:, 0] == 0).all() and (batch.n == 40).all()
+    np.testing.assert_allclose(batch.sigma[:, 1], batch.dist[:, 9])
+
+
+def test_knn_on_real_like_cloud_with_outliers_matches_kdtree():
+    xyz, _ = airborne_like(6000, seed=11, quantum=None)
+    xyz = np.vstack([xyz, [[500.0, 500.0, 900.0], [-300.0, 20.0, 5.0]]])  # far outliers
+    index = NeighborIndex(xyz - xyz.mean(0), "knn", np.arange(10, 101, 10))
+    ref, _ = cKDTree(index.xyz).query(index.xyz, k=100)
+    got = np.vstack([index.query(rows).dist.copy() for rows in index.blocks()])
+    np.testing.assert_allclose(got, ref, rtol=1e-12)
 
 
 def test_spherical_cap_keeps_nearest_and_is_reported(pts):
@@ -32,15 +52,8 @@ def test_spherical_cap_keeps_nearest_and_is_reported(pts):
     batch = index.query(np.arange(10))
     assert (batch.counts[:, 0] == 20).all()
     assert batch.capped.all()
-    d = np.linalg.norm(pts[None, :, :] - pts[:10, None, :], axis=2)
-    np.testing.assert_allclose(batch.dist[:, :20], np.sort(d, axis=1)[:, :20])
-
-
-def test_knn_includes_query_point_and_sigma_is_kth_distance(pts):
-    index = NeighborIndex(pts, "knn", np.array([5, 10]))
-    batch = index.query(np.arange(50))
-    assert (batch.idx[:, 0] == np.arange(50)).all()
-    np.testing.assert_allclose(batch.sigma[:, 1], batch.dist[:, 9])
+    d = np.linalg.norm(index.xyz[None, :, :] - index.xyz[:10, None, :], axis=2)
+    np.testing.assert_allclose(np.sort(batch.dist[:, :20], axis=1), np.sort(d, axis=1)[:, :20])
 
 
 def test_scales_below_min_neighbors_are_undefined(pts):
@@ -65,7 +78,7 @@ def test_optimal_scale_picks_minimum_entropy_first_on_ties():
 
 
 def test_optimal_scale_result_reports_chosen_scale():
-    xyz, labels = __import__("conftest").airborne_like(2000)
+    xyz, labels = airborne_like(2000)
     result = ls.Pipeline(strategy="optimal").run(ls.PointCloud(xyz, labels))
     chosen = result.saliency.optimal_scale
     assert chosen.shape == (2000,) and chosen.min() >= 0 and chosen.max() <= 9

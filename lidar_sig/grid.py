@@ -1,0 +1,354 @@
+"""Voxel-grid nearest-neighbour search (numba), the backend of :mod:`lidar_sig.neighbors`.
+
+Points are sorted by voxel so that a voxel's points, and its neighbours', are close in memory;
+queries in one voxel share the look-ups of the voxels around it. A query gathers every point
+within a search radius t and keeps the nearest. For spherical neighbourhoods t is the radius.
+For k-nearest ones t comes from the previous query: its k-th distance plus the distance between
+the two queries holds at least k points (triangle inequality), so one pass suffices; a query
+without a near predecessor grows a max-heap shell by shell instead. Voxels farther than t from
+the query are skipped.
+
+k-nearest rows come sorted by distance. Spherical rows are grouped by scale, each group in no
+particular order: the neighbours of scale s are a prefix of those of scale s + 1, which is all
+the descriptors need (SPEC 2), at O(n) instead of a sort's O(n log n).
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import get_num_threads, njit, prange
+
+
+@njit(cache=True, inline="always")
+def _sift_down(hd, hi, n, pos):
+    # max-heap on hd[:n], hi follows
+    while True:
+        left = 2 * pos + 1
+        if left >= n:
+            return
+        m = left
+        if left + 1 < n and hd[left + 1] > hd[left]:
+            m = left + 1
+        if hd[m] <= hd[pos]:
+            return
+        hd[pos], hd[m] = hd[m], hd[pos]
+        hi[pos], hi[m] = hi[m], hi[pos]
+        pos = m
+
+
+@njit(cache=True, inline="always")
+def _push(hd, hi, n, k, d2, j):
+    """Offer (d2, j) to a max-heap of capacity k holding n items; return the new n."""
+    if n < k:
+        pos = n
+        hd[pos] = d2
+        hi[pos] = j
+        while pos > 0:
+            parent = (pos - 1) // 2
+            if hd[parent] >= hd[pos]:
+                break
+            hd[pos], hd[parent] = hd[parent], hd[pos]
+            hi[pos], hi[parent] = hi[parent], hi[pos]
+            pos = parent
+        return n + 1
+    if d2 < hd[0]:
+        hd[0] = d2
+        hi[0] = j
+        _sift_down(hd, hi, n, 0)
+    return n
+
+
+@njit(cache=True)
+def _sort_pairs(d, ix, n):
+    """Sort d[:n] ascending in place (heap sort), ix follows."""
+    for p in range(n // 2 - 1, -1, -1):
+        _sift_down(d, ix, n, p)
+    for end in range(n - 1, 0, -1):
+        d[0], d[end] = d[end], d[0]
+        ix[0], ix[end] = ix[end], ix[0]
+        _sift_down(d, ix, end, 0)
+
+
+@njit(cache=True)
+def _select(d, ix, n, k):
+    """Reorder d[:n] so that its k smallest come first (quickselect), ix follows."""
+    lo, hi = 0, n - 1
+    target = k - 1
+    while lo < hi:
+        mid = (lo + hi) // 2
+        # median of three as pivot
+        a, b, c = d[lo], d[mid], d[hi]
+        pivot = max(min(a, b), min(max(a, b), c))
+        i, j = lo, hi
+        while i <= j:
+            while d[i] < pivot:
+                i += 1
+            while d[j] > pivot:
+                j -= 1
+            if i <= j:
+                d[i], d[j] = d[j], d[i]
+                ix[i], ix[j] = ix[j], ix[i]
+                i += 1
+                j -= 1
+        if target <= j:
+            hi = j
+        elif target >= i:
+            lo = i
+        else:
+            return
+
+
+@njit(cache=True)
+def _insertion_sort(d, ix, n):
+    """Sort d[:n] ascending in place, ix follows (fast for the ~100 items of a neighbourhood)."""
+    for a in range(1, n):
+        v = d[a]
+        w = ix[a]
+        b = a - 1
+        while b >= 0 and d[b] > v:
+            d[b + 1] = d[b]
+            ix[b + 1] = ix[b]
+            b -= 1
+        d[b + 1] = v
+        ix[b + 1] = w
+
+
+@njit(cache=True)
+def _partition_radius(d, ix, m, r2s, k, out_d, out_i, out_counts):
+    """Write d[:m] (all within the largest radius) to out grouped by radius, at most the k
+    nearest, and the number within each radius to out_counts."""
+    if m > k:
+        _select(d, ix, m, k)
+        m = k
+    n_scales = r2s.size
+    counts = np.zeros(n_scales + 1, np.int64)
+    for a in range(m):
+        s = 0
+        while s < n_scales - 1 and d[a] > r2s[s]:
+            s += 1
+        counts[s + 1] += 1
+    for s in range(n_scales):
+        counts[s + 1] += counts[s]
+        out_counts[s] = counts[s + 1]
+    for a in range(m):
+        s = 0
+        while s < n_scales - 1 and d[a] > r2s[s]:
+            s += 1
+        pos = counts[s]
+        out_d[pos] = d[a]
+        out_i[pos] = ix[a]
+        counts[s] = pos + 1
+    return m
+
+
+@njit(cache=True, inline="always")
+def _box_d2(origin, h, cell_ijk, box, qx, qy, qz):
+    bx = origin[0] + cell_ijk[box, 0] * h
+    by = origin[1] + cell_ijk[box, 1] * h
+    bz = origin[2] + cell_ijk[box, 2] * h
+    ex = max(bx - qx, max(0.0, qx - bx - h))
+    ey = max(by - qy, max(0.0, qy - by - h))
+    ez = max(bz - qz, max(0.0, qz - bz - h))
+    return ex * ex + ey * ey + ez * ez
+
+
+@njit(cache=True)
+def _shell(ci, cj, ck, s, dims, cell_keys, lut, cell_start, rs, re, rc, n_ranges):
+    """Append the point ranges of the occupied voxels of Chebyshev shell s; return the count."""
+    nx, ny, nz = dims[0], dims[1], dims[2]
+    for di in range(-s, s + 1):
+        ii = ci + di
+        if ii < 0 or ii >= nx:
+            continue
+        for dj in range(-s, s + 1):
+            jj = cj + dj
+            if jj < 0 or jj >= ny:
+                continue
+            for dk in range(-s, s + 1):
+                if max(abs(di), max(abs(dj), abs(dk))) != s:
+                    continue
+                kk = ck + dk
+                if kk < 0 or kk >= nz:
+                    continue
+                key = ii + nx * (jj + ny * kk)
+                if lut.size > 0:
+                    pos = lut[key]
+                    found = pos >= 0
+                else:
+                    pos = np.searchsorted(cell_keys, key)
+                    found = pos < cell_keys.size and cell_keys[pos] == key
+                if found:
+                    rs[n_ranges] = cell_start[pos]
+                    re[n_ranges] = cell_start[pos + 1]
+                    rc[n_ranges] = pos
+                    n_ranges += 1
+    return n_ranges
+
+
+@njit(cache=True, parallel=True)
+def nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, origin, h, queries, group_start,
+            ks, r2s, s_max, n_chunks, out_d2, out_idx, out_n, out_counts, done):
+    """Neighbours of each query: k-nearest sorted, spherical grouped by scale (module docstring).
+
+    k-nearest mode when ``r2s`` is empty: ``ks[-1]`` is the largest k. Spherical
+    mode otherwise: ``r2s`` are the squared radii, ascending, and ``ks[0]`` the cap.
+    ``queries`` are point indices, runs of one voxel delimited by ``group_start``. Row ``i`` of
+    ``out_d2`` (squared distances) and ``out_idx`` gets ``out_n[i]`` neighbours, and in spherical
+    mode ``out_counts[i]`` the number within each radius; ``done[i]`` is
+    False where ``s_max`` shells could not settle the query (the caller completes it).
+    """
+    n_groups = group_start.size - 1
+    n_chunks = max(1, min(n_groups, n_chunks))
+    cap = (2 * s_max + 1) ** 3
+    s_cover = max(dims[0], max(dims[1], dims[2]))
+    knn_mode = r2s.size == 0
+    k = ks[ks.size - 1] if knn_mode else ks[0]
+    r2 = np.inf if knn_mode else r2s[r2s.size - 1]
+    for chunk in prange(n_chunks):
+        rs = np.empty(cap, np.int64)
+        re = np.empty(cap, np.int64)
+        rc = np.empty(cap, np.int64)
+        shell_end = np.empty(s_max + 2, np.int64)
+        buf_d = np.empty(4096)
+        buf_i = np.empty(4096, np.int64)
+        prev = -1
+        prev_dk = 0.0
+        g0 = chunk * n_groups // n_chunks
+        g1 = (chunk + 1) * n_groups // n_chunks
+        for g in range(g0, g1):
+            c = cell_of[queries[group_start[g]]]
+            ci, cj, ck = cell_ijk[c, 0], cell_ijk[c, 1], cell_ijk[c, 2]
+            n_shells = 0  # shells of this voxel whose point ranges are in rs/re/rc
+            n_ranges = 0
+            for qpos in range(group_start[g], group_start[g + 1]):
+                q = queries[qpos]
+                qx, qy, qz = pts[q, 0], pts[q, 1], pts[q, 2]
+                lx = qx - (origin[0] + ci * h)
+                ly = qy - (origin[1] + cj * h)
+                lz = qz - (origin[2] + ck * h)
+                margin = max(0.0, min(min(lx, h - lx), min(min(ly, h - ly), min(lz, h - lz))))
+                hd = out_d2[qpos]
+                hi = out_idx[qpos]
+                if not knn_mode:
+                    t = np.sqrt(r2)
+                elif prev >= 0:
+                    ddx = qx - pts[prev, 0]
+                    ddy = qy - pts[prev, 1]
+                    ddz = qz - pts[prev, 2]
+                    delta = np.sqrt(ddx * ddx + ddy * ddy + ddz * ddz)
+                    # near predecessor: its k nearest lie within t, one pass is enough;
+                    # far one: its k-th distance is still a good guess of the local density
+                    t = prev_dk + delta if delta <= h else 1.2 * prev_dk
+                else:
+                    t = h  # a guess, grown below until it holds k points
+                settled = True
+                while True:
+                    t2 = t * t * (1.0 + 1e-12)  # round-off must not drop the k-th neighbour
+                    s_need = 0
+                    while s_need * h + margin < t and s_need < s_cover:
+                        s_need += 1
+                    if s_need > s_max:
+                        settled = False
+                        break
+                    while n_shells <= s_need:
+                        n_ranges = _shell(ci, cj, ck, n_shells, dims, cell_keys, lut, cell_start, rs, re, rc, n_ranges)
+                        shell_end[n_shells] = n_ranges
+                        n_shells += 1
+                    # size the buffer for every candidate first, so the scan below is
+                    # branch-free: each candidate is written, and kept if within t
+                    total = 0
+                    for r in range(shell_end[s_need]):
+                        total += re[r] - rs[r]
+                    if total > buf_d.size:
+                        buf_d = np.empty(2 * total)
+                        buf_i = np.empty(2 * total, np.int64)
+                    m = 0
+                    for r in range(shell_end[s_need]):
+                        if _box_d2(origin, h, cell_ijk, rc[r], qx, qy, qz) > t2:
+                            continue
+                        for j in range(rs[r], re[r]):
+                            dx = pts[j, 0] - qx
+                            dy = pts[j, 1] - qy
+                            dz = pts[j, 2] - qz
+                            d2 = dx * dx + dy * dy + dz * dz
+                            buf_d[m] = d2
+                            buf_i[m] = j
+                            m += d2 <= t2
+                    if not knn_mode or m >= k or s_need >= s_cover:
+                        break
+                    t *= 1.5
+                if not settled:
+                    out_n[qpos] = 0
+                    done[qpos] = False
+                    prev = -1
+                    continue
+                if knn_mode:
+                    n = min(m, k)
+                    if m > n:
+                        _select(buf_d, buf_i, m, n)
+                    _insertion_sort(buf_d, buf_i, n)
+                    hd[:n] = buf_d[:n]
+                    hi[:n] = buf_i[:n]
+                    if n == k:
+                        prev = q
+                        prev_dk = np.sqrt(buf_d[n - 1])
+                else:
+                    n = _partition_radius(buf_d, buf_i, m, r2s, k, hd, hi, out_counts[qpos])
+                out_n[qpos] = n
+                done[qpos] = True
+
+
+_LUT_CELLS = 2**24
+
+
+class VoxelGrid:
+    """Points sorted by voxel of side ``cell``; ``order[i]`` is the input index of sorted point i."""
+
+    def __init__(self, xyz, cell):
+        xyz = np.asarray(xyz, dtype=np.float64)
+        self.cell = float(cell)
+        self.origin = xyz.min(axis=0)
+        ijk = np.floor((xyz - self.origin) / self.cell).astype(np.int64)
+        self.dims = ijk.max(axis=0) + 1
+        key = ijk[:, 0] + self.dims[0] * (ijk[:, 1] + self.dims[1] * ijk[:, 2])
+        # Within a voxel, order points along a Morton curve of 4 x 4 x 4 sub-voxels, so that
+        # consecutive queries are close and each can bound its search by its predecessor's.
+        sub = np.clip(np.floor((xyz - self.origin) / self.cell * 4).astype(np.int64) - 4 * ijk, 0, 3)
+        morton = np.zeros(len(xyz), np.int64)
+        for bit in range(2):
+            for axis in range(3):
+                morton |= ((sub[:, axis] >> bit) & 1) << (3 * bit + axis)
+        self.order = np.argsort(key * 64 + morton, kind="stable")
+        key = key[self.order]
+        self.points = np.ascontiguousarray(xyz[self.order])
+        self.cell_keys, starts, inverse = np.unique(key, return_index=True, return_inverse=True)
+        self.cell_start = np.append(starts, len(key)).astype(np.int64)
+        self.cell_of = inverse.astype(np.int64).ravel()
+        self.cell_ijk = np.ascontiguousarray(ijk[self.order][starts])
+        # A dense voxel -> occupied-voxel table makes look-ups O(1); skipped when the box is
+        # huge and sparse (outliers far away), where a binary search over keys serves.
+        n_cells = int(np.prod(self.dims.astype(np.float64)))
+        self.lut = np.empty(0, np.int64)
+        if n_cells <= max(_LUT_CELLS, 8 * len(self.cell_keys)):
+            self.lut = np.full(n_cells, -1, np.int64)
+            self.lut[self.cell_keys] = np.arange(len(self.cell_keys))
+
+    def search(self, queries, d2, idx, n, counts, done, ks=None, radii2=None, cap=512, s_max=4):
+        """Neighbours of the sorted-order points ``queries`` into ``d2``, ``idx``, ``n``,
+        ``counts`` (spherical mode) and ``done``.
+
+        Give ``ks`` (k-nearest scales, ascending) or ``radii2`` (squared radii, ascending, at
+        most ``cap`` nearest). Row i gets n[i] neighbours; the rest of the row is left as is.
+        """
+        queries = np.asarray(queries, dtype=np.int64)
+        cells = self.cell_of[queries]
+        breaks = np.flatnonzero(np.diff(cells)) + 1  # runs of queries in one voxel
+        group_start = np.concatenate([[0], breaks, [len(queries)]]).astype(np.int64)
+        if radii2 is None:
+            ks = np.asarray(ks, dtype=np.int64)
+            r2s = np.empty(0)
+        else:
+            r2s = np.asarray(radii2, dtype=np.float64)
+            ks = np.array([cap], dtype=np.int64)
+        nearest(self.points, self.cell_of, self.cell_ijk, self.cell_start, self.cell_keys, self.lut,
+                self.dims, self.origin, self.cell, queries, group_start, ks, r2s,
+                int(s_max), 8 * get_num_threads(), d2, idx, n, counts, done)
