@@ -1,0 +1,27 @@
+"""The benchmark scripts run (their figures are measured by hand, never asserted on timing)."""
+import importlib.util
+import subprocess
+import sys
+
+import pytest
+
+from conftest import IGN, ROOT, need_data
+
+BENCH = ROOT / "benchmarks"
+
+
+def test_scaling_script_runs_on_small_sizes():
+    proc = subprocess.run([sys.executable, str(BENCH / "bench_scaling.py"), "--sizes", "20000,40000"],
+                          capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    assert "40,000" in proc.stdout and "bytes x points" in proc.stdout
+
+
+@pytest.mark.skipif(importlib.util.find_spec("pgeof") is None or importlib.util.find_spec("jakteristics") is None,
+                    reason="peers not installed: pip install -e '.[bench]'")
+def test_peer_benchmark_and_pgeof_cross_check_on_real_tile():
+    path = need_data(IGN / "test_data_77060_627760_LA93_IGN69.laz")
+    proc = subprocess.run([sys.executable, str(BENCH / "bench_peers.py"), str(path), "--runs", "1"],
+                          capture_output=True, text=True, timeout=900)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert "pgeof" in proc.stdout and "jakteristics" in proc.stdout and "cross-check" in proc.stdout
