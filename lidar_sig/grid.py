@@ -113,26 +113,26 @@ def _insertion_sort(d, ix, n):
 
 
 @njit(cache=True)
-def _partition_radius(d, ix, m, r2s, k, out_d, out_i, out_counts):
+def _partition_radius(d, ix, m, r2s, k, out_d, out_i, out_counts, bucket, counts):
     """Write d[:m] (all within the largest radius) to out grouped by radius, at most the k
-    nearest, and the number within each radius to out_counts."""
+    nearest, and the number within each radius to out_counts. ``bucket`` (size >= m) and
+    ``counts`` (size S + 1) are work space."""
     if m > k:
         _select(d, ix, m, k)
         m = k
     n_scales = r2s.size
-    counts = np.zeros(n_scales + 1, np.int64)
+    counts[:] = 0
     for a in range(m):
         s = 0
-        while s < n_scales - 1 and d[a] > r2s[s]:
-            s += 1
+        for t in range(n_scales - 1):  # branch-free: radii are ascending
+            s += d[a] > r2s[t]
+        bucket[a] = s
         counts[s + 1] += 1
     for s in range(n_scales):
         counts[s + 1] += counts[s]
         out_counts[s] = counts[s + 1]
     for a in range(m):
-        s = 0
-        while s < n_scales - 1 and d[a] > r2s[s]:
-            s += 1
+        s = bucket[a]
         pos = counts[s]
         out_d[pos] = d[a]
         out_i[pos] = ix[a]
@@ -186,14 +186,15 @@ def _shell(ci, cj, ck, s, dims, cell_keys, lut, cell_start, rs, re, rc, n_ranges
 
 @njit(cache=True, parallel=True)
 def nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, origin, h, queries, group_start,
-            ks, r2s, s_max, n_chunks, out_d2, out_idx, out_n, out_counts, done):
+            ks, r2s, s_max, n_chunks, out_d2, out_idx, out_n, out_counts, out_total, done):
     """Neighbours of each query: k-nearest sorted, spherical grouped by scale (module docstring).
 
     k-nearest mode when ``r2s`` is empty: ``ks[-1]`` is the largest k. Spherical
     mode otherwise: ``r2s`` are the squared radii, ascending, and ``ks[0]`` the cap.
     ``queries`` are point indices, runs of one voxel delimited by ``group_start``. Row ``i`` of
     ``out_d2`` (squared distances) and ``out_idx`` gets ``out_n[i]`` neighbours, and in spherical
-    mode ``out_counts[i]`` the number within each radius; ``done[i]`` is
+    mode ``out_counts[i]`` the number within each radius (at most the cap) and ``out_total[i]``
+    the number within the largest radius before the cap; ``done[i]`` is
     False where ``s_max`` shells could not settle the query (the caller completes it).
     """
     n_groups = group_start.size - 1
@@ -210,6 +211,8 @@ def nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, origin, h,
         shell_end = np.empty(s_max + 2, np.int64)
         buf_d = np.empty(4096)
         buf_i = np.empty(4096, np.int64)
+        bucket = np.empty(k, np.int64)
+        scale_counts = np.empty(r2s.size + 1, np.int64)
         prev = -1
         prev_dk = 0.0
         g0 = chunk * n_groups // n_chunks
@@ -292,7 +295,8 @@ def nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, origin, h,
                         prev = q
                         prev_dk = np.sqrt(buf_d[n - 1])
                 else:
-                    n = _partition_radius(buf_d, buf_i, m, r2s, k, hd, hi, out_counts[qpos])
+                    out_total[qpos] = m  # before the cap
+                    n = _partition_radius(buf_d, buf_i, m, r2s, k, hd, hi, out_counts[qpos], bucket, scale_counts)
                 out_n[qpos] = n
                 done[qpos] = True
 
@@ -332,9 +336,9 @@ class VoxelGrid:
             self.lut = np.full(n_cells, -1, np.int64)
             self.lut[self.cell_keys] = np.arange(len(self.cell_keys))
 
-    def search(self, queries, d2, idx, n, counts, done, ks=None, radii2=None, cap=512, s_max=4):
+    def search(self, queries, d2, idx, n, counts, total, done, ks=None, radii2=None, cap=512, s_max=4):
         """Neighbours of the sorted-order points ``queries`` into ``d2``, ``idx``, ``n``,
-        ``counts`` (spherical mode) and ``done``.
+        ``counts`` and ``total`` (spherical mode) and ``done``.
 
         Give ``ks`` (k-nearest scales, ascending) or ``radii2`` (squared radii, ascending, at
         most ``cap`` nearest). Row i gets n[i] neighbours; the rest of the row is left as is.
@@ -351,4 +355,4 @@ class VoxelGrid:
             ks = np.array([cap], dtype=np.int64)
         nearest(self.points, self.cell_of, self.cell_ijk, self.cell_start, self.cell_keys, self.lut,
                 self.dims, self.origin, self.cell, queries, group_start, ks, r2s,
-                int(s_max), 8 * get_num_threads(), d2, idx, n, counts, done)
+                int(s_max), 8 * get_num_threads(), d2, idx, n, counts, total, done)

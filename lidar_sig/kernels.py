@@ -123,3 +123,51 @@ def covariance_eigenvalues(xyz, rows, idx, counts):
             out[b, s, 1] = max(l1, 0.0)
             out[b, s, 2] = max(l2, 0.0)
     return out
+
+
+@njit(cache=True, parallel=True)
+def voting_eigenvalues(xyz, rows, idx, counts, sigma):
+    """Eigenvalues (B, S, 3), descending, of the ball-voting tensor (T3DVT) at every scale.
+
+    T = sum_q mu (I - u u^T) / sum_q mu over the neighbours q != x_i (zero-length offsets
+    skipped), u = (q - x_i)/d, mu = exp(-d^2 / sigma^2) with sigma the scale's radius (SPEC 3).
+    T is accumulated as I - M / W with W = sum mu, M = sum (mu / d^2) v v^T, so eig(T) =
+    1 - eig(M / W). NaN where the scale is undefined (count 0) or no vote was cast.
+    """
+    B = idx.shape[0]
+    S = counts.shape[1]
+    out = np.empty((B, S, 3))
+    for b in prange(B):
+        i = rows[b]
+        cx, cy, cz = xyz[i, 0], xyz[i, 1], xyz[i, 2]
+        for s in range(S):
+            # one tight loop per scale with scalar sums (the weights depend on the scale)
+            inv_s2 = 1.0 / (sigma[b, s] * sigma[b, s]) if sigma[b, s] > 0.0 else 0.0
+            wsum = mxx = myy = mzz = mxy = mxz = myz = 0.0
+            for p in range(counts[b, s]):
+                j = idx[b, p]
+                dx = xyz[j, 0] - cx
+                dy = xyz[j, 1] - cy
+                dz = xyz[j, 2] - cz
+                d2 = dx * dx + dy * dy + dz * dz
+                if d2 == 0.0:
+                    continue
+                mu = np.exp(-d2 * inv_s2)
+                w = mu / d2
+                wsum += mu
+                mxx += w * dx * dx
+                myy += w * dy * dy
+                mzz += w * dz * dz
+                mxy += w * dx * dy
+                mxz += w * dx * dz
+                myz += w * dy * dz
+            if counts[b, s] == 0 or not wsum > 0.0:
+                out[b, s, 0] = out[b, s, 1] = out[b, s, 2] = np.nan
+                continue
+            f = 1.0 / wsum
+            l0, l1, l2 = eigvalsh3(mxx * f, myy * f, mzz * f, mxy * f, mxz * f, myz * f)
+            # eigenvalues of T = I - M/W, descending, clamped to [0, 1]
+            out[b, s, 0] = min(1.0, max(0.0, 1.0 - l2))
+            out[b, s, 1] = min(1.0, max(0.0, 1.0 - l1))
+            out[b, s, 2] = min(1.0, max(0.0, 1.0 - l0))
+    return out

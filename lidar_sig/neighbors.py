@@ -134,15 +134,16 @@ class NeighborIndex:
         d2, idx = self._buffers[0][:b], self._buffers[1][:b]
         n = np.zeros(b, np.int64)
         counts = np.zeros((b, len(self.scales)), np.int64)
+        total = np.zeros(b, np.int64)
         done = np.zeros(b, np.bool_)
         if self.kind == "knn":
-            self.grid.search(rows, d2, idx, n, counts, done, ks=self.scales.astype(np.int64),
+            self.grid.search(rows, d2, idx, n, counts, total, done, ks=self.scales.astype(np.int64),
                              s_max=self.s_max)
         else:
-            self.grid.search(rows, d2, idx, n, counts, done, cap=self.width, s_max=self.s_max,
+            self.grid.search(rows, d2, idx, n, counts, total, done, cap=self.width, s_max=self.s_max,
                              radii2=self.scales.astype(np.float64) ** 2)
         if not done.all():
-            self._complete(rows, d2, idx, n, counts, done)
+            self._complete(rows, d2, idx, n, counts, total, done)
         width = max(1, int(n.max()))
         d2, idx = d2[:, :width], idx[:, :width]
         if self.kind == "knn":
@@ -151,9 +152,7 @@ class NeighborIndex:
             capped = np.zeros(b, bool)
         else:
             sigma = np.broadcast_to(self.scales[None, :].astype(np.float64), counts.shape)
-            capped = n == self.max_neighbors
-            if capped.any():  # capped only if a farther point was inside the sphere too
-                capped[capped] = self._more_inside(rows[capped])
+            capped = total > self.max_neighbors
         counts = np.where(counts >= self.min_neighbors, counts, 0).astype(np.int64)
         return NeighborhoodBatch(self.xyz, rows, self.order[rows], idx, d2, n, counts,
                                  np.ascontiguousarray(sigma), capped)
@@ -163,7 +162,7 @@ class NeighborIndex:
             self._tree = cKDTree(self.xyz)
         return self._tree
 
-    def _complete(self, rows, d2, idx, n, counts, done):
+    def _complete(self, rows, d2, idx, n, counts, total, done):
         # Queries the voxel shells could not settle (isolated points far from the rest).
         todo = np.flatnonzero(~done)
         q = self.xyz[rows[todo]]
@@ -179,11 +178,13 @@ class NeighborIndex:
         idx[todo] = np.where(found, nb, -1)
         if self.kind == "radius":
             counts[todo] = np.stack([(dist <= r).sum(1) for r in self.scales], axis=1)
-
-    def _more_inside(self, rows):
-        bound = np.nextafter(float(self.scales.max()), np.inf)
-        dist, _ = self._kdtree().query(self.xyz[rows], k=self.width + 1, distance_upper_bound=bound)
-        return np.isfinite(dist[:, -1])
+            # a full list may hide more points inside the sphere: ask for one more
+            full = todo[n[todo] == self.width]
+            if len(full):
+                more, _ = self._kdtree().query(self.xyz[rows[full]], k=self.width + 1,
+                                               distance_upper_bound=bound)
+                total[full] = np.isfinite(more).sum(1)
+            total[todo] = np.maximum(total[todo], n[todo])
 
 
 def _knn_cell(xyz, k):

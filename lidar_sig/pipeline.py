@@ -49,7 +49,8 @@ class Pipeline:
     Parameters
     ----------
     descriptor : str or Descriptor
-        Registered name (``lidar-sig plugins`` lists them); default ``"c3dcm"``.
+        Registered name (``lidar-sig plugins`` lists them: c3dcm, t3dvt, t3dvt-get) or an
+        instance (e.g. ``T3DVT(diffusion=False)``); default ``"c3dcm"``.
     strategy : str or Strategy
         ``"multiscale"`` (default) or ``"optimal"``.
     scales : Scales, optional
@@ -108,7 +109,10 @@ class Pipeline:
         scales = self.resolved_scales(cloud)
         # Centre on the bounding box once: the search and kernels then see small numbers.
         centre = (cloud.xyz.min(axis=0) + cloud.xyz.max(axis=0)) / 2.0
-        index = NeighborIndex(cloud.xyz - centre, self.scales.kind, scales, max_neighbors=self.max_neighbors,
+        xyz = cloud.xyz - centre
+        self.descriptor.prepare(xyz, self.scales.kind, scales, max_neighbors=self.max_neighbors,
+                                min_neighbors=self.min_neighbors)
+        index = NeighborIndex(xyz, self.scales.kind, scales, max_neighbors=self.max_neighbors,
                               min_neighbors=self.min_neighbors)
         n = len(cloud)
         values = np.empty((n, 3))
@@ -120,6 +124,7 @@ class Pipeline:
             batch = index.query(rows)
             per_scale = self.descriptor.saliency(batch)
             combined, pick = self.strategy.combine(per_scale)
+            combined = self.descriptor.refine(batch, combined)
             values[batch.ids] = combined
             if pick is not None:
                 if chosen is None:

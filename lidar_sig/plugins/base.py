@@ -26,6 +26,14 @@ class Descriptor:
         """Parameters recorded in result metadata."""
         return {}
 
+    def prepare(self, xyz, kind, scales, *, max_neighbors, min_neighbors):
+        """Called once per cloud before the blocks, with the centred coordinates (input order)
+        and the resolved scales; for descriptors that need cloud-wide passes."""
+
+    def refine(self, batch, saliency):
+        """Adjust the strategy's combined (B, 3) saliency of a block; identity by default."""
+        return saliency
+
 
 class Strategy:
     """Scale strategy: per-scale saliency maps -> one saliency map per point (SPEC 4)."""

@@ -12,7 +12,11 @@ GROUPS = {"descriptor": "lidar_sig.descriptors", "strategy": "lidar_sig.strategi
 # The built-ins as declared in pyproject.toml; used only when lidar_sig runs from a source tree
 # that was never installed (no distribution metadata), so that the entry points are missing.
 _BUILTIN = {
-    "lidar_sig.descriptors": {"c3dcm": "lidar_sig.plugins.descriptors.c3dcm:C3DCM"},
+    "lidar_sig.descriptors": {
+        "c3dcm": "lidar_sig.plugins.descriptors.c3dcm:C3DCM",
+        "t3dvt": "lidar_sig.plugins.descriptors.t3dvt:T3DVT",
+        "t3dvt-get": "lidar_sig.plugins.descriptors.t3dvt_get:T3DVTGET",
+    },
     "lidar_sig.strategies": {
         "multiscale": "lidar_sig.plugins.strategies.multiscale:Multiscale",
         "optimal": "lidar_sig.plugins.strategies.optimal:OptimalScale",

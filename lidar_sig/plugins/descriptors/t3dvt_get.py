@@ -1,0 +1,65 @@
+"""T3DVT-GET: tensor voting modified by the 2D gradient energy tensor of the height field."""
+import numpy as np
+
+from ...get import line_saliency_of_index
+from ...neighbors import NeighborIndex
+from .t3dvt import T3DVT
+
+#: Default threshold on the dimensionless GET magnitude m0 * r^2; see docs/descriptors.md for
+#: the measurements on the IGN tiles that chose it.
+GET_THRESHOLD = 0.0
+
+
+class T3DVTGET(T3DVT):
+    """T3DVT whose saliency becomes a corner (cl_GET, 0, cp_GET) where GET says so (SPEC 3).
+
+    GET is computed on cylindrical neighbourhoods (horizontal distance <= r, or the k nearest in
+    plan view) at the run's scales, its line/corner saliency averaged over the scales where it
+    is defined, and wherever cp_GET > cl_GET the point's saliency is replaced by
+    (cl_GET, 0, cp_GET). GET assumes z is up: results are invariant to rotations about z only.
+
+    Parameters
+    ----------
+    get_threshold : float
+        GET counts at a scale only where its largest eigenvalue times the squared scale radius
+        (dimensionless) reaches this value; 0 keeps every positive GET, so that flat or evenly
+        sloped ground, where GET is numerically zero, turns into noise corners.
+    delta, diffusion
+        As for T3DVT.
+    """
+
+    name = "t3dvt-get"
+    summary = "tensor voting modified by the gradient energy tensor of the height field (T3DVT-GET)"
+
+    def __init__(self, delta=0.16, diffusion=True, get_threshold=GET_THRESHOLD):
+        super().__init__(delta=delta, diffusion=diffusion)
+        self.get_threshold = float(get_threshold)
+        self.cl_get = None
+
+    def params(self):
+        return {**super().params(), "get_threshold": self.get_threshold}
+
+    def prepare(self, xyz, kind, scales, *, max_neighbors, min_neighbors):
+        """Per-point cl_GET averaged over scales, for the whole cloud (input order)."""
+        self.cl_get = cl_get_of_cloud(xyz, kind, scales, max_neighbors=max_neighbors,
+                                      min_neighbors=min_neighbors, threshold=self.get_threshold)
+
+    def refine(self, batch, saliency):
+        cl = self.cl_get[batch.ids]
+        corner = (1.0 - cl) > cl  # cp_GET > cl_GET; False where NaN
+        out = saliency.copy()
+        out[corner] = np.column_stack([cl[corner], np.zeros(int(corner.sum())), 1.0 - cl[corner]])
+        return out
+
+
+def cl_get_of_cloud(xyz, kind, scales, *, max_neighbors=512, min_neighbors=3, threshold=0.0):
+    """cl_GET per point (input order), the mean over the scales where GET is defined; NaN if none.
+
+    Cylindrical neighbourhoods: the neighbour search runs on (x, y, 0).
+    """
+    flat = np.column_stack([xyz[:, 0], xyz[:, 1], np.zeros(len(xyz))])
+    index = NeighborIndex(flat, kind, scales, max_neighbors=max_neighbors, min_neighbors=min_neighbors)
+    cl = line_saliency_of_index(index, xyz[index.order, 2], threshold=threshold)
+    out = np.empty(len(xyz))
+    out[index.order] = cl
+    return out
