@@ -60,11 +60,13 @@ def table(rows, header):
         print("  ".join(str(v).rjust(w) for v, w in zip(r, widths)))
 
 
-def warm_up():
+def warm_up(descriptors=("c3dcm",)):
     """Compile (or load from the cache) lidar_sig's kernels on a small random cloud, so that
     timings measure the work and not the compiler."""
     import lidar_sig as ls
 
     xyz = np.random.default_rng(0).uniform(0, 5, (3000, 3))
-    for strategy, scales in (("multiscale", ls.radii(1.0, units="metric")), ("optimal", ls.knn(10, 20))):
-        ls.Pipeline(strategy=strategy, scales=scales, progress=False).saliency(ls.PointCloud(xyz))
+    for descriptor in descriptors:
+        for strategy, scales in (("multiscale", ls.radii(1.0, units="metric")), ("optimal", ls.knn(10, 20))):
+            ls.Pipeline(descriptor=descriptor, strategy=strategy, scales=scales,
+                        progress=False).saliency(ls.PointCloud(xyz))

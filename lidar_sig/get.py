@@ -4,7 +4,10 @@ Derivatives come from a least-squares operator over cylindrical neighbourhoods, 
 times: to z (first derivatives), to those (second) and to those again (third). Then
 GET = H H - (g t^T + t g^T) / 2 (Felsberg & Koethe 2005), with H the Hessian (f_xy and f_yx
 averaged: equal in theory, they differ only through the discrete operator), g the gradient and
-t = (f_xxx + f_xyy, f_xxy + f_yyy).
+t = (f_xxx + f_xyy, f_xxy + f_yyy). The mixed third derivatives are taken as f_xyy = d/dx f_yy
+and f_xxy = d/dy f_xx (equal to the other orders in theory), which makes t exactly the gradient
+of the discrete Laplacian f_xx + f_yy: the operator is covariant under rotations of the plane,
+so GET's eigenvalues, and T3DVT-GET, are invariant to rotations about z.
 
 Each pass needs the previous pass at the neighbours, so the cloud is processed as a wavefront
 over blocks of points sorted by voxel: a block's pass 2 runs as soon as pass 1 is done for every
@@ -108,7 +111,10 @@ def get_line_saliency(gx, gy, hxx, hxy, hyy, tx, ty, magnitude_scale, threshold)
 @njit(cache=True, parallel=True)
 def third_pass(xy, rows, ptr, nbr, counts, sigma, d1, d2, threshold, out):
     """Third derivatives, GET and cl_GET per scale; out[row] = mean cl_GET over the scales where
-    it is defined (NaN if none). GET's magnitude is made dimensionless by sigma^2."""
+    it is defined (NaN if none). GET's magnitude is made dimensionless by sigma^2.
+
+    t = grad(f_xx + f_yy): f_xxx, f_xxy from f_xx and f_xyy (as d/dx f_yy), f_yyy from f_yy.
+    """
     S = counts.shape[1]
     for b in prange(rows.size):
         i = rows[b]
@@ -116,28 +122,25 @@ def third_pass(xy, rows, ptr, nbr, counts, sigma, d1, d2, threshold, out):
         total = 0.0
         defined = 0
         for s in range(S):
-            fxxi, fxyi, fyyi = d2[i, s, 0], d2[i, s, 1], d2[i, s, 3]
-            rxx = ryy = rxy = ax = ay = bx = by = cx = cy = 0.0
+            fxxi, fyyi = d2[i, s, 0], d2[i, s, 3]
+            rxx = ryy = rxy = ax = ay = cx = cy = 0.0
             for p in range(ptr[b], ptr[b] + counts[b, s]):
                 j = nbr[p]
                 dx = xy[j, 0] - xi
                 dy = xy[j, 1] - yi
                 u = d2[j, s, 0] - fxxi
-                v = d2[j, s, 1] - fxyi
                 w = d2[j, s, 3] - fyyi
                 rxx += dx * dx
                 ryy += dy * dy
                 rxy += dx * dy
                 ax += dx * u
                 ay += dy * u
-                bx += dx * v
-                by += dy * v
                 cx += dx * w
                 cy += dy * w
             a, bb, c = _operator(rxx, ryy, rxy)
             fxxx = a * ax - bb * ay
             fxxy = c * ay - bb * ax
-            fxyy = c * by - bb * bx
+            fxyy = a * cx - bb * cy  # d/dx f_yy
             fyyy = c * cy - bb * cx
             hxy = 0.5 * (d2[i, s, 1] + d2[i, s, 2])
             cl = get_line_saliency(d1[i, s, 0], d1[i, s, 1], d2[i, s, 0], hxy, d2[i, s, 3],

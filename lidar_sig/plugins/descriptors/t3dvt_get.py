@@ -7,7 +7,7 @@ from .t3dvt import T3DVT
 
 #: Default threshold on the dimensionless GET magnitude m0 * r^2; see docs/descriptors.md for
 #: the measurements on the IGN tiles that chose it.
-GET_THRESHOLD = 0.0
+GET_THRESHOLD = 1.0
 
 
 class T3DVTGET(T3DVT):
