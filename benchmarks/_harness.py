@@ -35,6 +35,22 @@ def run_child(args, timeout=1800, python=True):
     return result, usage.ru_maxrss / 1024.0  # Linux reports KiB
 
 
+def alternate(script, file, cases, runs):
+    """Run ``script file --worker CASE`` for every case, ``runs`` rounds, the cases alternating.
+
+    Returns ({case: [seconds]}, {case: [peak MiB]}, points) from the children's reports.
+    """
+    times = {c: [] for c in cases}
+    mem = {c: [] for c in cases}
+    out = {}
+    for _ in range(runs):
+        for case in cases:
+            out, rss = run_child([script, file, "--worker", case])
+            times[case].append(out["seconds"])
+            mem[case].append(rss)
+    return times, mem, out.get("points")
+
+
 def report(payload):
     """Child side: print the one JSON line the parent reads."""
     print(json.dumps(payload), flush=True)

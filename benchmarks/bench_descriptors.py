@@ -15,7 +15,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _harness import median, read_xyz, report, run_child, table, warm_up  # noqa: E402
+from _harness import alternate, median, read_xyz, report, table, warm_up  # noqa: E402
 
 DESCRIPTORS = ("c3dcm", "t3dvt", "t3dvt-get")
 
@@ -38,18 +38,11 @@ def main():
     args = parser.parse_args()
     if args.worker:
         return child(args.worker, args.file)
-    me = str(Path(__file__).resolve())
-    times = {d: [] for d in DESCRIPTORS}
-    mem = {d: [] for d in DESCRIPTORS}
-    for _ in range(args.runs):
-        for d in DESCRIPTORS:
-            out, rss = run_child([me, args.file, "--worker", d])
-            times[d].append(out["seconds"])
-            mem[d].append(rss)
+    times, mem, points = alternate(str(Path(__file__).resolve()), args.file, DESCRIPTORS, args.runs)
     base = median(times["c3dcm"])
     rows = [[d, f"{median(times[d]):.2f}", f"{median(times[d]) / base:.2f}", f"{median(mem[d]):.0f}"]
             for d in DESCRIPTORS]
-    print(f"{args.file}: {out['points']:,} points, Multiscale, median of {args.runs} runs")
+    print(f"{args.file}: {points:,} points, Multiscale, median of {args.runs} runs")
     table(rows, ["descriptor", "seconds", "ratio to c3dcm", "peak MiB"])
 
 

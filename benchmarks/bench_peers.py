@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _harness import median, read_xyz, report, run_child, table, warm_up  # noqa: E402
+from _harness import alternate, median, read_xyz, report, table, warm_up  # noqa: E402
 
 PAPER_RADII = (0.009, 0.010, 0.011)
 K_SCALES = tuple(range(10, 101, 10))
@@ -125,17 +125,11 @@ def main():
     rows = []
     for ours, peer, label in (("lidar_sig-optimal", "pgeof", "Optimal-scale C3DCM k=10..100"),
                               ("lidar_sig-multiscale", "jakteristics", "Multiscale C3DCM 3 radii")):
-        times = {ours: [], peer: []}
-        mem = {ours: [], peer: []}
-        for _ in range(args.runs):  # alternate the two tools
-            for case in (ours, peer):
-                out, rss = run_child([me, args.file, "--worker", case])
-                times[case].append(out["seconds"])
-                mem[case].append(rss)
+        times, mem, points = alternate(me, args.file, (ours, peer), args.runs)
         t_ours, t_peer = median(times[ours]), median(times[peer])
         rows.append([label, peer, f"{t_ours:.2f}", f"{t_peer:.2f}", f"{t_ours / t_peer:.2f}",
                      f"{median(mem[ours]):.0f}", f"{median(mem[peer]):.0f}"])
-    print(f"{args.file}: {out['points']:,} points, median of {args.runs} runs per tool (seconds, MiB)")
+    print(f"{args.file}: {points:,} points, median of {args.runs} runs per tool (seconds, MiB)")
     table(rows, ["case", "peer", "lidar_sig s", "peer s", "ratio", "lidar_sig MiB", "peer MiB"])
     ok = cross_check(args.file)
     return 0 if ok else 1

@@ -25,3 +25,12 @@ def test_peer_benchmark_and_pgeof_cross_check_on_real_tile():
                           capture_output=True, text=True, timeout=900)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert "pgeof" in proc.stdout and "jakteristics" in proc.stdout and "cross-check" in proc.stdout
+
+
+def test_descriptor_benchmark_runs_on_real_tile():
+    path = need_data(IGN / "test_data_77060_627760_LA93_IGN69.laz")
+    proc = subprocess.run([sys.executable, str(BENCH / "bench_descriptors.py"), str(path), "--runs", "1"],
+                          capture_output=True, text=True, timeout=900)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    for name in ("c3dcm", "t3dvt", "t3dvt-get"):
+        assert name in proc.stdout
