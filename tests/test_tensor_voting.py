@@ -78,13 +78,18 @@ def test_get_on_pyramid_apex_is_corner():
     assert 1 - cl[apex][0] > 0.8
 
 
-def test_get_turns_apex_into_corner_in_pipeline():
-    pts = _height_field(lambda x, y: 6 - 0.5 * np.maximum(np.abs(x), np.abs(y)))
+@pytest.mark.parametrize("slope,threshold", [(0.5, 0.0), (1.5, None)])
+def test_get_turns_apex_into_corner_in_pipeline(slope, threshold):
+    # a gentle pyramid roof needs threshold 0; a steep one is a corner at the default too
+    pts = _height_field(lambda x, y: 6 - slope * np.maximum(np.abs(x), np.abs(y)))
     scales = ls.radii(0.25, 0.35, 0.45, units="metric")
-    res = ls.Pipeline(descriptor="t3dvt-get", scales=scales).run(ls.PointCloud(pts))
+    descriptor = T3DVTGET() if threshold is None else T3DVTGET(get_threshold=threshold)
+    res = ls.Pipeline(descriptor=descriptor, scales=scales).run(ls.PointCloud(pts))
     apex = int(np.flatnonzero((pts[:, 0] == 0) & (pts[:, 1] == 0))[0])
     cl, cs, cp = res.saliency.values[apex]
     assert cs == 0 and cp > 0.8 and res.saliency.geom_class[apex] == 3
+    plain = ls.Pipeline(descriptor="t3dvt", scales=scales).run(ls.PointCloud(pts))
+    assert not np.allclose(plain.saliency.values[apex], res.saliency.values[apex])  # GET's doing
 
 
 # ---- invariances --------------------------------------------------------------------------
