@@ -19,6 +19,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from .progress import progress as _progress
+
 # Relative size of the operator's determinant under which the neighbourhood is collinear.
 _DEGENERATE = 1e-12
 
@@ -177,7 +179,7 @@ class _Block:
         self.passes = 1
 
 
-def line_saliency_of_index(index, z, *, threshold=0.0):
+def line_saliency_of_index(index, z, *, threshold=0.0, progress=False):
     """cl_GET per point of a cylindrical NeighborIndex (sorted order), averaged over scales.
 
     ``index`` searches (x, y, 0); ``z`` are the heights in the index's sorted order.
@@ -189,7 +191,7 @@ def line_saliency_of_index(index, z, *, threshold=0.0):
     d2 = np.empty((n, n_scales, 4))
     out = np.empty(n)
     held = []
-    for rows in index.blocks():
+    for rows in _progress(index.blocks(), desc="gradient energy tensor", enabled=progress, unit="block"):
         block = _Block(rows, index.query(rows))
         first_pass(xy, z, rows, block.ptr, block.nbr, block.counts, d1)
         held.append(block)

@@ -111,7 +111,7 @@ class Pipeline:
         centre = (cloud.xyz.min(axis=0) + cloud.xyz.max(axis=0)) / 2.0
         xyz = cloud.xyz - centre
         self.descriptor.prepare(xyz, self.scales.kind, scales, max_neighbors=self.max_neighbors,
-                                min_neighbors=self.min_neighbors)
+                                min_neighbors=self.min_neighbors, progress=self.progress)
         index = NeighborIndex(xyz, self.scales.kind, scales, max_neighbors=self.max_neighbors,
                               min_neighbors=self.min_neighbors)
         n = len(cloud)

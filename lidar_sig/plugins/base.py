@@ -26,9 +26,10 @@ class Descriptor:
         """Parameters recorded in result metadata."""
         return {}
 
-    def prepare(self, xyz, kind, scales, *, max_neighbors, min_neighbors):
+    def prepare(self, xyz, kind, scales, *, max_neighbors, min_neighbors, progress=None):
         """Called once per cloud before the blocks, with the centred coordinates (input order)
-        and the resolved scales; for descriptors that need cloud-wide passes."""
+        and the resolved scales; for descriptors that need cloud-wide passes. ``progress`` is
+        the pipeline's progress setting (None: on a terminal only)."""
 
     def refine(self, batch, saliency):
         """Adjust the strategy's combined (B, 3) saliency of a block; identity by default."""

@@ -39,10 +39,11 @@ class T3DVTGET(T3DVT):
     def params(self):
         return {**super().params(), "get_threshold": self.get_threshold}
 
-    def prepare(self, xyz, kind, scales, *, max_neighbors, min_neighbors):
+    def prepare(self, xyz, kind, scales, *, max_neighbors, min_neighbors, progress=None):
         """Per-point cl_GET averaged over scales, for the whole cloud (input order)."""
         self.cl_get = cl_get_of_cloud(xyz, kind, scales, max_neighbors=max_neighbors,
-                                      min_neighbors=min_neighbors, threshold=self.get_threshold)
+                                      min_neighbors=min_neighbors, threshold=self.get_threshold,
+                                      progress=progress)
 
     def refine(self, batch, saliency):
         cl = self.cl_get[batch.ids]
@@ -52,14 +53,15 @@ class T3DVTGET(T3DVT):
         return out
 
 
-def cl_get_of_cloud(xyz, kind, scales, *, max_neighbors=512, min_neighbors=3, threshold=0.0):
+def cl_get_of_cloud(xyz, kind, scales, *, max_neighbors=512, min_neighbors=3, threshold=0.0,
+                    progress=False):
     """cl_GET per point (input order), the mean over the scales where GET is defined; NaN if none.
 
     Cylindrical neighbourhoods: the neighbour search runs on (x, y, 0).
     """
     flat = np.column_stack([xyz[:, 0], xyz[:, 1], np.zeros(len(xyz))])
     index = NeighborIndex(flat, kind, scales, max_neighbors=max_neighbors, min_neighbors=min_neighbors)
-    cl = line_saliency_of_index(index, xyz[index.order, 2], threshold=threshold)
+    cl = line_saliency_of_index(index, xyz[index.order, 2], threshold=threshold, progress=progress)
     out = np.empty(len(xyz))
     out[index.order] = cl
     return out
