@@ -105,20 +105,117 @@ def bhattacharyya(hist_a, hist_b):
     return float(np.sqrt(max(0.0, 1.0 - bc)))
 
 
+def color_bin_centres(bins=8):
+    """(bins^3, 3) RGB centres in [0, 1] of the colour histogram's bins, in its order."""
+    idx = np.indices((bins, bins, bins)).reshape(3, -1).T
+    return (idx + 0.5) / bins
+
+
+def emd_img(hist_a, hist_b, *, bins=8):
+    """d_EMD-Img: EMD between two colour histograms (SPEC 6), ground distance the Euclidean
+    distance between bin centres in RGB scaled to [0, 1]; in [0, sqrt(3)].
+
+    Only bins occupied in either histogram enter the transport problem (the others carry no
+    mass), which keeps it small.
+    """
+    from pyemd import emd
+
+    a = np.asarray(hist_a, dtype=np.float64)
+    b = np.asarray(hist_b, dtype=np.float64)
+    a, b = a / a.sum(), b / b.sum()
+    used = (a > 0) | (b > 0)
+    centres = color_bin_centres(bins)[used]
+    ground = np.sqrt(((centres[:, None, :] - centres[None, :, :]) ** 2).sum(axis=2))
+    return float(max(0.0, emd(a[used], b[used], ground)))
+
+
+#: Fisher-vector mixture: an n x n grid of isotropic Gaussians over the unit triangle.
+FV_GRID = 8
+
+
+def fisher_vector(positions, weights, *, grid=FV_GRID):
+    """Fisher vector of weighted 2D positions in the unit triangle (SPEC 6, delta_FV).
+
+    The mixture is fixed: Gaussians of equal weight centred on a regular ``grid`` x ``grid``
+    lattice over [0, 1] x [0, sqrt(3)/2], kept where the centre lies within one spacing of the
+    triangle, isotropic with sigma = the spacing (as in 3DmFV). Gradients with respect to the
+    weights, means and sigmas (Sanchez et al. 2013), then power (signed square root) and L2
+    normalization.
+    """
+    centres, sigma = fv_mixture(grid)
+    x = np.asarray(positions, dtype=np.float64)
+    w = np.asarray(weights, dtype=np.float64)
+    w = w / w.sum()
+    k = len(centres)
+    prior = 1.0 / k
+    diff = (x[:, None, :] - centres[None, :, :]) / sigma  # (M, K, 2)
+    log_p = -0.5 * (diff ** 2).sum(axis=2)
+    log_p -= log_p.max(axis=1, keepdims=True)
+    gamma = np.exp(log_p)
+    gamma /= gamma.sum(axis=1, keepdims=True)  # posteriors (M, K)
+    g_alpha = (w[:, None] * (gamma - prior)).sum(axis=0) / np.sqrt(prior)
+    g_mu = np.einsum("m,mk,mkd->kd", w, gamma, diff) / np.sqrt(prior)
+    g_sigma = np.einsum("m,mk,mkd->kd", w, gamma, diff ** 2 - 1.0) / np.sqrt(2.0 * prior)
+    fv = np.concatenate([g_alpha, g_mu.ravel(), g_sigma.ravel()])
+    fv = np.sign(fv) * np.sqrt(np.abs(fv))
+    norm = np.linalg.norm(fv)
+    return fv / norm if norm > 0 else fv
+
+
+def fv_mixture(grid=FV_GRID):
+    """Centres (K, 2) and sigma of the fixed Fisher-vector mixture over the unit triangle."""
+    spacing = 1.0 / grid
+    g = (np.arange(grid) + 0.5) * spacing
+    cx, cy = np.meshgrid(g, g * np.sqrt(3.0) / 2.0)
+    centres = np.column_stack([cx.ravel(), cy.ravel()])
+    # distance to the triangle (0,0), (1,0), (0.5, sqrt(3)/2): inside when all three
+    # signed edge distances are >= -spacing
+    d_base = centres[:, 1]
+    d_left = (np.sqrt(3.0) * centres[:, 0] - centres[:, 1]) / 2.0
+    d_right = (np.sqrt(3.0) * (1.0 - centres[:, 0]) - centres[:, 1]) / 2.0
+    keep = np.minimum(np.minimum(d_base, d_left), d_right) >= -spacing
+    return centres[keep], spacing
+
+
+def triangle_positions(signature):
+    """(P, 2) positions in the unit triangle of the occupied pixel centres, and their counts.
+
+    V_p = (0, 0), V_s = (1, 0), V_l = (1/2, sqrt(3)/2): the barycentric position of each
+    pixel, independent of the frame's size.
+    """
+    total = signature.total
+    rows, cols = np.nonzero(total)
+    v = signature.frame.vertices  # V_l, V_s, V_p in pixels
+    side = v[1, 0] - v[2, 0]
+    x = (cols + 0.5 - v[2, 0]) / side
+    y = (v[2, 1] - (rows + 0.5)) / side
+    return np.column_stack([x, y]), total[rows, cols]
+
+
+def fv_distance(a, b, *, grid=FV_GRID):
+    """delta_FV = ||FV_a - FV_b||_2 of two signatures' positions (count-weighted pixels); in [0, 2]."""
+    return float(np.linalg.norm(fisher_vector(*triangle_positions(a), grid=grid)
+                                - fisher_vector(*triangle_positions(b), grid=grid)))
+
+
 def compare(a, b, *, sg_mode="density", color_bins=8):
     """Every metric between two signatures, as a dict of floats (SPEC 6).
 
     Keys: ``bhattacharyya`` (d_BD-Img), ``ssim`` (s_SSIM), ``emd_info`` (d_EMD-Info, nats),
-    ``kl`` (delta_KL) and ``l1`` (L1); ``kl`` and ``l1`` are None when either cloud is unlabeled.
-    Raises LidarSigError when the signatures are not comparable.
+    ``emd_img`` (d_EMD-Img), ``fv`` (delta_FV), ``kl`` (delta_KL) and ``l1`` (L1); ``kl`` and
+    ``l1`` are None when either cloud is unlabeled. Raises LidarSigError when the signatures
+    are not comparable.
     """
     a.check_comparable(b)
     mask = a.frame.mask()
+    hist_a = color_histogram(a.sas(sg_mode), mask, bins=color_bins)
+    hist_b = color_histogram(b.sas(sg_mode), mask, bins=color_bins)
     out = {
-        "bhattacharyya": bhattacharyya(color_histogram(a.sas(sg_mode), mask, bins=color_bins),
-                                       color_histogram(b.sas(sg_mode), mask, bins=color_bins)),
+        "bhattacharyya": bhattacharyya(hist_a, hist_b),
         "ssim": ssim(a.sg(sg_mode), b.sg(sg_mode), mask),
         "emd_info": emd_info(a.egeom_counts, b.egeom_counts),
+        "emd_img": emd_img(hist_a, hist_b, bins=color_bins),
+        "fv": fv_distance(a, b),
         "kl": None,
         "l1": None,
     }

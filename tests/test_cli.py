@@ -37,13 +37,13 @@ def test_compare_real_ign_columns_prints_every_metric():
     proc = run("compare", WEST, EAST, "--json")
     assert proc.returncode == 0, proc.stderr
     out = json.loads(proc.stdout)
-    for key in ("bhattacharyya", "ssim", "emd_info", "kl", "l1"):
+    for key in ("bhattacharyya", "ssim", "emd_info", "emd_img", "fv", "kl", "l1"):
         assert isinstance(out[key], float), key
     assert 0 <= out["bhattacharyya"] <= 1 and -1 <= out["ssim"] <= 1
     assert out["bhattacharyya"] > 0 and out["ssim"] < 1 and out["kl"] > 0 and out["l1"] > 0
     table = run("compare", WEST, EAST)
     assert table.returncode == 0
-    for name in ("d_BD-Img", "s_SSIM", "d_EMD-Info", "delta_KL", "L1"):
+    for name in ("d_BD-Img", "s_SSIM", "d_EMD-Info", "d_EMD-Img", "delta_FV", "delta_KL", "L1"):
         assert name in table.stdout
 
 
@@ -51,7 +51,8 @@ def test_compare_file_with_itself_gives_zero_distances():
     need_data(SMALL)
     out = json.loads(run("compare", SMALL, SMALL, "--json", "--strategy", "optimal").stdout)
     assert out["ssim"] == 1.0
-    assert out["bhattacharyya"] == out["emd_info"] == out["kl"] == out["l1"] == 0.0
+    assert out["bhattacharyya"] == out["emd_info"] == out["emd_img"] == out["fv"] == 0.0
+    assert out["kl"] == out["l1"] == 0.0
 
 
 def test_compare_warns_when_normalized_radii_differ():

@@ -5,8 +5,8 @@ from scipy.stats import wasserstein_distance
 
 import lidar_sig as ls
 from conftest import airborne_like
-from lidar_sig.metrics import (bhattacharyya, color_histogram, emd_info, l1_distance, ssim,
-                               symmetric_kl)
+from lidar_sig.metrics import (bhattacharyya, color_bin_centres, color_histogram, emd_img, emd_info,
+                               fisher_vector, fv_distance, l1_distance, ssim, symmetric_kl)
 from lidar_sig.saliency import LN3
 
 AREA2 = [107485, 69097, 38866, 51227]  # paper Table 1: tree, building, low vegetation, road
@@ -74,9 +74,14 @@ def test_compare_identity_and_ranges():
     sa = pipe.run(ls.PointCloud(xyz, labels)).signature
     sb = pipe.run(ls.PointCloud(xyz2 * [1, 1, 1.5], labels2)).signature
     same = ls.compare(sa, sa)
-    assert same == {"bhattacharyya": 0.0, "ssim": 1.0, "emd_info": 0.0, "kl": 0.0, "l1": 0.0}
+    assert same == {"bhattacharyya": 0.0, "ssim": 1.0, "emd_info": 0.0, "emd_img": 0.0, "fv": 0.0,
+                    "kl": 0.0, "l1": 0.0}
     diff = ls.compare(sa, sb)
     assert 0 < diff["bhattacharyya"] <= 1 and -1 <= diff["ssim"] < 1 and diff["emd_info"] > 0
+    assert 0 < diff["emd_img"] <= np.sqrt(3) and 0 < diff["fv"] <= 2
+    back = ls.compare(sb, sa)
+    for key in ("bhattacharyya", "emd_info", "emd_img", "fv", "kl", "l1"):
+        assert back[key] == pytest.approx(diff[key], rel=1e-9, abs=1e-12), key
 
 
 def test_compare_refuses_different_frames():
@@ -86,3 +91,37 @@ def test_compare_refuses_different_frames():
     sb = ls.Pipeline(scales=ls.radii(1.5, units="metric"), frame=ls.Frame(256)).run(cloud).signature
     with pytest.raises(ls.LidarSigError, match="different frames"):
         ls.compare(sa, sb)
+
+
+def test_emd_img_moves_mass_by_colour_distance():
+    bins = 8
+    centres = color_bin_centres(bins)
+    a = np.zeros(bins ** 3)
+    b = np.zeros(bins ** 3)
+    a[0], b[7] = 1.0, 1.0  # same red and green bin, blue bin 0 against 7
+    assert emd_img(a, b) == pytest.approx(np.linalg.norm(centres[0] - centres[7]), rel=1e-6)
+    assert emd_img(a, b) == pytest.approx(emd_img(b, a), rel=1e-9)
+    assert emd_img(a, a) == 0.0
+
+
+def test_fisher_vector_is_normalized_and_separates_distributions():
+    rng = np.random.default_rng(3)
+    near_cs = np.column_stack([rng.uniform(0.7, 0.95, 500), rng.uniform(0.0, 0.1, 500)])
+    near_cl = np.column_stack([rng.uniform(0.45, 0.55, 500), rng.uniform(0.6, 0.8, 500)])
+    w = np.ones(500)
+    fa, fb = fisher_vector(near_cs, w), fisher_vector(near_cl, w)
+    assert np.linalg.norm(fa) == pytest.approx(1.0)
+    d_far = np.linalg.norm(fa - fb)
+    d_near = np.linalg.norm(fa - fisher_vector(near_cs + 0.01, w))
+    assert 0 < d_near < d_far <= 2
+    # weights act like repeated points
+    assert np.allclose(fisher_vector(near_cs[:2], [2, 1]), fisher_vector(near_cs[[0, 0, 1]], [1, 1, 1]))
+
+
+def test_fv_distance_of_signatures_is_symmetric():
+    xyz, labels = airborne_like(2000, seed=3)
+    pipe = ls.Pipeline(scales=ls.radii(1.0, 1.5, units="metric"))
+    sa = pipe.run(ls.PointCloud(xyz, labels)).signature
+    sb = pipe.run(ls.PointCloud(xyz * [1, 1, 2], labels)).signature
+    assert fv_distance(sa, sb) == pytest.approx(fv_distance(sb, sa), rel=1e-12)
+    assert fv_distance(sa, sa) == 0.0

@@ -14,6 +14,8 @@ METRICS = (
     ("bhattacharyya", "d_BD-Img", "Bhattacharyya distance of Sas colour histograms, 0 = same"),
     ("ssim", "s_SSIM", "structural similarity of Sg images, 1 = same"),
     ("emd_info", "d_EMD-Info", "EMD of Egeom histograms (nats), 0 = same"),
+    ("emd_img", "d_EMD-Img", "EMD of Sas colour histograms (RGB in [0, 1]), 0 = same"),
+    ("fv", "delta_FV", "distance of Fisher vectors of saliency positions, 0 = same"),
     ("kl", "delta_KL", "symmetric KL divergence of class distributions, 0 = same"),
     ("l1", "L1", "L1 distance of class distributions, 0 = same"),
 )
