@@ -10,7 +10,7 @@ __version__ = "0.1.0"
 from .classes import ASPRS, PAPER, ClassTable, class_table  # noqa: E402
 from .cloud import PointCloud  # noqa: E402
 from .errors import LidarSigError  # noqa: E402
-from .io import read  # noqa: E402
+from .io import load_signature, read  # noqa: E402
 from .metrics import compare  # noqa: E402
 from .pipeline import Pipeline, Result  # noqa: E402
 from .saliency import Saliency  # noqa: E402
@@ -18,5 +18,5 @@ from .scales import Scales, knn, radii  # noqa: E402
 from .signature import Frame, Signature  # noqa: E402
 
 __all__ = ["ASPRS", "PAPER", "ClassTable", "Frame", "LidarSigError", "Pipeline", "PointCloud",
-           "Result", "Saliency", "Scales", "Signature", "class_table", "compare", "knn", "radii",
-           "read"]
+           "Result", "Saliency", "Scales", "Signature", "class_table", "compare", "knn",
+           "load_signature", "radii", "read"]

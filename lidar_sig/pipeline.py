@@ -27,20 +27,26 @@ class Result:
     signature: Signature
     metadata: dict = field(default_factory=dict)
 
-    def write(self, path, *, overwrite=False):
-        """Write to ``path`` by extension: .las/.laz (saliency extra dimensions) or .png (Sas)."""
-        from .io import write_las
+    def write(self, path, *, overwrite=False, points=True):
+        """Write to ``path`` by extension: .las/.laz (saliency extra dimensions), .h5/.hdf5 (signature
+        archive, with per-point datasets unless ``points=False``) or .png (Sas)."""
+        from .io import HDF5_EXTENSIONS, write_archive, write_las
         from .render import write_signature_png
 
         ext = Path(path).suffix.lower()
         if ext in (".las", ".laz"):
             write_las(path, self.cloud, self.saliency, scale_kind=self.metadata["scale_kind"],
                       scale_values=self.metadata["scale_values"], overwrite=overwrite)
+        elif ext in HDF5_EXTENSIONS:
+            sources = [self.cloud.path] if self.cloud.path and Path(self.cloud.path).is_file() else []
+            write_archive(path, self.signature, saliency=self.saliency if points else None,
+                          labels=self.cloud.labels if points else None, sources=sources,
+                          overwrite=overwrite)
         elif ext == ".png":
             write_signature_png(path, self.signature, overwrite=overwrite)
         else:
-            raise LidarSigError(f"cannot write {ext or 'files without extension'}; use .las, .laz or .png",
-                                path=path)
+            raise LidarSigError(f"cannot write {ext or 'files without extension'}; use .las, .laz, .h5 "
+                                "or .png", path=path)
 
 
 class Pipeline:

@@ -22,7 +22,7 @@ def cli():
     """Semantic signatures of airborne LiDAR point clouds, and their comparison."""
 
 
-from . import compare, plugins, saliency, signature  # noqa: E402,F401  (registers the commands)
+from . import compare, info, plugins, saliency, signature  # noqa: E402,F401  (registers the commands)
 
 
 def main(argv=None):

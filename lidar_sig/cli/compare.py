@@ -1,9 +1,10 @@
 """`lidar-sig compare`: every metric between the signatures of two clouds."""
 import json
+from pathlib import Path
 
 import click
 
-from ..io import read
+from ..io import HDF5_EXTENSIONS, load_signature, read
 from ..metrics import compare as compare_signatures
 from . import cli
 from .options import pipeline_options
@@ -29,19 +30,37 @@ RADII_TOLERANCE = 0.10
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object on stdout.")
 @pipeline_options
 def compare(a, b, as_json, pipeline, quiet):
-    """Compare the signatures of point clouds A and B."""
-    clouds = [read(a), read(b)]
+    """Compare the signatures of A and B (point-cloud files or signature archives, in any mix)."""
+    paths = [a, b]
+    is_archive = [Path(p).suffix.lower() in HDF5_EXTENSIONS for p in paths]
+    clouds = [None if arch else read(p) for p, arch in zip(paths, is_archive)]
     notes = []
-    if any(c.labels is None for c in clouds):
-        for c in clouds:
+    loaded = [c for c in clouds if c is not None]
+    if len(loaded) == 2 and any(c.labels is None for c in loaded):
+        for c in loaded:
             c.labels = None
         notes.append("semantic metrics (kl, l1) need class labels in both clouds; "
                      "comparing geometry only")
-    results = [pipeline.run(c) for c in clouds]
-    metrics = compare_signatures(results[0].signature, results[1].signature)
-    meta = [r.metadata for r in results]
-    if meta[0]["scale_kind"] == "radius" and meta[0]["scale_units"] == "normalized":
-        ra, rb = meta[0]["resolved_scales"][-1], meta[1]["resolved_scales"][-1]
+    sigs, meta, lines = [], [], []
+    for path, cloud in zip(paths, clouds):
+        if cloud is None:
+            sig = load_signature(path)
+            sigs.append(sig)
+            meta.append(sig.metadata)
+            lines.append(f"{path}: archive of {sig.n_points:,} points, {sig.metadata.get('descriptor', '?')} "
+                         f"{sig.metadata.get('strategy', '?')}, {sig.metadata.get('scales', '?')}")
+        else:
+            result = pipeline.run(cloud)
+            sigs.append(result.signature)
+            meta.append(result.metadata)
+            lines.append(run_summary(path, result))
+    metrics = compare_signatures(sigs[0], sigs[1])
+    if metrics["kl"] is None and not notes:
+        notes.append("semantic metrics (kl, l1) need class labels; comparing geometry only")
+    scales = [m.get("resolved_scales") for m in meta]
+    if (all(m.get("scale_kind") == "radius" and m.get("scale_units") == "normalized" for m in meta)
+            and all(s is not None for s in scales)):
+        ra, rb = scales[0][-1], scales[1][-1]
         if max(ra, rb) > (1 + RADII_TOLERANCE) * min(ra, rb):
             notes.append(f"normalized radii resolve to different metric radii ({ra:.4g} in A, "
                          f"{rb:.4g} in B: {abs(ra / rb - 1):.0%} apart) because the clouds differ in "
@@ -50,15 +69,15 @@ def compare(a, b, as_json, pipeline, quiet):
         click.echo(f"lidar-sig: warning: {note}", err=True)
     if as_json:
         out = dict(metrics)
-        for key, path, m in zip("ab", (a, b), meta):
-            out[key] = {"path": path, "points": m["n_points"], "undefined": m["n_undefined"],
-                        "capped": m["n_capped"], "scales": m["resolved_scales"],
-                        "scale_kind": m["scale_kind"], "scale_units": m["scale_units"] or "k"}
-        out.update(descriptor=meta[0]["descriptor"], strategy=meta[0]["strategy"], warnings=notes)
+        for key, path, m in zip("ab", paths, meta):
+            out[key] = {"path": path, "points": int(m.get("n_points", 0)), "undefined": int(m.get("n_undefined", 0)),
+                        "capped": int(m.get("n_capped", 0)), "scales": list(m.get("resolved_scales", [])),
+                        "scale_kind": m.get("scale_kind"), "scale_units": m.get("scale_units") or "k"}
+        out.update(descriptor=meta[0].get("descriptor"), strategy=meta[0].get("strategy"), warnings=notes)
         click.echo(json.dumps(out))
         return
-    click.echo("A " + run_summary(a, results[0]))
-    click.echo("B " + run_summary(b, results[1]))
+    click.echo("A " + lines[0])
+    click.echo("B " + lines[1])
     click.echo("")
     for key, name, what in METRICS:
         value = metrics[key]

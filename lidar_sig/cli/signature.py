@@ -1,10 +1,10 @@
-"""`lidar-sig signature`: the signature image of a cloud."""
+"""`lidar-sig signature`: the signature of a cloud, as an HDF5 archive or a PNG image."""
 from pathlib import Path
 
 import click
 
 from ..errors import LidarSigError
-from ..io import check_output, read
+from ..io import HDF5_EXTENSIONS, check_output, read
 from ..render import write_signature_png
 from . import cli
 from .options import overwrite_option, pipeline_options
@@ -13,22 +13,35 @@ from .report import echo_run
 
 @cli.command()
 @click.argument("source")
-@click.option("-o", "--output", required=True, help="PNG of the augmented semantic signature Sas.")
+@click.option("-o", "--output", required=True,
+              help="Signature archive (.h5) or image of the augmented semantic signature Sas (.png).")
+@click.option("--png", "png_output", default=None, help="Also write Sas as PNG (with an .h5 output).")
 @click.option("--sg", "sg_output", default=None, help="Also write the geometric signature Sg as PNG.")
+@click.option("--no-points", is_flag=True, help="Leave the per-point datasets out of the archive.")
 @click.option("--mode", type=click.Choice(["density", "points"]), default="density", show_default=True,
-              help="Rendering: per-pixel point share (density) or the paper's point marks.")
+              help="Image rendering: per-pixel point share (density) or the paper's point marks.")
 @overwrite_option
 @pipeline_options
-def signature(source, output, sg_output, mode, overwrite, pipeline, quiet):
-    """Render the signature of SOURCE (Sas, and Sg with --sg) as PNG."""
-    for path in filter(None, (output, sg_output)):
+def signature(source, output, png_output, sg_output, no_points, mode, overwrite, pipeline, quiet):
+    """Compute the signature of SOURCE; write it as an archive (.h5) and/or images (.png)."""
+    ext = Path(output).suffix.lower()
+    if ext not in HDF5_EXTENSIONS + (".png",):
+        raise LidarSigError("the signature is written as .h5 (archive) or .png (image)", path=output)
+    images = [p for p in (png_output, sg_output) if p]
+    for path in images:
         if Path(path).suffix.lower() != ".png":
             raise LidarSigError("signature images are written as .png", path=path)
+    for path in [output] + images:
         check_output(path, overwrite=overwrite)
     result = pipeline.run(read(source))
-    write_signature_png(output, result.signature, kind="sas", mode=mode, overwrite=overwrite)
+    if ext == ".png":
+        write_signature_png(output, result.signature, kind="sas", mode=mode, overwrite=overwrite)
+    else:
+        result.write(output, overwrite=overwrite, points=not no_points)
+    if png_output:
+        write_signature_png(png_output, result.signature, kind="sas", mode=mode, overwrite=overwrite)
     if sg_output:
         write_signature_png(sg_output, result.signature, kind="sg", mode=mode, overwrite=overwrite)
     if not quiet:
         echo_run(source, result)
-        click.echo(f"wrote {', '.join(filter(None, (output, sg_output)))}")
+        click.echo(f"wrote {', '.join([output] + images)}")

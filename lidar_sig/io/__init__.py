@@ -9,10 +9,12 @@ from pathlib import Path
 
 from ..errors import LidarSigError
 from .atomic import atomic_output, check_output
+from .hdf5 import HDF5_EXTENSIONS, archive_summary, load_signature, write_archive
 from .las import LAS_EXTENSIONS, read_las, write_las
 from .text import TEXT_EXTENSIONS, read_text
 
-__all__ = ["read", "atomic_output", "check_output", "write_las", "LAS_EXTENSIONS", "TEXT_EXTENSIONS"]
+__all__ = ["read", "atomic_output", "check_output", "write_las", "write_archive", "load_signature",
+           "archive_summary", "LAS_EXTENSIONS", "TEXT_EXTENSIONS", "HDF5_EXTENSIONS"]
 
 
 def read(path):
@@ -29,5 +31,8 @@ def read(path):
         return read_las(path)
     if ext in TEXT_EXTENSIONS:
         return read_text(path)
+    if ext in HDF5_EXTENSIONS:
+        raise LidarSigError("is a signature archive, not a point cloud; use it with `lidar-sig compare` "
+                            "or lidar_sig.load_signature", path=path)
     raise LidarSigError(f"unknown point-cloud format {ext or '(no extension)'!r}; "
                         f"use one of {', '.join(LAS_EXTENSIONS + TEXT_EXTENSIONS)}", path=path)

@@ -1,0 +1,33 @@
+"""`lidar-sig info`: what a signature archive or a point-cloud file holds."""
+from pathlib import Path
+
+import click
+import numpy as np
+
+from ..io import HDF5_EXTENSIONS, archive_summary, read
+from . import cli
+
+
+@cli.command()
+@click.argument("path")
+def info(path):
+    """Summarize a signature archive (.h5) or a point-cloud file."""
+    if Path(path).suffix.lower() in HDF5_EXTENSIONS:
+        click.echo("\n".join(archive_summary(path)))
+        return
+    cloud = read(path)
+    lo, hi = cloud.xyz.min(axis=0), cloud.xyz.max(axis=0)
+    click.echo(f"{path}: {len(cloud):,} points")
+    click.echo("  bounds " + ", ".join(f"{a} {l:.2f} .. {h:.2f}" for a, l, h in zip("xyz", lo, hi)))
+    las = cloud.source
+    if las is not None and hasattr(las, "header"):
+        h = las.header
+        click.echo(f"  LAS {h.version}, point format {h.point_format.id}, "
+                   f"dimensions {', '.join(h.point_format.dimension_names)}")
+        crs = [type(v).__name__ for v in h.vlrs if "Coordinate" in type(v).__name__ or "GeoKey" in type(v).__name__]
+        click.echo(f"  CRS record: {', '.join(crs) if crs else 'none'}")
+    if cloud.labels is None:
+        click.echo("  labels: none")
+    else:
+        codes, counts = np.unique(cloud.labels, return_counts=True)
+        click.echo("  labels: " + ", ".join(f"{c}: {n:,}" for c, n in zip(codes, counts)))

@@ -1,0 +1,203 @@
+"""HDF5 signature archives (SPEC 8): signature, renderings, histograms, per-point saliency.
+
+Self-describing: every dataset carries ``description`` and, where it has one, ``units``;
+the root attributes say which program, version, descriptor, strategy and scales made it and
+from which files (with SHA-256). docs/archive.md lists the layout. Written atomically.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+
+import numpy as np
+
+from ..classes import ClassTable
+from ..errors import LidarSigError
+from ..saliency import LN3
+from ..signature import Frame, Signature
+from .atomic import atomic_output
+
+FORMAT = "lidar_sig signature archive"
+FORMAT_VERSION = 1
+HDF5_EXTENSIONS = (".h5", ".hdf5")
+_GZIP = {"compression": "gzip", "compression_opts": 4, "shuffle": True}
+
+
+def sha256_of(path):
+    """SHA-256 hex digest of a file."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for chunk in iter(lambda: fh.read(1 << 20), b""):
+            digest.update(chunk)
+    return digest.hexdigest()
+
+
+def _dataset(group, name, data, description, units=None, compress=True):
+    ds = group.create_dataset(name, data=data, **(_GZIP if compress and np.size(data) > 64 else {}))
+    ds.attrs["description"] = description
+    if units:
+        ds.attrs["units"] = units
+    return ds
+
+
+def write_archive(path, signature, *, saliency=None, labels=None, sources=(), overwrite=False):
+    """Write ``signature`` (and, if given, per-point ``saliency`` and ``labels``) to ``path``.
+
+    ``sources`` are the point-cloud files it was made from; their SHA-256 is recorded.
+    """
+    import h5py
+
+    from .. import __version__
+
+    meta = dict(signature.metadata)
+    source_list = [{"path": str(p), "sha256": sha256_of(p)} for p in sources]
+    with atomic_output(path, overwrite=overwrite) as tmp:
+        with h5py.File(tmp, "w") as f:
+            f.attrs["format"] = FORMAT
+            f.attrs["format_version"] = FORMAT_VERSION
+            f.attrs["lidar_sig_version"] = __version__
+            f.attrs["sources"] = json.dumps(source_list)
+            for key in ("descriptor", "strategy", "scales", "scale_kind", "scale_units"):
+                if meta.get(key) is not None:
+                    f.attrs[key] = str(meta[key])
+            for key in ("n_points", "n_undefined", "n_capped", "max_neighbors", "min_neighbors"):
+                if key in meta:
+                    f.attrs[key] = int(meta[key])
+            if "resolved_scales" in meta:
+                f.attrs["resolved_scales"] = np.asarray(meta["resolved_scales"], dtype=np.float64)
+                f.attrs["resolved_scales_units"] = ("neighbours" if meta.get("scale_kind") == "knn"
+                                                    else "coordinate units of the source (metres)")
+            f.attrs["descriptor_params"] = json.dumps(meta.get("descriptor_params", {}))
+            _write_signature(f.create_group("signature"), signature)
+            if saliency is not None:
+                _write_points(f.create_group("points"), saliency, labels)
+
+
+def _write_signature(g, sig):
+    import h5py
+
+    frame, classes = sig.frame, sig.classes
+    g.attrs["description"] = "signature: per-class count raster of saliency positions in the reference triangle"
+    g.attrs["frame_size"] = frame.size
+    g.attrs["frame_margin"] = frame.margin
+    g.attrs["n_undefined"] = sig.n_undefined
+    dtype = np.uint32 if sig.counts.max(initial=0) < 2**32 else np.uint64
+    _dataset(g, "counts", sig.counts.astype(dtype),
+             "points of each class (axis 0, class table order) per pixel (row, col)", "points")
+    _dataset(g, "sg", sig.sg().astype(np.float32), "geometric signature Sg, density rendering", "1")
+    _dataset(g, "sas", sig.sas().astype(np.float32),
+             "augmented semantic signature Sas, RGB, density rendering over white", "1")
+    _dataset(g, "mask", frame.mask().astype(np.uint8), "1 for pixels of the reference triangle")
+    tri = _dataset(g, "triangle", frame.vertices,
+                   "reference triangle vertices V_l, V_s, V_p (line, surface, point) as (x, y)", "pixels")
+    tri.attrs["axes"] = "x to the right, y downwards, pixel (row, col) covers [col, col+1) x [row, row+1)"
+    eh = _dataset(g, "egeom_histogram", sig.egeom_counts,
+                  "histogram of geometric entropy Egeom over [0, ln 3]", "points")
+    eh.attrs["range"] = np.array([0.0, LN3])
+    eh.attrs["range_units"] = "nats"
+    sh = _dataset(g, "saliency_histograms", saliency_histograms(sig),
+                  "per class (axis 0) histograms of Cl, Cs, Cp (axis 1) over [0, 1] (axis 2), "
+                  "from the pixel positions of the count raster", "points")
+    sh.attrs["range"] = np.array([0.0, 1.0])
+    c = g.create_group("classes")
+    c.attrs["description"] = "class table: name, RGB colour and label codes per class, 'other' last"
+    c.attrs["table"] = classes.name
+    names = c.create_dataset("names", data=np.array(classes.class_names, dtype=object),
+                             dtype=h5py.string_dtype())
+    names.attrs["description"] = "class names, 'other' last"
+    _dataset(c, "colors", np.rint(classes.class_colors * 255).astype(np.uint8), "RGB colour per class", "0-255")
+    codes = [list(cs) for cs in classes.codes] + [[]]
+    _dataset(c, "codes", np.array([v for cs in codes for v in cs], dtype=np.int64),
+             "label codes of all classes, concatenated")
+    _dataset(c, "code_offsets", np.cumsum([0] + [len(cs) for cs in codes]).astype(np.int64),
+             "class k has codes[code_offsets[k]:code_offsets[k+1]]")
+
+
+def saliency_histograms(sig, bins=50):
+    """(C, 3, bins) histograms of Cl, Cs, Cp per class from the count raster's pixel positions."""
+    v = sig.frame.vertices  # V_l, V_s, V_p in pixels
+    rows, cols = np.nonzero(sig.total)
+    xy = np.column_stack([cols + 0.5, rows + 0.5])
+    # barycentric coordinates of pixel centres: solve [V_l V_s V_p; 1 1 1] b = [x y 1]
+    m = np.vstack([v.T, np.ones(3)])
+    bary = np.clip(np.linalg.solve(m, np.vstack([xy.T, np.ones(len(xy))])).T, 0.0, 1.0)
+    out = np.zeros((sig.counts.shape[0], 3, bins), np.int64)
+    for k in range(sig.counts.shape[0]):
+        w = sig.counts[k, rows, cols]
+        for j in range(3):
+            out[k, j], _ = np.histogram(bary[:, j], bins=bins, range=(0.0, 1.0), weights=w)
+    return out
+
+
+def _write_points(g, sal, labels):
+    g.attrs["description"] = "per-point results, in the order of the source file's points"
+    for name, data, desc in (("cl", sal.cl, "line-type saliency Cl"), ("cs", sal.cs, "surface-type saliency Cs"),
+                             ("cp", sal.cp, "point-type saliency Cp")):
+        _dataset(g, name, data.astype(np.float32), desc + " (NaN where undefined)", "1")
+    _dataset(g, "egeom", sal.egeom.astype(np.float32), "geometric entropy Egeom (NaN where undefined)", "nats")
+    _dataset(g, "geom_class", sal.geom_class, "geometric class: 1 line, 2 surface, 3 point, 0 undefined")
+    if sal.optimal_scale is not None:
+        _dataset(g, "optimal_scale", sal.optimal_scale.astype(np.int16),
+                 "index of the chosen scale in the ascending scales, -1 if undefined")
+    if labels is not None:
+        _dataset(g, "labels", np.asarray(labels).astype(np.int32), "semantic label code (ASPRS for LAS)")
+
+
+def _open(path):
+    import h5py
+
+    try:
+        f = h5py.File(path, "r")
+    except OSError as exc:
+        raise LidarSigError(f"cannot be read as HDF5 ({str(exc).splitlines()[0][:120]}); "
+                            "check that the file is complete", path=path) from None
+    if f.attrs.get("format") != FORMAT:
+        f.close()
+        raise LidarSigError("is an HDF5 file but not a lidar_sig signature archive; make one with "
+                            "`lidar-sig signature CLOUD -o OUT.h5`", path=path)
+    if int(f.attrs.get("format_version", 0)) > FORMAT_VERSION:
+        f.close()
+        raise LidarSigError(f"archive format version {int(f.attrs['format_version'])} is newer than this "
+                            "lidar_sig reads; upgrade lidar_sig", path=path)
+    return f
+
+
+def load_signature(path):
+    """The Signature stored in an archive; compares exactly like the one that was written."""
+    with _open(path) as f:
+        try:
+            g = f["signature"]
+            c = g["classes"]
+            names = [n.decode() if isinstance(n, bytes) else str(n) for n in c["names"][()]]
+            colors = [tuple(int(v) for v in row) for row in c["colors"][()]]
+            codes, offsets = c["codes"][()], c["code_offsets"][()]
+            groups = [tuple(int(v) for v in codes[offsets[k]:offsets[k + 1]]) for k in range(len(names))]
+            classes = ClassTable(str(c.attrs["table"]), names=tuple(names[:-1]), codes=tuple(groups[:-1]),
+                                 colors=tuple(colors[:-1]))
+            frame = Frame(int(g.attrs["frame_size"]), int(g.attrs["frame_margin"]))
+            meta = {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in f.attrs.items()}
+            return Signature(g["counts"][()].astype(np.int64), frame, classes,
+                             g["egeom_histogram"][()].astype(np.int64), int(g.attrs["n_undefined"]), meta)
+        except KeyError as exc:
+            raise LidarSigError(f"archive lacks {exc}; it is damaged or incomplete", path=path) from None
+
+
+def archive_summary(path):
+    """Lines describing an archive, for `lidar-sig info`."""
+    sig = load_signature(path)
+    with _open(path) as f:
+        attrs = dict(f.attrs)
+        has_points = "points" in f
+        n_rows = f["points/cl"].shape[0] if has_points else 0
+    lines = [f"{path}: {FORMAT} v{attrs['format_version']} (lidar_sig {attrs['lidar_sig_version']})",
+             f"  descriptor {attrs.get('descriptor', '?')}, strategy {attrs.get('strategy', '?')}, "
+             f"{attrs.get('scales', '?')}",
+             f"  signature: {sig.n_points:,} points, {sig.n_undefined:,} undefined, frame {sig.frame.size} px, "
+             f"class table {sig.classes.name!r}",
+             f"  per-point datasets: {'yes, ' + format(n_rows, ',') + ' points' if has_points else 'no'}"]
+    for name, count in zip(sig.classes.class_names, sig.class_counts):
+        if count:
+            lines.append(f"    {name}: {int(count):,}")
+    for src in json.loads(attrs.get("sources", "[]")):
+        lines.append(f"  source {src['path']} sha256 {src['sha256']}")
+    return lines

@@ -1,0 +1,97 @@
+"""HDF5 signature archives (SPEC 8): exact round trip, readable by h5dump, clear errors."""
+import json
+import shutil
+import subprocess
+import sys
+
+import h5py
+import numpy as np
+import pytest
+
+import lidar_sig as ls
+from conftest import IGN, SAMPLES, need_data
+
+DOCUMENTED = ["/signature/counts", "/signature/sg", "/signature/sas", "/signature/mask",
+              "/signature/triangle", "/signature/egeom_histogram", "/signature/saliency_histograms",
+              "/signature/classes/names", "/signature/classes/colors", "/signature/classes/codes",
+              "/signature/classes/code_offsets", "/points/cl", "/points/cs", "/points/cp",
+              "/points/egeom", "/points/geom_class", "/points/optimal_scale", "/points/labels"]
+
+
+@pytest.fixture(scope="module")
+def optimal_result():
+    return ls.Pipeline(strategy="optimal", classes="paper").run(
+        need_data(IGN / "test_data_77060_627760_LA93_IGN69.laz"))
+
+
+def test_archive_round_trip_compares_exactly(optimal_result, tmp_path):
+    path = tmp_path / "sig.h5"
+    optimal_result.write(path)
+    loaded = ls.load_signature(path)
+    out = ls.compare(optimal_result.signature, loaded)
+    assert out["ssim"] == 1.0
+    assert all(out[k] == 0.0 for k in out if k != "ssim")
+    assert np.array_equal(loaded.counts, optimal_result.signature.counts)
+    assert loaded.classes == optimal_result.signature.classes
+    with h5py.File(path) as f:
+        assert f.attrs["descriptor"] == "c3dcm" and f.attrs["strategy"] == "optimal"
+        src = json.loads(f.attrs["sources"])[0]
+        assert src["path"].endswith("test_data_77060_627760_LA93_IGN69.laz") and len(src["sha256"]) == 64
+        np.testing.assert_array_equal(f["points/geom_class"][()], optimal_result.saliency.geom_class)
+        for name in DOCUMENTED:
+            assert "description" in f[name].attrs, name
+
+
+def test_archive_without_points_is_smaller(optimal_result, tmp_path):
+    full, small = tmp_path / "full.h5", tmp_path / "small.h5"
+    optimal_result.write(full)
+    optimal_result.write(small, points=False)
+    with h5py.File(small) as f:
+        assert "points" not in f
+    assert small.stat().st_size < full.stat().st_size
+    assert ls.compare(ls.load_signature(small), optimal_result.signature)["ssim"] == 1.0
+
+
+@pytest.mark.skipif(shutil.which("h5dump") is None, reason="h5dump not installed (Debian package hdf5-tools)")
+def test_h5dump_header_lists_documented_datasets(optimal_result, tmp_path):
+    path = tmp_path / "sig.h5"
+    optimal_result.write(path)
+    header = subprocess.run(["h5dump", "-H", str(path)], capture_output=True, text=True, check=True).stdout
+    for name in DOCUMENTED:
+        assert f'DATASET "{name.rsplit("/", 1)[1]}"' in header, name
+    assert 'GROUP "signature"' in header and 'GROUP "points"' in header
+
+
+def _cli(*args):
+    return subprocess.run([sys.executable, "-m", "lidar_sig", *map(str, args)], capture_output=True,
+                          text=True, timeout=600)
+
+
+def test_cli_signature_archive_then_compare_and_info(tmp_path):
+    arc, png = tmp_path / "e1.h5", tmp_path / "e1.png"
+    made = _cli("signature", SAMPLES / "epoch1.laz", "-o", arc, "--png", png, "-q")
+    assert made.returncode == 0, made.stderr
+    assert png.read_bytes()[:4] == b"\x89PNG"
+    mixed = json.loads(_cli("compare", arc, SAMPLES / "epoch1.laz", "--json").stdout)
+    assert mixed["ssim"] == 1.0 and mixed["emd_img"] == 0.0 and mixed["fv"] == 0.0
+    info = _cli("info", arc)
+    assert info.returncode == 0 and "signature archive" in info.stdout and "sha256" in info.stdout
+
+
+@pytest.mark.parametrize("case", ["corrupt", "foreign", "truncated"])
+def test_bad_archives_exit_2_with_one_line(tmp_path, case):
+    path = tmp_path / f"{case}.h5"
+    if case == "corrupt":
+        path.write_bytes(b"\x89HDF\r\n\x1a\n" + b"\x00garbage" * 100)
+    elif case == "foreign":
+        with h5py.File(path, "w") as f:
+            f["data"] = np.arange(10)
+    else:
+        good = tmp_path / "good.h5"
+        ls.Pipeline(scales=ls.knn(10)).run(SAMPLES / "epoch1.laz").write(good)
+        path.write_bytes(good.read_bytes()[:4000])
+    for args in (("compare", path, SAMPLES / "epoch1.laz"), ("info", path)):
+        proc = _cli(*args)
+        assert proc.returncode == 2, proc.stderr
+        lines = proc.stderr.strip().splitlines()
+        assert len(lines) == 1 and path.name in lines[0] and "Traceback" not in proc.stderr
