@@ -7,6 +7,12 @@ semantic class, the augmented semantic signature Sas; metrics between signatures
 """
 __version__ = "0.1.0"
 
+import warnings  # noqa: E402
+
+# numba probes the TBB threading layer first and warns when an older TBB (such as the one
+# Open3D ships) is on the path; it then uses OpenMP or its own work queue, which is all we need.
+warnings.filterwarnings("ignore", message=".*The TBB threading layer requires TBB")
+
 from .classes import ASPRS, PAPER, ClassTable, class_table  # noqa: E402
 from .cloud import PointCloud  # noqa: E402
 from .errors import LidarSigError  # noqa: E402

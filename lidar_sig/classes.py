@@ -84,16 +84,79 @@ PAPER = ClassTable(
     colors=((20, 140, 40), (220, 50, 40), (190, 230, 80), (120, 120, 120)),
 )
 
+# ISPRS Vaihingen 3D semantic labeling benchmark (Niemeyer et al. 2014), labels 0-8.
+ISPRS_VAIHINGEN = ClassTable(
+    "isprs-vaihingen",
+    names=("powerline", "low vegetation", "impervious surfaces", "car", "fence/hedge", "roof",
+           "facade", "shrub", "tree"),
+    codes=tuple((c,) for c in range(9)),
+    colors=((250, 200, 0), (170, 220, 90), (150, 150, 150), (40, 110, 230), (140, 90, 60),
+            (220, 50, 40), (240, 150, 120), (80, 180, 60), (20, 110, 30)),
+)
+
 # A cloud without labels has one class.
 UNLABELED = ClassTable("unlabeled", names=(), codes=(), colors=())
-BUILTIN = {"asprs": ASPRS, "paper": PAPER}
+BUILTIN = {"asprs": ASPRS, "paper": PAPER, "isprs-vaihingen": ISPRS_VAIHINGEN}
 
 
 def class_table(name):
-    """A built-in class table by name ('asprs' or 'paper'), or the table itself."""
+    """A class table: built-in by name (asprs, paper, isprs-vaihingen), a TOML or JSON file of
+    the user's (see :func:`load_class_table`), or the table itself."""
     if isinstance(name, ClassTable):
         return name
+    text = str(name)
+    if text.lower() in BUILTIN:
+        return BUILTIN[text.lower()]
+    if text.lower().endswith((".toml", ".json")):
+        return load_class_table(text)
+    raise LidarSigError(f"unknown class table {name!r}; use one of {', '.join(BUILTIN)} or a .toml/.json file")
+
+
+def load_class_table(path):
+    """A user class table from TOML or JSON: a ``name`` and a list ``class`` of tables with
+    ``name``, ``codes`` (one code or a list: several codes may map to one class) and ``color``
+    (RGB 0-255). Example (TOML)::
+
+        name = "ign-vegetation"
+        [[class]]
+        name = "vegetation"
+        codes = [3, 4, 5]
+        color = [20, 140, 40]
+    """
+    from pathlib import Path
+
+    p = Path(path)
+    if not p.is_file():
+        raise LidarSigError("class table file not found; check the path", path=p)
     try:
-        return BUILTIN[str(name).lower()]
-    except KeyError:
-        raise LidarSigError(f"unknown class table {name!r}; available: {', '.join(BUILTIN)}") from None
+        if p.suffix.lower() == ".toml":
+            import tomllib
+
+            data = tomllib.loads(p.read_text(encoding="utf-8"))
+        else:
+            import json
+
+            data = json.loads(p.read_text(encoding="utf-8"))
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise LidarSigError(f"cannot parse the class table ({str(exc).splitlines()[0][:120]})", path=p) from None
+    entries = data.get("class") if isinstance(data, dict) else None
+    if not isinstance(entries, list) or not entries:
+        raise LidarSigError("a class table needs a list 'class' of {name, codes, color} entries", path=p)
+    names, codes, colors = [], [], []
+    for k, entry in enumerate(entries):
+        try:
+            c = entry["codes"]
+            c = (c,) if isinstance(c, int) else tuple(int(v) for v in c)
+            rgb = tuple(int(v) for v in entry["color"])
+            if len(rgb) != 3 or not all(0 <= v <= 255 for v in rgb) or any(v < 0 for v in c):
+                raise ValueError
+            names.append(str(entry["name"]))
+            codes.append(c)
+            colors.append(rgb)
+        except (KeyError, TypeError, ValueError):
+            raise LidarSigError(f"class entry {k + 1} needs a name, non-negative integer codes and an "
+                                "RGB color of three values 0-255", path=p) from None
+    try:
+        return ClassTable(str(data.get("name", p.stem)), tuple(names), tuple(codes), tuple(colors))
+    except LidarSigError as exc:
+        raise LidarSigError(str(exc), path=p) from None

@@ -28,15 +28,16 @@ class Result:
     metadata: dict = field(default_factory=dict)
 
     def write(self, path, *, overwrite=False, points=True):
-        """Write to ``path`` by extension: .las/.laz (saliency extra dimensions), .h5/.hdf5 (signature
-        archive, with per-point datasets unless ``points=False``) or .png (Sas)."""
-        from .io import HDF5_EXTENSIONS, write_archive, write_las
+        """Write to ``path`` by extension: a point cloud with per-point saliency (.las/.laz extra
+        dimensions, .ply/.pcd attributes, .xyz/.txt/.pts/.csv columns), a signature archive
+        (.h5/.hdf5, with per-point datasets unless ``points=False``) or an image of Sas (.png)."""
+        from .io import CLOUD_EXTENSIONS, HDF5_EXTENSIONS, write_archive, write_cloud
         from .render import write_signature_png
 
         ext = Path(path).suffix.lower()
-        if ext in (".las", ".laz"):
-            write_las(path, self.cloud, self.saliency, scale_kind=self.metadata["scale_kind"],
-                      scale_values=self.metadata["scale_values"], overwrite=overwrite)
+        if ext in CLOUD_EXTENSIONS:
+            write_cloud(path, self.cloud, self.saliency, scale_kind=self.metadata["scale_kind"],
+                        scale_values=self.metadata["scale_values"], overwrite=overwrite)
         elif ext in HDF5_EXTENSIONS:
             sources = [self.cloud.path] if self.cloud.path and Path(self.cloud.path).is_file() else []
             write_archive(path, self.signature, saliency=self.saliency if points else None,
@@ -45,8 +46,8 @@ class Result:
         elif ext == ".png":
             write_signature_png(path, self.signature, overwrite=overwrite)
         else:
-            raise LidarSigError(f"cannot write {ext or 'files without extension'}; use .las, .laz, .h5 "
-                                "or .png", path=path)
+            raise LidarSigError(f"cannot write {ext or 'files without extension'}; use a point-cloud "
+                                "format, .h5 or .png", path=path)
 
 
 class Pipeline:

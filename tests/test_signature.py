@@ -96,3 +96,31 @@ def test_write_png(tmp_path):
     assert img.shape == (512, 512, 3)
     with pytest.raises(ls.LidarSigError, match="--overwrite"):
         res.write(tmp_path / "s.png")
+
+
+def test_user_class_tables_from_toml_and_json(tmp_path):
+    from lidar_sig.classes import ISPRS_VAIHINGEN, class_table
+
+    toml = tmp_path / "ign.toml"
+    toml.write_text('name = "ign"\n[[class]]\nname = "vegetation"\ncodes = [3, 4, 5]\ncolor = [20, 140, 40]\n'
+                    '[[class]]\nname = "ground"\ncodes = 2\ncolor = [120, 120, 120]\n')
+    table = class_table(str(toml))
+    assert table.class_names == ("vegetation", "ground", "other")
+    assert table.index(np.array([3, 4, 5, 2, 6])).tolist() == [0, 0, 0, 1, 2]
+    js = tmp_path / "ign.json"
+    js.write_text('{"name": "ign", "class": [{"name": "vegetation", "codes": [3, 4, 5], "color": [20, 140, 40]},'
+                  ' {"name": "ground", "codes": [2], "color": [120, 120, 120]}]}')
+    assert class_table(str(js)) == table
+    assert len(ISPRS_VAIHINGEN) == 10 and ISPRS_VAIHINGEN.index(np.array([8]))[0] == 8
+
+
+@pytest.mark.parametrize("text", ['name = "x"\n', '[[class]]\nname = "a"\ncodes = [1]\ncolor = [1, 2]\n',
+                                  "not toml at all [[[", '[[class]]\nname="a"\ncodes=[1]\ncolor=[1,2,3]\n'
+                                  '[[class]]\nname="b"\ncodes=[1]\ncolor=[1,2,3]\n'])
+def test_bad_class_tables_name_the_file(tmp_path, text):
+    from lidar_sig.classes import class_table
+
+    path = tmp_path / "bad.toml"
+    path.write_text(text)
+    with pytest.raises(ls.LidarSigError, match="bad.toml"):
+        class_table(str(path))

@@ -7,7 +7,7 @@ import click
 from ..io import HDF5_EXTENSIONS, load_signature, read
 from ..metrics import compare as compare_signatures
 from . import cli
-from .options import pipeline_options
+from .options import columns_option, pipeline_options
 from .report import run_summary
 
 # (key, paper name, what it says)
@@ -28,12 +28,13 @@ RADII_TOLERANCE = 0.10
 @click.argument("a")
 @click.argument("b")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object on stdout.")
+@columns_option
 @pipeline_options
-def compare(a, b, as_json, pipeline, quiet):
+def compare(a, b, as_json, columns, pipeline, quiet):
     """Compare the signatures of A and B (point-cloud files or signature archives, in any mix)."""
     paths = [a, b]
     is_archive = [Path(p).suffix.lower() in HDF5_EXTENSIONS for p in paths]
-    clouds = [None if arch else read(p) for p, arch in zip(paths, is_archive)]
+    clouds = [None if arch else read(p, columns=columns) for p, arch in zip(paths, is_archive)]
     notes = []
     loaded = [c for c in clouds if c is not None]
     if len(loaded) == 2 and any(c.labels is None for c in loaded):

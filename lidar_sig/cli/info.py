@@ -6,16 +6,18 @@ import numpy as np
 
 from ..io import HDF5_EXTENSIONS, archive_summary, read
 from . import cli
+from .options import columns_option
 
 
 @cli.command()
 @click.argument("path")
-def info(path):
+@columns_option
+def info(path, columns):
     """Summarize a signature archive (.h5) or a point-cloud file."""
     if Path(path).suffix.lower() in HDF5_EXTENSIONS:
         click.echo("\n".join(archive_summary(path)))
         return
-    cloud = read(path)
+    cloud = read(path, columns=columns)
     lo, hi = cloud.xyz.min(axis=0), cloud.xyz.max(axis=0)
     click.echo(f"{path}: {len(cloud):,} points")
     click.echo("  bounds " + ", ".join(f"{a} {l:.2f} .. {h:.2f}" for a, l, h in zip("xyz", lo, hi)))

@@ -35,7 +35,8 @@ def pipeline_options(func):
         click.option("--max-neighbors", default=512, show_default=True, type=click.IntRange(3),
                      help="Cap of a spherical neighbourhood (nearest first)."),
         click.option("--classes", default="asprs", show_default=True,
-                     help="Class table for the augmented signature: asprs or paper."),
+                     help="Class table for the augmented signature: asprs, paper, isprs-vaihingen, "
+                          "or a .toml/.json file (see docs/method.md)."),
         click.option("-q", "--quiet", is_flag=True, help="No progress bars or summaries."),
     ]
 
@@ -69,3 +70,15 @@ def make_pipeline(descriptor, strategy, radii_text, units, k_text, max_neighbors
 
 
 overwrite_option = click.option("--overwrite", is_flag=True, help="Replace an existing output file.")
+
+
+def _columns(ctx, param, value):
+    from ..io import parse_columns
+
+    return parse_columns(value) if value else None
+
+
+columns_option = click.option(
+    "--columns", default=None, callback=_columns,
+    help="Columns of text point clouds, e.g. x,y,z,-,label ('-' skips one) [default: by count: "
+         "3 xyz, 4 xyz+label, 7 ISPRS Vaihingen 3D; or the file's '# x y z ...' header].")

@@ -5,24 +5,26 @@ from pathlib import Path
 import click
 
 from ..errors import LidarSigError
-from ..io import LAS_EXTENSIONS, check_output, read
+from ..io import CLOUD_EXTENSIONS, check_output, read
 from . import cli
-from .options import overwrite_option, pipeline_options
+from .options import columns_option, overwrite_option, pipeline_options
 from .report import echo_run
 
 
 @cli.command()
 @click.argument("source")
-@click.option("-o", "--output", required=True, help="Output LAS/LAZ file.")
+@click.option("-o", "--output", required=True,
+              help="Output point cloud: LAS/LAZ (extra dimensions), PLY/PCD (attributes) or text (columns).")
 @overwrite_option
+@columns_option
 @pipeline_options
-def saliency(source, output, overwrite, pipeline, quiet):
-    """Write SOURCE with extra dimensions Cl, Cs, Cp, Egeom, GeomClass (and OptimalScale)."""
-    if Path(output).suffix.lower() not in LAS_EXTENSIONS:
-        raise LidarSigError("output must be .las or .laz", path=output)
+def saliency(source, output, overwrite, columns, pipeline, quiet):
+    """Write SOURCE with per-point Cl, Cs, Cp, Egeom, GeomClass (and OptimalScale)."""
+    if Path(output).suffix.lower() not in CLOUD_EXTENSIONS:
+        raise LidarSigError(f"output must be a point cloud: {', '.join(CLOUD_EXTENSIONS)}", path=output)
     check_output(output, overwrite=overwrite)
     start = time.perf_counter()
-    cloud = read(source)
+    cloud = read(source, columns=columns)
     result = pipeline.run(cloud)
     result.write(output, overwrite=overwrite)
     if not quiet:

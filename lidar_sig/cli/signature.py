@@ -7,7 +7,7 @@ from ..errors import LidarSigError
 from ..io import HDF5_EXTENSIONS, check_output, read
 from ..render import write_signature_png
 from . import cli
-from .options import overwrite_option, pipeline_options
+from .options import columns_option, overwrite_option, pipeline_options
 from .report import echo_run
 
 
@@ -21,8 +21,9 @@ from .report import echo_run
 @click.option("--mode", type=click.Choice(["density", "points"]), default="density", show_default=True,
               help="Image rendering: per-pixel point share (density) or the paper's point marks.")
 @overwrite_option
+@columns_option
 @pipeline_options
-def signature(source, output, png_output, sg_output, no_points, mode, overwrite, pipeline, quiet):
+def signature(source, output, png_output, sg_output, no_points, mode, overwrite, columns, pipeline, quiet):
     """Compute the signature of SOURCE; write it as an archive (.h5) and/or images (.png)."""
     ext = Path(output).suffix.lower()
     if ext not in HDF5_EXTENSIONS + (".png",):
@@ -33,7 +34,7 @@ def signature(source, output, png_output, sg_output, no_points, mode, overwrite,
             raise LidarSigError("signature images are written as .png", path=path)
     for path in [output] + images:
         check_output(path, overwrite=overwrite)
-    result = pipeline.run(read(source))
+    result = pipeline.run(read(source, columns=columns))
     if ext == ".png":
         write_signature_png(output, result.signature, kind="sas", mode=mode, overwrite=overwrite)
     else:

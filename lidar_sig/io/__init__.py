@@ -10,15 +10,21 @@ from pathlib import Path
 from ..errors import LidarSigError
 from .atomic import atomic_output, check_output
 from .hdf5 import HDF5_EXTENSIONS, archive_summary, load_signature, write_archive
-from .las import LAS_EXTENSIONS, read_las, write_las
-from .text import TEXT_EXTENSIONS, read_text
+from .las import LAS_EXTENSIONS, read_las, saliency_fields, write_las
+from .open3d import OPEN3D_EXTENSIONS, read_open3d, write_open3d
+from .text import TEXT_EXTENSIONS, parse_columns, read_text, write_text
 
-__all__ = ["read", "atomic_output", "check_output", "write_las", "write_archive", "load_signature",
+CLOUD_EXTENSIONS = LAS_EXTENSIONS + OPEN3D_EXTENSIONS + TEXT_EXTENSIONS
+
+__all__ = ["read", "write_cloud", "parse_columns", "CLOUD_EXTENSIONS", "atomic_output", "check_output", "write_las", "write_archive", "load_signature",
            "archive_summary", "LAS_EXTENSIONS", "TEXT_EXTENSIONS", "HDF5_EXTENSIONS"]
 
 
-def read(path):
-    """Read a point cloud (LAS/LAZ, or XYZ/TXT/PTS text) into a PointCloud."""
+def read(path, *, columns=None):
+    """Read a point cloud (LAS/LAZ, PLY/PCD, XYZ/TXT/PTS/CSV text) into a PointCloud.
+
+    ``columns`` names the columns of a text file (see :mod:`lidar_sig.io.text`).
+    """
     path = Path(path)
     if not path.exists():
         raise LidarSigError("no such file; check the path", path=path)
@@ -30,9 +36,26 @@ def read(path):
     if ext in LAS_EXTENSIONS:
         return read_las(path)
     if ext in TEXT_EXTENSIONS:
-        return read_text(path)
+        return read_text(path, columns=columns)
+    if ext in OPEN3D_EXTENSIONS:
+        return read_open3d(path)
     if ext in HDF5_EXTENSIONS:
         raise LidarSigError("is a signature archive, not a point cloud; use it with `lidar-sig compare` "
                             "or lidar_sig.load_signature", path=path)
     raise LidarSigError(f"unknown point-cloud format {ext or '(no extension)'!r}; "
-                        f"use one of {', '.join(LAS_EXTENSIONS + TEXT_EXTENSIONS)}", path=path)
+                        f"use one of {', '.join(CLOUD_EXTENSIONS)}", path=path)
+
+
+def write_cloud(path, cloud, saliency, *, scale_kind=None, scale_values=None, overwrite=False):
+    """Write the cloud with per-point saliency to ``path``, in the format of its extension."""
+    ext = Path(path).suffix.lower()
+    if ext in LAS_EXTENSIONS:
+        return write_las(path, cloud, saliency, scale_kind=scale_kind, scale_values=scale_values,
+                         overwrite=overwrite)
+    fields = saliency_fields(saliency, scale_kind, scale_values)
+    if ext in OPEN3D_EXTENSIONS:
+        return write_open3d(path, cloud, fields, overwrite=overwrite)
+    if ext in TEXT_EXTENSIONS:
+        return write_text(path, cloud, fields, overwrite=overwrite)
+    raise LidarSigError(f"cannot write point clouds as {ext or '(no extension)'!r}; use one of "
+                        f"{', '.join(CLOUD_EXTENSIONS)}", path=path)

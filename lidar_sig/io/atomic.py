@@ -24,9 +24,13 @@ def check_output(path, *, overwrite=False):
 
 @contextlib.contextmanager
 def atomic_output(path, *, overwrite=False):
-    """Yield a temporary path in the same folder; rename it to ``path`` only on success."""
+    """Yield a temporary path in the same folder; rename it to ``path`` only on success.
+
+    The temporary name ends with the output's extension, for writers that choose the format
+    from it.
+    """
     path = check_output(path, overwrite=overwrite)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent or ".")
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=f".tmp{path.suffix}", dir=path.parent or ".")
     os.close(fd)
     try:
         yield Path(tmp)

@@ -68,6 +68,23 @@ def to_lasdata(cloud):
     return las
 
 
+def saliency_fields(saliency, scale_kind=None, scale_values=None):
+    """Per-point outputs by their LAS names: Cl, Cs, Cp, Egeom (float32), GeomClass (uint16) and,
+    for Optimal-scale, OptimalScale (uint16: the chosen k, or the 1-based radius index; 0 where
+    undefined). Every writer uses these."""
+    fields = {"Cl": saliency.cl.astype(np.float32), "Cs": saliency.cs.astype(np.float32),
+              "Cp": saliency.cp.astype(np.float32), "Egeom": saliency.egeom.astype(np.float32),
+              "GeomClass": saliency.geom_class.astype(np.uint16)}
+    if saliency.optimal_scale is not None:
+        chosen = saliency.optimal_scale
+        if scale_kind == "knn":
+            value = np.where(chosen >= 0, np.asarray(scale_values)[np.maximum(chosen, 0)], 0)
+        else:
+            value = chosen + 1
+        fields["OptimalScale"] = value.astype(np.uint16)
+    return fields
+
+
 def write_las(path, cloud, saliency, *, scale_kind=None, scale_values=None, overwrite=False):
     """Write the cloud with saliency extra dimensions (SPEC 8) to ``path`` (.las or .laz).
 
@@ -79,28 +96,16 @@ def write_las(path, cloud, saliency, *, scale_kind=None, scale_values=None, over
     ours = [n for n in SALIENCY_DIMS if n in set(las.point_format.extra_dimension_names)]
     if ours:  # a re-run replaces instead of duplicating
         las.remove_extra_dims(ours)
-    names = ["Cl", "Cs", "Cp", "Egeom", "GeomClass"]
-    if saliency.optimal_scale is not None:
-        names.append("OptimalScale")
+    fields = saliency_fields(saliency, scale_kind, scale_values)
     params = []
-    for name in names:
+    for name in fields:
         kind, desc = SALIENCY_DIMS[name]
         if name == "OptimalScale":
             desc = _OPTIMAL_DESC[scale_kind]
         params.append(laspy.ExtraBytesParams(name=name, type=np.dtype(kind), description=desc))
     las.add_extra_dims(params)
-    las["Cl"] = saliency.cl.astype(np.float32)
-    las["Cs"] = saliency.cs.astype(np.float32)
-    las["Cp"] = saliency.cp.astype(np.float32)
-    las["Egeom"] = saliency.egeom.astype(np.float32)
-    las["GeomClass"] = saliency.geom_class.astype(np.uint16)
-    if saliency.optimal_scale is not None:
-        chosen = saliency.optimal_scale
-        if scale_kind == "knn":
-            value = np.where(chosen >= 0, np.asarray(scale_values)[np.maximum(chosen, 0)], 0)
-        else:
-            value = chosen + 1
-        las["OptimalScale"] = value.astype(np.uint16)
+    for name, values in fields.items():
+        las[name] = values
     compress = str(path).lower().endswith(".laz")
     with atomic_output(path, overwrite=overwrite) as tmp:
         with open(tmp, "wb") as fh:

@@ -1,42 +1,96 @@
-"""Plain-text point clouds: whitespace- or comma-separated X Y Z [label] per line."""
+"""Plain-text point clouds: one point per line, whitespace- or comma-separated columns.
+
+Column layout by count unless given: 3 = X Y Z, 4 = X Y Z label, 7 = the ISPRS Vaihingen 3D
+layout X Y Z Intensity return_number number_of_returns label. ``columns`` names each column
+(``x``, ``y``, ``z``, ``label``; anything else is kept as an attribute, ``-`` skips it).
+"""
 from __future__ import annotations
 
 import numpy as np
 
 from ..cloud import PointCloud
 from ..errors import LidarSigError
+from .atomic import atomic_output
 
 TEXT_EXTENSIONS = (".xyz", ".txt", ".pts", ".csv")
+LAYOUTS = {
+    3: ("x", "y", "z"),
+    4: ("x", "y", "z", "label"),
+    7: ("x", "y", "z", "intensity", "return_number", "number_of_returns", "label"),
+}
 
 
-def read_text(path):
-    """Read X Y Z and, when present, an integer label in column 4.
+def parse_columns(text):
+    """``"x,y,z,-,label"`` -> a tuple of column names; must hold x, y and z."""
+    cols = tuple(_name(c.strip()) for c in str(text).split(",") if c.strip())
+    if not {"x", "y", "z"} <= set(cols) or len(set(c for c in cols if c != "-")) != len([c for c in cols if c != "-"]):
+        raise LidarSigError(f"--columns must name x, y and z once each, got {text!r} (e.g. x,y,z,-,label)")
+    return cols
 
-    Lines starting with ``#`` or ``//`` are comments; a first line that is not numeric is a
-    header. ``.pts`` files may start with a point-count line, which is skipped.
-    """
+
+def read_text(path, columns=None):
+    """Read a text point cloud; lines starting with ``#`` or ``//`` are comments, a first line
+    that is not numeric is a header, a ``.pts`` point-count line is skipped."""
     try:
         with open(path, encoding="utf-8") as fh:
-            lines = [ln for ln in fh if ln.strip() and not ln.lstrip().startswith(("#", "//"))]
+            raw = [ln for ln in fh if ln.strip()]
     except UnicodeDecodeError:
         raise LidarSigError("is not a text point cloud (binary content)", path=path) from None
+    comments = [ln.lstrip("#/ ").split() for ln in raw if ln.lstrip().startswith(("#", "//"))]
+    lines = [ln for ln in raw if not ln.lstrip().startswith(("#", "//"))]
+    if columns is None:  # a commented header naming x, y and z (as this module writes) sets the layout
+        named = [words for words in comments if {"x", "y", "z"} <= {w.lower() for w in words}]
+        columns = tuple(_name(w) for w in named[0]) if named else None
     if lines and not _numeric(lines[0]):
         lines = lines[1:]  # header line
     if lines and len(lines[0].replace(",", " ").split()) == 1:
         lines = lines[1:]  # .pts point count
     if not lines:
         raise LidarSigError("the file holds no points; give a file with points", path=path)
+    n_cols = len(lines[0].replace(",", " ").split())
+    layout = tuple(columns) if columns else LAYOUTS.get(n_cols)
+    if layout is None:
+        raise LidarSigError(f"has {n_cols} columns; name them with --columns (e.g. x,y,z,-,label)", path=path)
+    if len(layout) != n_cols:
+        raise LidarSigError(f"has {n_cols} columns but --columns names {len(layout)}", path=path)
     try:
         data = np.loadtxt(lines, delimiter="," if "," in lines[0] else None, ndmin=2)
     except ValueError as exc:
-        raise LidarSigError(f"cannot parse the text columns ({exc}); expected X Y Z [label]",
-                            path=path) from None
-    if data.shape[1] < 3:
-        raise LidarSigError(f"needs at least 3 columns X Y Z, found {data.shape[1]}", path=path)
+        raise LidarSigError(f"cannot parse the columns ({str(exc).splitlines()[0][:120]}); every line needs "
+                            f"{n_cols} numbers", path=path) from None
+    col = {name: data[:, k] for k, name in enumerate(layout) if name != "-"}
     labels = None
-    if data.shape[1] >= 4 and np.all(np.isfinite(data[:, 3])) and np.all(data[:, 3] == np.round(data[:, 3])):
-        labels = data[:, 3].astype(np.int64)
-    return PointCloud(data[:, :3], labels, source=None, path=str(path))
+    if "label" in col:
+        lab = col.pop("label")
+        if not (np.all(np.isfinite(lab)) and np.all(lab == np.round(lab))):
+            raise LidarSigError("the label column holds non-integer values; check --columns", path=path)
+        labels = lab.astype(np.int64)
+    xyz = np.column_stack([col.pop("x"), col.pop("y"), col.pop("z")])
+    return PointCloud(xyz, labels, source=None, path=str(path), attributes=col)
+
+
+def write_text(path, cloud, fields, *, overwrite=False):
+    """Write X Y Z, the label (if any) and per-point ``fields`` {name: array} with a header line.
+
+    Coordinates keep 17 significant digits, so reading the file back gives the same floats.
+    """
+    names = ["x", "y", "z"] + (["label"] if cloud.labels is not None else []) + list(fields)
+    cols = [cloud.xyz[:, 0], cloud.xyz[:, 1], cloud.xyz[:, 2]]
+    fmt = ["%.17g"] * 3
+    if cloud.labels is not None:
+        cols.append(cloud.labels)
+        fmt.append("%d")
+    for values in fields.values():
+        values = np.asarray(values)
+        cols.append(values)
+        fmt.append("%d" if values.dtype.kind in "iu" else "%.9g")
+    with atomic_output(path, overwrite=overwrite) as tmp:
+        np.savetxt(tmp, np.column_stack(cols), fmt=fmt, header=" ".join(names), comments="# ")
+
+
+def _name(word):
+    # x, y, z and label in any case; other attribute names as written
+    return word.lower() if word.lower() in ("x", "y", "z", "label") else word
 
 
 def _numeric(line):
