@@ -77,3 +77,27 @@ def test_bad_files_exit_2_one_line_nothing_written(tmp_path, case):
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and src.name in lines[0] and "Traceback" not in proc.stderr
     assert list(out.parent.iterdir()) == []
+
+
+def test_las_users_do_not_import_open3d():
+    code = ("import sys, lidar_sig as ls; ls.Pipeline(scales=ls.knn(10)).run(%r); "
+            "print('open3d' in sys.modules)" % str(need_data(TILE)))
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip() == "False"
+
+
+def test_cli_user_class_table_and_info(tmp_path):
+    table = tmp_path / "ign.toml"
+    table.write_text('name = "ign-3"\n[[class]]\nname = "vegetation"\ncodes = [3, 4, 5]\ncolor = [20, 140, 40]\n'
+                     '[[class]]\nname = "building"\ncodes = [6]\ncolor = [220, 50, 40]\n')
+    out = tmp_path / "sig.h5"
+    proc = _cli("signature", need_data(TILE), "-o", out, "--classes", table, "-q")
+    assert proc.returncode == 0, proc.stderr
+    sig = ls.load_signature(out)
+    assert sig.classes.name == "ign-3" and sig.classes.class_names == ("vegetation", "building", "other")
+    cloud = ls.read(TILE)
+    assert sig.class_counts.sum() == len(cloud) - sig.n_undefined
+    assert 0 < sig.class_counts[0] <= np.isin(cloud.labels, [3, 4, 5]).sum()
+    info = _cli("info", TILE)
+    assert info.returncode == 0 and "59,606 points" in info.stdout and "WktCoordinateSystemVlr" in info.stdout
