@@ -5,8 +5,9 @@ queries in one voxel share the look-ups of the voxels around it. A query gathers
 within a search radius t and keeps the nearest. For spherical neighbourhoods t is the radius.
 For k-nearest ones t comes from the previous query: its k-th distance plus the distance between
 the two queries holds at least k points (triangle inequality), so one pass suffices; a query
-without a near predecessor grows a max-heap shell by shell instead. Voxels farther than t from
-the query are skipped.
+without a near predecessor starts from a guess (1.2 times the last k-th distance, or the voxel
+side) and widens it by half until k points are inside. Voxels farther than t from the query are
+skipped; candidates are scanned without branches (each is written, and kept if within t).
 
 k-nearest rows come sorted by distance. Spherical rows are grouped by scale, each group in no
 particular order: the neighbours of scale s are a prefix of those of scale s + 1, which is all
@@ -16,56 +17,6 @@ from __future__ import annotations
 
 import numpy as np
 from numba import get_num_threads, njit, prange
-
-
-@njit(cache=True, inline="always")
-def _sift_down(hd, hi, n, pos):
-    # max-heap on hd[:n], hi follows
-    while True:
-        left = 2 * pos + 1
-        if left >= n:
-            return
-        m = left
-        if left + 1 < n and hd[left + 1] > hd[left]:
-            m = left + 1
-        if hd[m] <= hd[pos]:
-            return
-        hd[pos], hd[m] = hd[m], hd[pos]
-        hi[pos], hi[m] = hi[m], hi[pos]
-        pos = m
-
-
-@njit(cache=True, inline="always")
-def _push(hd, hi, n, k, d2, j):
-    """Offer (d2, j) to a max-heap of capacity k holding n items; return the new n."""
-    if n < k:
-        pos = n
-        hd[pos] = d2
-        hi[pos] = j
-        while pos > 0:
-            parent = (pos - 1) // 2
-            if hd[parent] >= hd[pos]:
-                break
-            hd[pos], hd[parent] = hd[parent], hd[pos]
-            hi[pos], hi[parent] = hi[parent], hi[pos]
-            pos = parent
-        return n + 1
-    if d2 < hd[0]:
-        hd[0] = d2
-        hi[0] = j
-        _sift_down(hd, hi, n, 0)
-    return n
-
-
-@njit(cache=True)
-def _sort_pairs(d, ix, n):
-    """Sort d[:n] ascending in place (heap sort), ix follows."""
-    for p in range(n // 2 - 1, -1, -1):
-        _sift_down(d, ix, n, p)
-    for end in range(n - 1, 0, -1):
-        d[0], d[end] = d[end], d[0]
-        ix[0], ix[end] = ix[end], ix[0]
-        _sift_down(d, ix, end, 0)
 
 
 @njit(cache=True)
