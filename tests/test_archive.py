@@ -95,3 +95,12 @@ def test_bad_archives_exit_2_with_one_line(tmp_path, case):
         assert proc.returncode == 2, proc.stderr
         lines = proc.stderr.strip().splitlines()
         assert len(lines) == 1 and path.name in lines[0] and "Traceback" not in proc.stderr
+
+
+def test_compare_refuses_archive_with_another_class_table(tmp_path):
+    arc = tmp_path / "asprs.h5"
+    ls.Pipeline(scales=ls.knn(10, 20)).run(SAMPLES / "epoch1.laz").write(arc)
+    proc = _cli("compare", arc, SAMPLES / "epoch2.laz", "--classes", "paper", "--k", "10,20")
+    assert proc.returncode == 2
+    assert "different class tables" in proc.stderr and "--classes" in proc.stderr
+    assert "Traceback" not in proc.stderr
