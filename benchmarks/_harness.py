@@ -51,6 +51,45 @@ def alternate(script, file, cases, runs):
     return times, mem, out.get("points")
 
 
+def file_runs_args(doc):
+    """Arguments every per-file benchmark takes: FILE, --runs, and the hidden --worker."""
+    import argparse
+
+    parser = argparse.ArgumentParser(description=doc, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("file")
+    parser.add_argument("--runs", type=int, default=3)
+    parser.add_argument("--worker", help=argparse.SUPPRESS)
+    return parser.parse_args()
+
+
+def cli_runs(file, variants, runs):
+    """Median-ready wall times and peak RSS of `lidar-sig saliency FILE` per variant.
+
+    ``variants`` maps a label to extra command-line arguments; one warm-up run each (file
+    cache, compiled kernels), then ``runs`` rounds with the variants alternating.
+    Returns ({label: [seconds]}, {label: [MiB]}).
+    """
+    import shutil
+    import tempfile
+    from pathlib import Path
+
+    exe = shutil.which("lidar-sig")
+    if exe is None:
+        sys.exit("lidar-sig is not on PATH: install the package first (pip install -e .)")
+    walls = {v: [] for v in variants}
+    mem = {v: [] for v in variants}
+    with tempfile.TemporaryDirectory() as tmp:
+        base = [exe, "saliency", file, "-o", str(Path(tmp) / "out.laz"), "--overwrite", "-q"]
+        for extra in variants.values():
+            run_child(base + list(extra), python=False)
+        for _ in range(runs):
+            for label, extra in variants.items():
+                wall, rss = run_child(base + list(extra), python=False)
+                walls[label].append(wall)
+                mem[label].append(rss)
+    return walls, mem
+
+
 def report(payload):
     """Child side: print the one JSON line the parent reads."""
     print(json.dumps(payload), flush=True)

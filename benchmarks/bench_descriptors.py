@@ -12,15 +12,12 @@ Prints the medians, the ratios to C3DCM and the median peak resident set size.
 """
 from __future__ import annotations
 
-import argparse
-import shutil
 import sys
-import tempfile
 import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _harness import alternate, median, read_xyz, report, run_child, table, warm_up  # noqa: E402
+from _harness import alternate, cli_runs, file_runs_args, median, read_xyz, report, table, warm_up  # noqa: E402,E501
 
 DESCRIPTORS = ("c3dcm", "t3dvt", "t3dvt-get")
 
@@ -36,41 +33,17 @@ def child(descriptor, path):
 
 
 def main():
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("file")
-    parser.add_argument("--runs", type=int, default=3)
-    parser.add_argument("--worker", help=argparse.SUPPRESS)
-    args = parser.parse_args()
+    args = file_runs_args(__doc__)
     if args.worker:
         return child(args.worker, args.file)
     times, mem, points = alternate(str(Path(__file__).resolve()), args.file, DESCRIPTORS, args.runs)
-    walls, wall_mem = end_to_end(args.file, args.runs)
+    walls, wall_mem = cli_runs(args.file, {d: ("--descriptor", d) for d in DESCRIPTORS}, args.runs)
     base, wall_base = median(times["c3dcm"]), median(walls["c3dcm"])
     rows = [[d, f"{median(times[d]):.2f}", f"{median(times[d]) / base:.2f}", f"{median(mem[d]):.0f}",
              f"{median(walls[d]):.2f}", f"{median(walls[d]) / wall_base:.2f}", f"{median(wall_mem[d]):.0f}"]
             for d in DESCRIPTORS]
     print(f"{args.file}: {points:,} points, Multiscale, median of {args.runs} runs")
     table(rows, ["descriptor", "compute s", "ratio", "peak MiB", "end-to-end s", "ratio", "peak MiB"])
-
-
-def end_to_end(file, runs):
-    """Median wall time and peak RSS of `lidar-sig saliency` per descriptor, alternating."""
-    exe = shutil.which("lidar-sig")
-    if exe is None:
-        sys.exit("lidar-sig is not on PATH: install the package first (pip install -e .)")
-    walls = {d: [] for d in DESCRIPTORS}
-    mem = {d: [] for d in DESCRIPTORS}
-    with tempfile.TemporaryDirectory() as tmp:
-        out = str(Path(tmp) / "out.laz")
-        for d in DESCRIPTORS:  # warm the file cache and the compiled kernels
-            run_child([exe, "saliency", file, "-o", out, "--descriptor", d, "--overwrite", "-q"], python=False)
-        for _ in range(runs):
-            for d in DESCRIPTORS:
-                wall, rss = run_child([exe, "saliency", file, "-o", out, "--descriptor", d, "--overwrite", "-q"],
-                                      python=False)
-                walls[d].append(wall)
-                mem[d].append(rss)
-    return walls, mem
 
 
 if __name__ == "__main__":

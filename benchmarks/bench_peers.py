@@ -19,7 +19,6 @@ whose 50-neighbourhood is unique (no tie between the 50th and 51st neighbour dis
 """
 from __future__ import annotations
 
-import argparse
 import sys
 import time
 from pathlib import Path
@@ -27,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _harness import alternate, median, read_xyz, report, table, warm_up  # noqa: E402
+from _harness import alternate, file_runs_args, median, read_xyz, report, table, warm_up  # noqa: E402
 
 PAPER_RADII = (0.009, 0.010, 0.011)
 K_SCALES = tuple(range(10, 101, 10))
@@ -114,11 +113,7 @@ def cross_check(path):
 
 
 def main():
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("file")
-    parser.add_argument("--runs", type=int, default=3)
-    parser.add_argument("--worker", help=argparse.SUPPRESS)
-    args = parser.parse_args()
+    args = file_runs_args(__doc__)
     if args.worker:
         return child(args.worker, args.file)
     me = str(Path(__file__).resolve())

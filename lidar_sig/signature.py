@@ -12,7 +12,7 @@ import numpy as np
 
 from .classes import ClassTable
 from .errors import LidarSigError
-from .saliency import LN3
+from .saliency import LN3, geometric_entropy
 
 #: Density transfer (see :func:`transfer`): per-pixel point share of the log knee, and the share
 #: at which a pixel saturates.
@@ -125,7 +125,6 @@ class Signature:
         counts = np.bincount(flat, minlength=n_classes * frame.size ** 2)
         counts = counts.reshape(n_classes, frame.size, frame.size).astype(np.int64)
         if egeom is None:
-            from .saliency import geometric_entropy
             egeom = geometric_entropy(sal)
         hist, _ = np.histogram(np.asarray(egeom)[ok], bins=egeom_bins, range=(0.0, LN3))
         return cls(counts, frame, classes, hist.astype(np.int64), int((~ok).sum()), dict(metadata or {}))

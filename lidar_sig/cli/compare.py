@@ -38,10 +38,8 @@ def compare(a, b, as_json, columns, pipeline, quiet):
     notes = []
     loaded = [c for c in clouds if c is not None]
     if len(loaded) == 2 and any(c.labels is None for c in loaded):
-        for c in loaded:
+        for c in loaded:  # both unlabeled: one class each, so the signatures stay comparable
             c.labels = None
-        notes.append("semantic metrics (kl, l1) need class labels in both clouds; "
-                     "comparing geometry only")
     sigs, meta, lines = [], [], []
     for path, cloud in zip(paths, clouds):
         if cloud is None:
@@ -56,8 +54,8 @@ def compare(a, b, as_json, columns, pipeline, quiet):
             meta.append(result.metadata)
             lines.append(run_summary(path, result))
     metrics = compare_signatures(sigs[0], sigs[1])
-    if metrics["kl"] is None and not notes:
-        notes.append("semantic metrics (kl, l1) need class labels; comparing geometry only")
+    if metrics["kl"] is None:
+        notes.append("semantic metrics (kl, l1) need class labels in both clouds; comparing geometry only")
     scales = [m.get("resolved_scales") for m in meta]
     if (all(m.get("scale_kind") == "radius" and m.get("scale_units") == "normalized" for m in meta)
             and all(s is not None for s in scales)):
