@@ -1,8 +1,13 @@
-"""Outputs appear whole or not at all: write to a temporary file beside, then rename."""
+"""Outputs appear whole or not at all: write to a temporary file beside, then rename.
+
+The file gets the mode an ordinary ``open(path, "w")`` would give it: 0666 less the umask for a
+new file (0644 under umask 022), the old mode for a file being overwritten.
+"""
 from __future__ import annotations
 
 import contextlib
 import os
+import stat
 import tempfile
 from pathlib import Path
 
@@ -36,7 +41,20 @@ def atomic_output(path, *, overwrite=False):
         yield Path(tmp)
         if path.exists() and not overwrite:  # appeared while we were working
             raise LidarSigError("output already exists; pass --overwrite to replace it", path=path)
+        # mkstemp creates 0600, private to us; set the mode only now, after any writer has
+        # (re)created the temporary file.
+        os.chmod(tmp, _output_mode(path))
         os.replace(tmp, path)
     finally:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(tmp)
+
+
+def _output_mode(path):
+    """Permission bits for ``path``: those of the file it replaces, else 0666 less the umask."""
+    try:
+        return stat.S_IMODE(os.stat(path).st_mode)
+    except FileNotFoundError:
+        mask = os.umask(0)  # the only portable way to read the umask is to set it
+        os.umask(mask)
+        return 0o666 & ~mask
