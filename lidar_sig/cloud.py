@@ -24,6 +24,11 @@ class PointCloud:
         writers can return every original dimension and VLR unchanged.
     path : str or None
         Where the cloud was read from, for messages and metadata.
+    attributes : dict
+        Other per-point values by name, (N,) or (N, k) arrays: intensity, colours, normals...
+    previous_outputs : tuple of str
+        Names among the file's attributes (or LAS extra dimensions) that an earlier lidar_sig
+        run wrote; writers replace them instead of treating them as the user's own.
     """
 
     xyz: np.ndarray
@@ -31,6 +36,7 @@ class PointCloud:
     source: Any = None
     path: str | None = None
     attributes: dict = field(default_factory=dict)
+    previous_outputs: tuple = ()
 
     def __post_init__(self):
         xyz = np.asarray(self.xyz, dtype=np.float64)

@@ -11,3 +11,8 @@ class LidarSigError(ValueError):
     def __init__(self, message, *, path=None):
         self.path = None if path is None else str(path)
         super().__init__(f"{self.path}: {message}" if self.path else message)
+
+
+class LidarSigWarning(UserWarning):
+    """Something a user should know about a result that is still written in full (e.g. a COPC
+    input written as plain LAZ); the command line prints it as one note line on stderr."""

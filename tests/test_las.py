@@ -1,13 +1,33 @@
-"""LAS/LAZ output (SPEC 8): originals kept bit for bit, saliency dimensions added once."""
+"""LAS/LAZ output (SPEC 8): LAS 1.4 originals kept bit for bit, older versions upgraded with
+every value kept, saliency dimensions added once, a user's own dimensions never replaced."""
+import datetime
+import subprocess
+import sys
+
 import laspy
 import numpy as np
 import pytest
 
 import lidar_sig as ls
-from conftest import IGN, IGN_FILES, need_data
-from lidar_sig.io.las import SALIENCY_DIMS
+from conftest import DATA, IGN, IGN_FILES, airborne_like, need_data
+from lidar_sig.errors import LidarSigWarning
+from lidar_sig.io.las import SALIENCY_DIMS, write_las
 
 OURS = set(SALIENCY_DIMS)
+LAS12 = [DATA / "ahn3_delft" / "ahn3_cropped_1.laz", DATA / "ahn3_delft" / "ahn3_cropped_2.laz",
+         DATA / "isprs_filtertest" / "CSite1_red2-utm.laz", DATA / "isprs_filtertest" / "FSite8_red1-utm.laz",
+         DATA / "isprs_filtertest" / "samp11-utm.laz", DATA / "isprs_filtertest" / "samp12-utm.laz"]
+COPC = DATA / "copc" / "test_data_77050_627755.copc.laz"
+# EPSG code of each CRS in the data README (../shared/data/README.md); AHN3 has none in its header
+README_EPSG = {"ahn3": None, "isprs": 32632}
+
+
+def _saliency(n, seed=0, undefined=0.05):
+    """A saliency of n points with random values, a share of them undefined."""
+    rng = np.random.default_rng(seed)
+    values = rng.dirichlet([1.0, 1.0, 1.0], n)
+    values[rng.random(n) < undefined] = np.nan
+    return ls.Saliency.from_values(values)
 
 
 def _check_roundtrip(src_path, out_path, strategy):
@@ -78,3 +98,152 @@ def test_write_refuses_existing_output(tmp_path):
     assert out_path.read_bytes() == b"keep me"
     result.write(out_path, overwrite=True)
     assert len(laspy.read(out_path).points) == len(result.cloud)
+
+
+@pytest.mark.parametrize("path", LAS12, ids=lambda p: p.name)
+def test_las12_input_is_written_as_las14_with_every_value_kept(path, tmp_path):
+    src = laspy.read(need_data(path))
+    assert str(src.header.version) == "1.2"
+    cloud = ls.read(path)
+    sal = _saliency(len(cloud))
+    out_path = tmp_path / "out.laz"
+    with pytest.warns(LidarSigWarning, match="LAS 1.2 input written as LAS 1.4"):
+        write_las(out_path, cloud, sal)
+    out = laspy.read(out_path)
+    assert str(out.header.version) == "1.4"
+    assert out.header.point_format.id == {0: 6, 1: 6}[src.header.point_format.id]
+    for name in src.point_format.dimension_names:
+        if name == "scan_angle_rank":  # LAS 1.4: scan_angle in 0.006 degree steps
+            assert np.array_equal(np.round(np.asarray(out.scan_angle) * 0.006), np.asarray(src.scan_angle_rank))
+        else:
+            assert np.array_equal(np.asarray(out[name]), np.asarray(src[name])), name
+    assert np.array_equal(out.header.scales, src.header.scales)
+    assert np.array_equal(out.header.offsets, src.header.offsets)
+    for field in ("system_identifier", "file_source_id", "uuid"):
+        assert getattr(out.header, field) == getattr(src.header, field), field
+    assert out.header.global_encoding.gps_time_type == src.header.global_encoding.gps_time_type
+    # saliency in the extra-bytes VLR, which LAS 1.4 defines
+    records = out.header.vlrs.get("ExtraBytesVlr")[0].extra_bytes_structs
+    assert [r.format_name() for r in records] == ["Cl", "Cs", "Cp", "Egeom", "GeomClass"]
+    np.testing.assert_array_equal(np.asarray(out["Cp"]), sal.cp.astype(np.float32))
+    # CRS: GeoTIFF keys kept, the same CRS as WKT behind the WKT bit LAS 1.4 requires for PF 6-10
+    assert out.header.global_encoding.wkt
+    epsg = README_EPSG["ahn3" if "ahn3" in path.name else "isprs"]
+    src_keys = src.header.vlrs.get("GeoKeyDirectoryVlr")
+    out_keys = out.header.vlrs.get("GeoKeyDirectoryVlr")
+    assert [(k.id, k.value_offset) for v in out_keys for k in v.geo_keys] == \
+        [(k.id, k.value_offset) for v in src_keys for k in v.geo_keys]
+    wkt = out.header.vlrs.get("WktCoordinateSystemVlr")
+    if epsg is None:
+        assert not wkt and out.header.parse_crs() is None
+    else:
+        assert len(wkt) == 1 and wkt[0].parse_crs().to_epsg() == epsg
+
+
+@pytest.mark.parametrize("fmt", [0, 1, 2, 3, 4, 5])
+def test_legacy_point_formats_map_to_las14_with_values_kept(fmt, tmp_path):
+    """Every dimension of LAS 1.3 formats 0-5 filled with random values over its whole range
+    (classification 0-31 and the flags included) survives the upgrade."""
+    xyz, _ = airborne_like(n=2000)
+    rng = np.random.default_rng(fmt)
+    las = laspy.create(point_format=fmt, file_version="1.3")
+    las.header.scales, las.header.offsets = [0.001] * 3, [0.0] * 3
+    las.x, las.y, las.z = xyz.T
+    for dim in las.point_format.dimensions:
+        if dim.name in ("X", "Y", "Z"):
+            continue
+        dtype = dim.dtype if dim.dtype is not None else np.dtype(np.int64)  # None: a bit field
+        if dtype.kind == "f":
+            las[dim.name] = rng.uniform(-1e6, 1e6, len(xyz))
+        else:
+            las[dim.name] = rng.integers(dim.min, dim.max, len(xyz), endpoint=True, dtype=dtype)
+    src_path, out_path = tmp_path / "in.las", tmp_path / "out.las"
+    las.write(src_path)
+    src = laspy.read(src_path)
+    assert np.unique(np.asarray(src.classification)).size == 32 and np.asarray(src.withheld).any()
+    with pytest.warns(LidarSigWarning):
+        write_las(out_path, ls.read(src_path), _saliency(len(xyz)))
+    out = laspy.read(out_path)
+    assert out.header.point_format.id == {0: 6, 1: 6, 2: 7, 3: 7, 4: 9, 5: 10}[fmt]
+    for name in src.point_format.dimension_names:
+        if name == "scan_angle_rank":
+            assert np.array_equal(np.round(np.asarray(out.scan_angle) * 0.006), np.asarray(src.scan_angle_rank))
+        else:
+            assert np.array_equal(np.asarray(out[name]), np.asarray(src[name])), name
+
+
+def test_copc_input_is_written_as_plain_laz_with_one_note(tmp_path):
+    path = need_data(COPC)
+    out_path = tmp_path / "out.laz"
+    proc = subprocess.run([sys.executable, "-m", "lidar_sig", "saliency", str(path), "-o", str(out_path),
+                           "--k", "10", "-q"], capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    notes = proc.stderr.strip().splitlines()
+    assert len(notes) == 1 and "COPC" in notes[0] and "Traceback" not in proc.stderr
+    src, out = laspy.read(path), laspy.read(out_path)
+    assert str(out.header.version) == "1.4" and out.header.point_format.id == src.header.point_format.id
+    assert all(v.user_id != "copc" for v in list(out.header.vlrs) + list(out.header.evlrs or []))
+    for name in src.point_format.dimension_names:
+        assert np.array_equal(np.asarray(out[name]), np.asarray(src[name])), name
+    assert set(out.point_format.extra_dimension_names) == {"Cl", "Cs", "Cp", "Egeom", "GeomClass"}
+    assert out.header.parse_crs().to_epsg() == 2154  # the data README's EPSG for this tile
+
+
+@pytest.mark.parametrize("ext", [".las", ".laz"])
+def test_extra_bytes_records_hold_the_data_range_and_no_data(ext, tmp_path):
+    path = need_data(IGN / "test_data_77060_627760_LA93_IGN69.laz")
+    cloud = ls.read(path)
+    sal = _saliency(len(cloud), undefined=0.2)
+    sal.values[0] = np.nan  # the first point undefined too
+    sal = ls.Saliency.from_values(sal.values)
+    write_las(tmp_path / f"o{ext}", cloud, sal)
+    out = laspy.read(tmp_path / f"o{ext}")
+    records = {r.format_name(): r for r in out.header.vlrs.get("ExtraBytesVlr")[0].extra_bytes_structs}
+    for name in ("Cl", "Cs", "Cp", "Egeom"):
+        values = np.asarray(out[name])
+        assert np.isnan(values).sum() == (~sal.defined).sum()
+        assert records[name].min[0] == np.nanmin(values) and records[name].max[0] == np.nanmax(values)
+        assert np.isnan(records[name].no_data[0])
+    geom = np.asarray(out["GeomClass"])
+    assert records["GeomClass"].no_data[0] == 0
+    assert (records["GeomClass"].min[0], records["GeomClass"].max[0]) == (geom[geom > 0].min(), geom.max())
+
+
+def test_header_names_lidar_sig_and_today(tmp_path):
+    path = need_data(IGN / "test_data_77060_627760_LA93_IGN69.laz")
+    cloud = ls.read(path)
+    assert cloud.source.header.generating_software.startswith("PDAL")
+    write_las(tmp_path / "o.laz", cloud, _saliency(len(cloud)))
+    out = laspy.read(tmp_path / "o.laz")
+    assert out.header.generating_software == f"lidar_sig {ls.__version__}"
+    assert out.header.creation_date == datetime.date.today()
+    assert str(out.header.version) == "1.4" and out.header.point_format.id == 8
+    assert out.header.global_encoding.value == cloud.source.header.global_encoding.value
+
+
+def test_a_users_own_cl_dimension_is_kept_and_ours_is_prefixed(tmp_path):
+    path = need_data(IGN / "test_data_77060_627760_LA93_IGN69.laz")
+    las = laspy.read(path)
+    chlorophyll = np.linspace(0.0, 50.0, len(las.points))
+    las.add_extra_dim(laspy.ExtraBytesParams(name="Cl", type=np.float64, description="chlorophyll"))
+    las["Cl"] = chlorophyll
+    user = tmp_path / "user.laz"
+    las.write(user)
+    first, second = tmp_path / "first.laz", tmp_path / "second.laz"
+    result = ls.Pipeline(scales=ls.knn(10)).run(user)
+    with pytest.warns(LidarSigWarning, match="lidar_sig_Cl"):
+        result.write(first)
+    out = laspy.read(first)
+    np.testing.assert_array_equal(np.asarray(out["Cl"]), chlorophyll)
+    extra = {d.name: d for d in out.point_format.extra_dimensions}
+    assert extra["Cl"].description == "chlorophyll" and extra["Cl"].dtype == np.float64
+    assert {"lidar_sig_Cl", "lidar_sig_Cs", "lidar_sig_Cp", "lidar_sig_Egeom", "lidar_sig_GeomClass"} <= set(extra)
+    ok = result.saliency.defined
+    np.testing.assert_array_equal(np.asarray(out["lidar_sig_Cl"])[ok], result.saliency.cl[ok].astype(np.float32))
+    # a re-run replaces the prefixed dimensions and still keeps the user's
+    with pytest.warns(LidarSigWarning, match="lidar_sig_Cl"):
+        ls.Pipeline(scales=ls.knn(10)).run(first).write(second)
+    names = list(laspy.read(second).point_format.extra_dimension_names)
+    assert sorted(names) == sorted(["Cl", "lidar_sig_Cl", "lidar_sig_Cs", "lidar_sig_Cp", "lidar_sig_Egeom",
+                                    "lidar_sig_GeomClass"])
+    np.testing.assert_array_equal(np.asarray(laspy.read(second)["Cl"]), chlorophyll)

@@ -1,23 +1,28 @@
 """LAS/LAZ through laspy: read into a PointCloud, write per-point saliency as extra dimensions.
 
-Written files keep every original point, dimension, VLR/EVLR and CRS of the source unchanged
-and add the saliency dimensions of SPEC 8; dimensions of an earlier run are replaced.
+Written files are LAS 1.4 (the version whose specification defines extra dimensions). A LAS 1.4
+input keeps every original point record byte, VLR/EVLR and the CRS; an older input (1.0-1.3) is
+converted to the matching 1.4 point format with every dimension's values kept (see
+``upgrade_to_14``). A COPC input is written as plain LAZ. The saliency dimensions of SPEC 8 are
+added; those of an earlier run are replaced, a user's own dimension of the same name never is.
 """
 from __future__ import annotations
 
 import copy
+import datetime
+import warnings
 
 import laspy
 import numpy as np
 
 from ..cloud import PointCloud
-from ..errors import LidarSigError
+from ..errors import LidarSigError, LidarSigWarning
 from .atomic import atomic_output
 
 LAS_EXTENSIONS = (".las", ".laz")
 
 # name -> (LAS extra-bytes type, description of at most 32 bytes). 2-byte integers because
-# QGIS drops 1-byte extra dimensions.
+# QGIS drops 1-byte extra dimensions. The descriptions also mark a dimension as ours.
 SALIENCY_DIMS = {
     "Cl": ("f4", "line-type saliency Cl [0,1]"),
     "Cs": ("f4", "surface-type saliency Cs [0,1]"),
@@ -27,6 +32,16 @@ SALIENCY_DIMS = {
     "OptimalScale": ("u2", ""),  # description set per run: k, or radius index
 }
 _OPTIMAL_DESC = {"knn": "k of minimum-entropy scale", "radius": "index of min-entropy radius"}
+# Our names when the input already has a dimension of the same name that is not ours.
+PREFIX = "lidar_sig_"
+# Undefined saliency: NaN in the float dimensions, 0 in the integer ones (GeomClass "none",
+# OptimalScale "no scale"); declared as the no-data value of each extra dimension.
+NO_DATA = {"f": np.nan, "u": 0}
+
+# LAS 1.0-1.3 point format -> the LAS 1.4 format with the same dimensions (and more).
+FORMAT_14 = {0: 6, 1: 6, 2: 7, 3: 7, 4: 9, 5: 10}
+SCAN_ANGLE_UNIT = 0.006  # degrees per step of the LAS 1.4 scan_angle dimension
+_VERTICAL_CS_KEY = 4096  # GeoTIFF VerticalCSTypeGeoKey
 
 
 def read_las(path):
@@ -45,7 +60,7 @@ def read_las(path):
     labels = np.asarray(las.classification, dtype=np.int64)
     if not labels.any():
         labels = None  # class 0 "created, never classified" everywhere: an unlabeled cloud
-    return PointCloud(xyz, labels, source=las, path=str(path))
+    return PointCloud(xyz, labels, source=las, path=str(path), previous_outputs=lidar_sig_dims(las))
 
 
 def _reason(exc):
@@ -53,19 +68,139 @@ def _reason(exc):
     return (text[0] if text else type(exc).__name__)[:160]
 
 
+def is_ours(name, description):
+    """True for a dimension a lidar_sig run wrote: one of our names (plain or prefixed) with
+    the description we give it."""
+    base = name[len(PREFIX):] if name.startswith(PREFIX) else name
+    if base == "OptimalScale":
+        return description in _OPTIMAL_DESC.values()
+    return base in SALIENCY_DIMS and description == SALIENCY_DIMS[base][1]
+
+
+def lidar_sig_dims(las):
+    """Names of the extra dimensions of ``las`` that an earlier lidar_sig run wrote."""
+    return tuple(d.name for d in las.point_format.extra_dimensions if is_ours(d.name, d.description))
+
+
+def output_names(fields, existing, previous=()):
+    """Names to write the per-point ``fields`` under, and a note (or None).
+
+    ``existing`` are the attribute names the output already holds, ``previous`` those of them an
+    earlier lidar_sig run wrote (the caller drops them: they are replaced). When the input has
+    an attribute of its own under one of our names, every field is written as ``lidar_sig_<name>``
+    so that nothing of the user's is overwritten.
+    """
+    own = set(existing) - set(previous)
+    clash = [n for n in fields if n in own]
+    if not clash:
+        return {n: n for n in fields}, None
+    names = {n: PREFIX + n for n in fields}
+    taken = [v for v in names.values() if v in own]
+    if taken:
+        raise LidarSigError(f"the input has its own attributes {', '.join(clash + taken)}, named like "
+                            "lidar_sig's outputs; rename them before running")
+    note = (f"the input has its own {', '.join(clash)} (not written by lidar_sig), kept as they are; "
+            f"the saliency is written as {', '.join(names.values())}")
+    return names, note
+
+
 def to_lasdata(cloud):
-    """A fresh LasData holding the cloud: a copy of the source's, or LAS 1.4 PF6 if none."""
+    """A fresh LAS 1.4 LasData of the cloud, and notes on what changed from the source.
+
+    The source's LasData is copied (LAS 1.0-1.3 upgraded to 1.4, COPC records dropped); a cloud
+    without one becomes point format 6 with millimetre scales. The generating software and the
+    creation date say lidar_sig and today, as the header of any file a program writes.
+    """
+    from .. import __version__
+
     src = cloud.source
+    notes = []
     if isinstance(src, laspy.LasData):
-        return laspy.LasData(header=copy.deepcopy(src.header), points=src.points.copy())
-    header = laspy.LasHeader(point_format=6, version="1.4")
-    header.offsets = np.floor(cloud.xyz.min(axis=0))
-    header.scales = np.array([0.001, 0.001, 0.001])
-    las = laspy.LasData(header)
-    las.x, las.y, las.z = cloud.xyz[:, 0], cloud.xyz[:, 1], cloud.xyz[:, 2]
-    if cloud.labels is not None:
-        las.classification = cloud.labels.astype(np.uint8)
-    return las
+        las = laspy.LasData(header=copy.deepcopy(src.header), points=src.points.copy())
+        if _drop_copc(las.header):
+            notes.append("COPC input written as plain LAZ 1.4 (same points and dimensions; "
+                         "the COPC octree index is dropped)")
+        if las.header.version.minor < 4:
+            las, more = upgrade_to_14(las)
+            notes += more
+    else:
+        header = laspy.LasHeader(point_format=6, version="1.4")
+        header.offsets = np.floor(cloud.xyz.min(axis=0))
+        header.scales = np.array([0.001, 0.001, 0.001])
+        header.global_encoding.wkt = True  # required with point formats 6-10; no CRS known
+        las = laspy.LasData(header)
+        las.x, las.y, las.z = cloud.xyz[:, 0], cloud.xyz[:, 1], cloud.xyz[:, 2]
+        if cloud.labels is not None:
+            las.classification = cloud.labels.astype(np.uint8)
+    las.header.generating_software = f"lidar_sig {__version__}"
+    las.header.creation_date = datetime.date.today()
+    return las, notes
+
+
+def upgrade_to_14(las):
+    """LAS 1.0-1.3 ``las`` as LAS 1.4 with the matching point format (0/1 -> 6, 2/3 -> 7, 4 -> 9,
+    5 -> 10), every dimension's values kept, and notes on the change.
+
+    laspy.convert copies dimensions by name and keeps the header's other fields and the VLRs.
+    The one dimension LAS 1.4 renames, scan_angle_rank (whole degrees), becomes scan_angle in
+    steps of 0.006 degrees (rounded; rounding back to degrees gives the rank). Classification
+    codes and the synthetic, key-point and withheld flags keep their values. The global encoding
+    keeps its GPS-time and waveform bits and gets the WKT bit, which LAS 1.4 requires with formats
+    6-10 (PDAL, and so QGIS, refuse such a file without it and read its CRS from WKT only): a CRS
+    given as GeoTIFF keys is therefore also written as WKT; the keys stay.
+    """
+    old, version = las.point_format.id, str(las.header.version)
+    new = laspy.convert(las, point_format_id=FORMAT_14[old], file_version="1.4")
+    if "scan_angle_rank" in las.point_format.dimension_names:
+        degrees = np.asarray(las.scan_angle_rank, dtype=np.float64)
+        new.scan_angle = np.round(degrees / SCAN_ANGLE_UNIT).astype(np.int16)
+    new.header.global_encoding.wkt = True
+    notes = [f"LAS {version} input written as LAS 1.4 (point format {old} -> {FORMAT_14[old]}), the "
+             "version that defines extra dimensions; every original dimension keeps its values"]
+    vlrs = new.header.vlrs
+    if vlrs.get("GeoKeyDirectoryVlr") and not vlrs.get("WktCoordinateSystemVlr"):
+        wkt = _wkt_from_geotiff(las.header)
+        if wkt:
+            vlrs.append(laspy.vlrs.known.WktCoordinateSystemVlr(wkt))
+        else:
+            notes.append("the CRS in the GeoTIFF keys has no EPSG code that could be written as "
+                         "WKT; the keys are kept, but PDAL and QGIS will show no CRS")
+    return new, notes
+
+
+def _wkt_from_geotiff(header):
+    """OGC WKT 1 (as GDAL and PDAL write it) of the EPSG CRS in the GeoTIFF keys, or None.
+
+    The horizontal CRS is laspy's reading of the keys; a vertical EPSG code makes it compound.
+    """
+    import pyproj
+
+    try:
+        crs = header.parse_crs(prefer_wkt=False)
+        if crs is None:
+            return None
+        keys = {k.id: k.value_offset for k in header.vlrs.get("GeoKeyDirectoryVlr")[0].geo_keys}
+        vertical = keys.get(_VERTICAL_CS_KEY, 0)
+        if 1024 <= vertical <= 32766:  # the range of EPSG codes in GeoTIFF keys
+            crs = pyproj.crs.CompoundCRS(f"{crs.name} + {pyproj.CRS.from_epsg(vertical).name}",
+                                         [crs, pyproj.CRS.from_epsg(vertical)])
+        return crs.to_wkt(version="WKT1_GDAL")
+    except pyproj.exceptions.CRSError:
+        return None
+
+
+def _drop_copc(header):
+    """Remove the COPC info VLR and hierarchy EVLR (a plain LAZ writer cannot keep the octree
+    they index); True if there were any."""
+    found = False
+    for records in (header.vlrs, header.evlrs):
+        if records is None:
+            continue
+        copc = [v for v in records if v.user_id == "copc"]
+        for v in copc:
+            records.remove(v)
+        found = found or bool(copc)
+    return found
 
 
 def saliency_fields(saliency, scale_kind=None, scale_values=None):
@@ -86,27 +221,65 @@ def saliency_fields(saliency, scale_kind=None, scale_values=None):
 
 
 def write_las(path, cloud, saliency, *, scale_kind=None, scale_values=None, overwrite=False):
-    """Write the cloud with saliency extra dimensions (SPEC 8) to ``path`` (.las or .laz).
+    """Write the cloud with saliency extra dimensions (SPEC 8) to ``path`` (.las or .laz), LAS 1.4.
 
-    Cl, Cs, Cp, Egeom as float32 (NaN where undefined), GeomClass as uint16; with an
-    Optimal-scale result also OptimalScale (uint16): the chosen k for k-nearest scales, the
-    1-based radius index for spherical ones, 0 where undefined.
+    Cl, Cs, Cp, Egeom as float32 (NaN where undefined), GeomClass as uint16 (0 where undefined);
+    with an Optimal-scale result also OptimalScale (uint16): the chosen k for k-nearest scales,
+    the 1-based radius index for spherical ones, 0 where undefined. NaN and 0 are declared as the
+    dimensions' no-data values; their min and max are those of the defined values. What the
+    caller should know (an upgraded version, a dropped COPC index, renamed outputs) is issued as
+    a :class:`LidarSigWarning` once the file is written.
     """
-    las = to_lasdata(cloud)
-    ours = [n for n in SALIENCY_DIMS if n in set(las.point_format.extra_dimension_names)]
-    if ours:  # a re-run replaces instead of duplicating
-        las.remove_extra_dims(ours)
+    las, notes = to_lasdata(cloud)
+    previous = lidar_sig_dims(las)
+    if previous:  # a re-run replaces instead of duplicating
+        las.remove_extra_dims(previous)
     fields = saliency_fields(saliency, scale_kind, scale_values)
+    names, note = output_names(fields, las.point_format.dimension_names, previous)
+    if note:
+        notes.append(note)
     params = []
-    for name in fields:
+    for name, values in fields.items():
         kind, desc = SALIENCY_DIMS[name]
         if name == "OptimalScale":
             desc = _OPTIMAL_DESC[scale_kind]
-        params.append(laspy.ExtraBytesParams(name=name, type=np.dtype(kind), description=desc))
+        params.append(laspy.ExtraBytesParams(name=names[name], type=np.dtype(kind), description=desc,
+                                             no_data=[NO_DATA[np.dtype(kind).kind]]))
     las.add_extra_dims(params)
     for name, values in fields.items():
-        las[name] = values
+        las[names[name]] = values
     compress = str(path).lower().endswith(".laz")
     with atomic_output(path, overwrite=overwrite) as tmp:
-        with open(tmp, "wb") as fh:
-            las.write(fh, do_compress=compress)
+        with open(tmp, "wb") as fh, laspy.LasWriter(fh, las.header, do_compress=compress,
+                                                     closefd=False) as writer:
+            writer.write_points(las.points)
+            if las.evlrs:
+                writer.write_evlrs(las.evlrs)
+            # the writer rewrites its header, VLRs included, when it closes
+            set_extra_bytes_ranges(writer.header, las.points)
+    for text in notes:
+        warnings.warn(text, LidarSigWarning, stacklevel=4)  # the caller of Result.write
+
+
+def set_extra_bytes_ranges(header, points):
+    """Store in each extra-bytes record the true min and max of the dimension's values that
+    are not its no-data value (NaN never counts); a dimension without such values gets none.
+
+    laspy (2.7) records the first point's value instead for one-element dimensions.
+    """
+    for vlr in header.vlrs.get("ExtraBytesVlr"):
+        for record in vlr.extra_bytes_structs:
+            if record.data_type == 0 or not (record.min_is_relevant() or record.max_is_relevant()):
+                continue
+            raw = np.asarray(points.array[record.format_name()]).reshape(len(points), -1)
+            low, high = record._raw_min(), record._raw_max()  # writable views of the record
+            no_data = record.no_data
+            for i in range(record.num_elements()):
+                values = raw[:, i]
+                keep = ~np.isnan(values) if values.dtype.kind == "f" else np.ones(len(values), bool)
+                if no_data is not None and not np.isnan(no_data[i]):
+                    keep &= values != no_data[i]
+                if not keep.any():
+                    record.options &= ~(record.MIN_BIT_MASK | record.MAX_BIT_MASK)
+                    break
+                low[i], high[i] = values[keep].min(), values[keep].max()
