@@ -10,6 +10,7 @@ from . import __version__
 from .classes import UNLABELED, class_table
 from .cloud import PointCloud
 from .errors import LidarSigError
+from .io.open3d import from_open3d, is_open3d
 from .neighbors import NeighborIndex
 from .plugins import get_descriptor, get_strategy
 from .progress import progress as _progress
@@ -48,6 +49,15 @@ class Result:
         else:
             raise LidarSigError(f"cannot write {ext or 'files without extension'}; use a point-cloud "
                                 "format, .h5 or .png", path=path)
+
+    def to_open3d(self, *, colors="saliency"):
+        """An ``open3d.t.geometry.PointCloud`` with the per-point outputs as attributes and, by
+        default, colours (R, G, B) = (Cl, Cs, Cp), undefined points grey; see
+        :func:`lidar_sig.io.open3d.to_open3d`. ``o3d.visualization.draw(result.to_open3d())``
+        shows the saliency."""
+        from .io.open3d import to_open3d
+
+        return to_open3d(self, colors=colors)
 
 
 class Pipeline:
@@ -151,7 +161,9 @@ class Pipeline:
         return sal, stats
 
     def run(self, cloud):
-        """Saliency and signature of ``cloud`` (a PointCloud or a path)."""
+        """Saliency and signature of ``cloud`` (a PointCloud, a path or an Open3D point cloud)."""
+        if is_open3d(cloud):
+            cloud = from_open3d(cloud)
         if not isinstance(cloud, PointCloud):
             from .io import read
             cloud = read(cloud)

@@ -1,12 +1,15 @@
-"""Point-cloud formats: PLY, PCD and text round trips on real data; bad files (SPEC 8, issue 4)."""
+"""Point-cloud formats: PLY, PCD and text round trips on real data; bad files (SPEC 8, issue 4);
+every attribute kept, names CloudCompare and Open3D read (issue 10)."""
 import subprocess
 import sys
 
+import laspy
 import numpy as np
 import pytest
 
 import lidar_sig as ls
 from conftest import IGN, need_data
+from lidar_sig.errors import LidarSigWarning
 from lidar_sig.io import write_cloud
 
 open3d = pytest.importorskip("open3d", reason="PLY/PCD need open3d: pip install -e '.[formats]'")
@@ -101,3 +104,104 @@ def test_cli_user_class_table_and_info(tmp_path):
     assert 0 < sig.class_counts[0] <= np.isin(cloud.labels, [3, 4, 5]).sum()
     info = _cli("info", TILE)
     assert info.returncode == 0 and "59,606 points" in info.stdout and "WktCoordinateSystemVlr" in info.stdout
+
+
+@pytest.fixture(scope="module", params=[255, 65535], ids=["8-bit colours", "16-bit colours"])
+def coloured(request, tmp_path_factory):
+    """The IGN tile (whose RGB is all zero) with random colours up to the given maximum, and a
+    Multiscale result on it."""
+    las = laspy.read(need_data(TILE))
+    rng = np.random.default_rng(request.param)
+    for name in ("red", "green", "blue"):
+        las[name] = rng.integers(0, request.param, len(las.points), endpoint=True)
+    path = tmp_path_factory.mktemp("coloured") / "tile.laz"
+    las.write(path)
+    return las, ls.Pipeline(scales=ls.knn(10)).run(path)
+
+
+def _ply_header(path):
+    with open(path, "rb") as fh:
+        return fh.read(4096).split(b"end_header")[0].decode().splitlines()
+
+
+@pytest.mark.parametrize("ext", [".ply", ".pcd", ".csv", ".xyz"])
+def test_outputs_keep_every_las_dimension_rgb_and_intensity(coloured, tmp_path, ext):
+    las, result = coloured
+    path = tmp_path / f"o{ext}"
+    result.write(path)
+    back = ls.read(path)
+    np.testing.assert_array_equal(back.xyz, result.cloud.xyz)
+    np.testing.assert_array_equal(back.labels, np.asarray(las.classification))
+    rgb = np.column_stack([np.asarray(las.red), np.asarray(las.green), np.asarray(las.blue)])
+    if "colors" in back.attributes:  # PLY, and PCD's packed 8-bit colour
+        np.testing.assert_array_equal(back.attributes["colors"], rgb)
+    else:
+        np.testing.assert_array_equal(np.column_stack([back.attributes[c] for c in ("red", "green", "blue")]), rgb)
+    for name in las.point_format.dimension_names:
+        if name not in ("X", "Y", "Z", "classification", "red", "green", "blue"):
+            np.testing.assert_array_equal(back.attributes[name], np.asarray(las[name]), err_msg=name)
+    # float32 in binary files; 9 significant digits in text, which give back the same float32
+    np.testing.assert_array_equal(back.attributes["Cl"].astype(np.float32), result.saliency.cl.astype(np.float32))
+    assert set(back.previous_outputs) == {"Cl", "Cs", "Cp", "Egeom", "GeomClass"}
+
+
+def test_ply_names_follow_cloudcompare_and_open3d_reads_every_attribute(coloured, tmp_path):
+    las, result = coloured
+    path = tmp_path / "o.ply"
+    result.write(path)
+    props = [line.split()[-1] for line in _ply_header(path) if line.startswith("property")]
+    assert props[:3] == ["x", "y", "z"]
+    assert {"red", "green", "blue", "scalar_intensity", "scalar_gps_time", "scalar_label", "scalar_Cl",
+            "scalar_GeomClass"} <= set(props)
+    assert all(p in ("red", "green", "blue") or p.startswith("scalar_") for p in props[3:])
+    pc = open3d.t.io.read_point_cloud(str(path))
+    expected = {"positions", "colors"} | {p for p in props if p.startswith("scalar_")}
+    assert set(pc.point) == expected
+    np.testing.assert_array_equal(pc.point["scalar_intensity"].numpy()[:, 0], np.asarray(las.intensity))
+    np.testing.assert_array_equal(pc.point["scalar_Egeom"].numpy()[:, 0], result.saliency.egeom.astype(np.float32))
+    np.testing.assert_array_equal(pc.point.positions.numpy(), result.cloud.xyz)
+
+
+def test_text_header_is_cloudcompares(coloured, tmp_path):
+    _, result = coloured
+    path = tmp_path / "o.txt"
+    result.write(path)
+    first = path.read_text().splitlines()[0]
+    assert first.startswith("//X,Y,Z,")
+    names = first[2:].split(",")[3:]
+    assert {"red", "green", "blue", "scalar_intensity", "scalar_label", "scalar_Cl", "scalar_Cp"} <= set(names)
+    assert all(n in ("red", "green", "blue") or n.startswith("scalar_") for n in names)
+
+
+def test_pcd_fields_follow_pcl(coloured, tmp_path):
+    las, result = coloured
+    path = tmp_path / "o.pcd"
+    result.write(path)
+    with open(path, "rb") as fh:
+        fields = next(line for line in fh if line.startswith(b"FIELDS")).decode().split()[1:]
+    assert fields[:3] == ["x", "y", "z"] and "label" in fields and "Cl" in fields
+    if np.asarray(las.red).max() <= 255:
+        assert "rgb" in fields and "red" not in fields
+    else:  # PCL's rgb is 8-bit: 16-bit colours stay whole as fields of their own
+        assert {"red", "green", "blue"} <= set(fields) and "rgb" not in fields
+    pc = open3d.t.io.read_point_cloud(str(path))
+    assert len(pc.point.positions) == len(result.cloud)
+
+
+def test_foreign_attribute_named_like_ours_is_kept_in_ply(tmp_path):
+    """A PLY of someone else with a 'Cl' property: kept, ours written as lidar_sig_Cl; a re-run on
+    our own output replaces ours (known by the header comment) and keeps theirs."""
+    cloud = ls.read(need_data(TILE))
+    chlorophyll = np.linspace(0.0, 9.0, len(cloud))
+    user = ls.PointCloud(cloud.xyz, cloud.labels, attributes={"Cl": chlorophyll})
+    first, second = tmp_path / "first.ply", tmp_path / "second.ply"
+    with pytest.warns(LidarSigWarning, match="lidar_sig_Cl"):
+        ls.Pipeline(scales=ls.knn(10)).run(user).write(first)
+    back = ls.read(first)
+    np.testing.assert_array_equal(back.attributes["Cl"], chlorophyll)
+    assert "lidar_sig_Cl" in back.attributes and "lidar_sig_Cl" in back.previous_outputs
+    with pytest.warns(LidarSigWarning, match="lidar_sig_Cl"):
+        ls.Pipeline(scales=ls.knn(10)).run(back).write(second)
+    again = ls.read(second)
+    assert sorted(k for k in again.attributes if k.endswith("Cl")) == ["Cl", "lidar_sig_Cl"]
+    np.testing.assert_array_equal(again.attributes["Cl"], chlorophyll)

@@ -2,15 +2,25 @@
 
 Column layout by count unless given: 3 = X Y Z, 4 = X Y Z label, 7 = the ISPRS Vaihingen 3D
 layout X Y Z Intensity return_number number_of_returns label. ``columns`` names each column
-(``x``, ``y``, ``z``, ``label``; anything else is kept as an attribute, ``-`` skips it).
+(``x``, ``y``, ``z``, ``label``; anything else is kept as an attribute, ``-`` skips it). A
+commented header line naming x, y and z (as this module writes) sets the layout.
+
+Written files are comma-separated with CloudCompare's header line
+``//X,Y,Z,scalar_intensity,...,red,green,blue,...,scalar_Cl,...``: every attribute of the
+cloud, the label and the outputs, named so that CloudCompare loads each as a named scalar field
+(colours and normals as such); read back here without the ``scalar_`` prefix. A second comment
+line lists the outputs lidar_sig wrote.
 """
 from __future__ import annotations
+
+import warnings
 
 import numpy as np
 
 from ..cloud import PointCloud
-from ..errors import LidarSigError
+from ..errors import LidarSigError, LidarSigWarning
 from .atomic import atomic_output
+from .table import cloudcompare_name, marker, parse_marker, plain_name, point_table
 
 TEXT_EXTENSIONS = (".xyz", ".txt", ".pts", ".csv")
 LAYOUTS = {
@@ -36,10 +46,11 @@ def read_text(path, columns=None):
             raw = [ln for ln in fh if ln.strip()]
     except UnicodeDecodeError:
         raise LidarSigError("is not a text point cloud (binary content)", path=path) from None
-    comments = [ln.lstrip("#/ ").split() for ln in raw if ln.lstrip().startswith(("#", "//"))]
+    comments = [ln.strip().lstrip("#/ ") for ln in raw if ln.lstrip().startswith(("#", "//"))]
     lines = [ln for ln in raw if not ln.lstrip().startswith(("#", "//"))]
     if columns is None:  # a commented header naming x, y and z (as this module writes) sets the layout
-        named = [words for words in comments if {"x", "y", "z"} <= {w.lower() for w in words}]
+        named = [words for words in (c.replace(",", " ").split() for c in comments)
+                 if {"x", "y", "z"} <= {w.lower() for w in words}]
         columns = tuple(_name(w) for w in named[0]) if named else None
     if lines and not _numeric(lines[0]):
         lines = lines[1:]  # header line
@@ -66,30 +77,34 @@ def read_text(path, columns=None):
             raise LidarSigError("the label column holds non-integer values; check --columns", path=path)
         labels = lab.astype(np.int64)
     xyz = np.column_stack([col.pop("x"), col.pop("y"), col.pop("z")])
-    return PointCloud(xyz, labels, source=None, path=str(path), attributes=col)
+    return PointCloud(xyz, labels, source=None, path=str(path), attributes=col,
+                      previous_outputs=parse_marker(comments))
 
 
 def write_text(path, cloud, fields, *, overwrite=False):
-    """Write X Y Z, the label (if any) and per-point ``fields`` {name: array} with a header line.
+    """Write X, Y, Z, every attribute of the cloud, the label (if any) and the per-point
+    ``fields`` {name: array} as comma-separated columns under CloudCompare's header line.
 
-    Coordinates keep 17 significant digits, so reading the file back gives the same floats.
+    Coordinates and float64 values keep 17 significant digits and float32 values 9, so reading
+    the file back gives the same numbers; undefined values are ``nan``.
     """
-    names = ["x", "y", "z"] + (["label"] if cloud.labels is not None else []) + list(fields)
+    columns, outputs, note = point_table(cloud, fields)
+    names = ["X", "Y", "Z"] + [cloudcompare_name(n) for n in columns]
     cols = [cloud.xyz[:, 0], cloud.xyz[:, 1], cloud.xyz[:, 2]]
     fmt = ["%.17g"] * 3
-    if cloud.labels is not None:
-        cols.append(cloud.labels)
-        fmt.append("%d")
-    for values in fields.values():
-        values = np.asarray(values)
+    for values in columns.values():
         cols.append(values)
-        fmt.append("%d" if values.dtype.kind in "iu" else "%.9g")
+        fmt.append("%d" if values.dtype.kind in "iub" else "%.9g" if values.dtype.itemsize <= 4 else "%.17g")
+    header = "//" + ",".join(names) + "\n// " + marker(outputs)
     with atomic_output(path, overwrite=overwrite) as tmp:
-        np.savetxt(tmp, np.column_stack(cols), fmt=fmt, header=" ".join(names), comments="# ")
+        np.savetxt(tmp, np.column_stack(cols), fmt=fmt, delimiter=",", header=header, comments="")
+    if note:
+        warnings.warn(note, LidarSigWarning, stacklevel=4)  # the caller of Result.write
 
 
 def _name(word):
-    # x, y, z and label in any case; other attribute names as written
+    # x, y, z and label in any case, without CloudCompare's scalar_ prefix; others as written
+    word = plain_name(word)
     return word.lower() if word.lower() in ("x", "y", "z", "label") else word
 
 
