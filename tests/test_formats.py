@@ -205,3 +205,20 @@ def test_foreign_attribute_named_like_ours_is_kept_in_ply(tmp_path):
     again = ls.read(second)
     assert sorted(k for k in again.attributes if k.endswith("Cl")) == ["Cl", "lidar_sig_Cl"]
     np.testing.assert_array_equal(again.attributes["Cl"], chlorophyll)
+
+
+@pytest.mark.parametrize("ext", [".ply", ".csv"])
+def test_las_to_other_format_and_back_keeps_every_dimension(coloured, tmp_path, ext):
+    """LAS -> PLY/text -> LAS: the attributes fill the LAS dimensions again, the outputs of the
+    first run (marked in the header) are replaced, not doubled."""
+    las, result = coloured
+    result.write(tmp_path / f"o{ext}")
+    again = ls.Pipeline(scales=ls.knn(10)).run(tmp_path / f"o{ext}")
+    again.write(tmp_path / "back.laz")
+    back = laspy.read(tmp_path / "back.laz")
+    assert back.header.point_format.id == las.header.point_format.id == 8
+    for name in las.point_format.dimension_names:
+        if name not in ("X", "Y", "Z"):  # stored with other scales and offsets
+            np.testing.assert_array_equal(np.asarray(back[name]), np.asarray(las[name]), err_msg=name)
+    np.testing.assert_allclose(np.column_stack([back.x, back.y, back.z]), result.cloud.xyz, rtol=0, atol=1e-6)
+    assert list(back.point_format.extra_dimension_names) == ["Cl", "Cs", "Cp", "Egeom", "GeomClass"]

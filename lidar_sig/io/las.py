@@ -108,7 +108,7 @@ def to_lasdata(cloud):
     """A fresh LAS 1.4 LasData of the cloud, and notes on what changed from the source.
 
     The source's LasData is copied (LAS 1.0-1.3 upgraded to 1.4, COPC records dropped); a cloud
-    without one becomes point format 6 with millimetre scales. The generating software and the
+    without one is made by :func:`_new_lasdata`. The generating software and the
     creation date say lidar_sig and today, as the header of any file a program writes.
     """
     from .. import __version__
@@ -124,17 +124,55 @@ def to_lasdata(cloud):
             las, more = upgrade_to_14(las)
             notes += more
     else:
-        header = laspy.LasHeader(point_format=6, version="1.4")
-        header.offsets = np.floor(cloud.xyz.min(axis=0))
-        header.scales = np.array([0.001, 0.001, 0.001])
-        header.global_encoding.wkt = True  # required with point formats 6-10; no CRS known
-        las = laspy.LasData(header)
-        las.x, las.y, las.z = cloud.xyz[:, 0], cloud.xyz[:, 1], cloud.xyz[:, 2]
-        if cloud.labels is not None:
-            las.classification = cloud.labels.astype(np.uint8)
+        las = _new_lasdata(cloud)
     las.header.generating_software = f"lidar_sig {__version__}"
     las.header.creation_date = datetime.date.today()
     return las, notes
+
+
+def _new_lasdata(cloud):
+    """LAS 1.4 LasData of a cloud read from another format: millimetre scales, point format 6,
+    7 with colours, 8 with colours and nir; attributes named like a dimension of the format
+    (intensity, return_number, gps_time, ...) fill it when their values fit its type, every
+    other one (or one that does not fit, as ``<name>_value``) becomes an extra dimension."""
+    from .table import point_table
+
+    columns, _, _ = point_table(cloud, {})
+    columns.pop("label", None)
+    fmt = 6 + ("red" in columns) + ("red" in columns and "nir" in columns)
+    header = laspy.LasHeader(point_format=fmt, version="1.4")
+    header.offsets = np.floor(cloud.xyz.min(axis=0))
+    header.scales = np.array([0.001, 0.001, 0.001])
+    header.global_encoding.wkt = True  # required with point formats 6-10; no CRS known
+    standard = set(header.point_format.dimension_names) - {"X", "Y", "Z", "classification"}
+    fitting = {n: v for n, v in columns.items() if n in standard and _fits(v, header.point_format.dimension_by_name(n))}
+    extra = {(n if n not in standard else f"{n}_value"): v for n, v in columns.items() if n not in fitting}
+    header.add_extra_dims([laspy.ExtraBytesParams(name=n, type=_extra_type(v)) for n, v in extra.items()])
+    las = laspy.LasData(header)
+    las.x, las.y, las.z = cloud.xyz[:, 0], cloud.xyz[:, 1], cloud.xyz[:, 2]
+    if cloud.labels is not None:
+        las.classification = cloud.labels.astype(np.uint8)
+    for name, values in fitting.items():
+        dim = header.point_format.dimension_by_name(name)
+        las[name] = values if dim.dtype is not None and dim.dtype.kind == "f" else np.asarray(values).astype(np.int64)
+    for name, values in extra.items():
+        las[name] = values
+    return las
+
+
+def _fits(values, dim):
+    """True if ``values`` are stored exactly in the LAS dimension ``dim``."""
+    values = np.asarray(values)
+    if dim.dtype is not None and dim.dtype.kind == "f":
+        return values.dtype.kind in "iuf"
+    return (values.dtype.kind in "iub" or bool(np.all(values == np.round(values)))) and \
+        values.min() >= dim.min and values.max() <= dim.max
+
+
+def _extra_type(values):
+    """LAS extra-bytes type of an attribute: its own, bool as uint8."""
+    dtype = np.asarray(values).dtype
+    return np.dtype(np.uint8) if dtype == bool else dtype
 
 
 def upgrade_to_14(las):
