@@ -247,3 +247,19 @@ def test_a_users_own_cl_dimension_is_kept_and_ours_is_prefixed(tmp_path):
     assert sorted(names) == sorted(["Cl", "lidar_sig_Cl", "lidar_sig_Cs", "lidar_sig_Cp", "lidar_sig_Egeom",
                                     "lidar_sig_GeomClass"])
     np.testing.assert_array_equal(np.asarray(laspy.read(second)["Cl"]), chlorophyll)
+
+
+def test_cli_refuses_when_even_the_prefixed_names_are_taken(tmp_path):
+    las = laspy.read(need_data(IGN / "test_data_77060_627760_LA93_IGN69.laz"))
+    las.add_extra_dims([laspy.ExtraBytesParams(name="Cl", type=np.float64, description="chlorophyll"),
+                        laspy.ExtraBytesParams(name="lidar_sig_Cl", type=np.float64, description="another")])
+    user = tmp_path / "user.laz"
+    las.write(user)
+    out = tmp_path / "out" / "o.laz"
+    out.parent.mkdir()
+    proc = subprocess.run([sys.executable, "-m", "lidar_sig", "saliency", str(user), "-o", str(out), "--k", "10",
+                           "-q"], capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 2
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and "user.laz" in lines[0] and "lidar_sig_Cl" in lines[0] and "rename" in lines[0]
+    assert list(out.parent.iterdir()) == []

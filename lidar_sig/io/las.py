@@ -82,7 +82,7 @@ def lidar_sig_dims(las):
     return tuple(d.name for d in las.point_format.extra_dimensions if is_ours(d.name, d.description))
 
 
-def output_names(fields, existing, previous=()):
+def output_names(fields, existing, previous=(), *, path=None):
     """Names to write the per-point ``fields`` under, and a note (or None).
 
     ``existing`` are the attribute names the output already holds, ``previous`` those of them an
@@ -97,8 +97,8 @@ def output_names(fields, existing, previous=()):
     names = {n: PREFIX + n for n in fields}
     taken = [v for v in names.values() if v in own]
     if taken:
-        raise LidarSigError(f"the input has its own attributes {', '.join(clash + taken)}, named like "
-                            "lidar_sig's outputs; rename them before running")
+        raise LidarSigError(f"has its own attributes {', '.join(clash + taken)}, named like lidar_sig's "
+                            "outputs; rename them before running", path=path or "input")
     note = (f"the input has its own {', '.join(clash)} (not written by lidar_sig), kept as they are; "
             f"the saliency is written as {', '.join(names.values())}")
     return names, note
@@ -273,7 +273,7 @@ def write_las(path, cloud, saliency, *, scale_kind=None, scale_values=None, over
     if previous:  # a re-run replaces instead of duplicating
         las.remove_extra_dims(previous)
     fields = saliency_fields(saliency, scale_kind, scale_values)
-    names, note = output_names(fields, las.point_format.dimension_names, previous)
+    names, note = output_names(fields, las.point_format.dimension_names, previous, path=cloud.path)
     if note:
         notes.append(note)
     params = []

@@ -41,6 +41,7 @@ def point_table(cloud, fields):
     for name, values in _attributes(cloud).items():
         if name in cloud.previous_outputs:
             continue
+        name = "_".join(str(name).replace(",", " ").split())  # one word: PLY, PCD and CSV headers
         values = np.asarray(values)
         if values.dtype == bool:
             values = values.astype(np.uint8)
@@ -56,7 +57,7 @@ def point_table(cloud, fields):
             columns.update({f"{name}_{k}": values[:, k] for k in range(values.shape[1])})
     if cloud.labels is not None:
         columns["label"] = np.asarray(cloud.labels).astype(np.int32)  # class codes; PLY has no int64
-    names, note = output_names(fields, columns)
+    names, note = output_names(fields, columns, path=cloud.path)
     for name, values in fields.items():
         columns[names[name]] = np.asarray(values)
     return columns, list(names.values()), note
