@@ -10,6 +10,9 @@ Cases (DESIGN.md, "Performance approach"; the peers come from the ``bench`` extr
   search included, against jakteristics ``compute_features`` at the same three radii with
   ``max_k_neighbors`` equal to lidar_sig's cap (512).
 
+Both lidar_sig cases weigh neighbours equally (``weights="none"``), as the peers do, so that the
+work is the same on both sides.
+
 Each figure is the median of ``--runs`` child processes per tool, the tools alternating. Times
 exclude start-up and reading the file; peak memory is the resident set size of the whole
 child process. A correctness cross-check follows: at k = 50, linearity and planarity from
@@ -43,10 +46,10 @@ def child(case, path):
         import lidar_sig as ls
 
         if case == "lidar_sig-optimal":
-            pipe = ls.Pipeline(strategy="optimal", scales=ls.knn(*K_SCALES), progress=False)
+            pipe = ls.Pipeline(strategy="optimal", scales=ls.knn(*K_SCALES), weights="none", progress=False)
         else:
             pipe = ls.Pipeline(strategy="multiscale", progress=False, max_neighbors=MAX_NEIGHBORS,
-                               scales=ls.radii(*metric_radii(xyz), units="metric"))
+                               scales=ls.radii(*metric_radii(xyz), units="metric"), weights="none")
         warm_up()
         cloud = ls.PointCloud(xyz)
         start = time.perf_counter()
@@ -97,7 +100,7 @@ def cross_check(path):
     tie = np.empty(len(xyz), bool)
     for rows in index.blocks():
         batch = index.query(rows)
-        ev[batch.ids] = covariance_eigenvalues(batch.xyz, batch.rows, batch.idx, batch.counts)[:, 0]
+        ev[batch.ids] = covariance_eigenvalues(batch.xyz, batch.rows, batch.idx, batch.counts, batch.weights)[:, 0]
         d = batch.dist
         tie[batch.ids] = d[:, 50] - d[:, 49] <= 1e-9 * d[:, 50]
     s = np.sqrt(ev)

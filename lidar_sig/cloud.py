@@ -6,6 +6,7 @@ from typing import Any
 
 import numpy as np
 
+from .crs import Units, units_of
 from .errors import LidarSigError
 
 
@@ -29,6 +30,12 @@ class PointCloud:
     previous_outputs : tuple of str
         Names among the file's attributes (or LAS extra dimensions) that an earlier lidar_sig
         run wrote; writers replace them instead of treating them as the user's own.
+    crs : str or None
+        Coordinate reference system (WKT, or any text pyproj reads, e.g. ``"EPSG:2154"``);
+        None when unknown.
+    units : Units or None
+        Metres per coordinate unit (see :mod:`lidar_sig.crs`); derived from ``crs`` when not
+        given, metres assumed when the CRS is unknown.
     """
 
     xyz: np.ndarray
@@ -37,6 +44,8 @@ class PointCloud:
     path: str | None = None
     attributes: dict = field(default_factory=dict)
     previous_outputs: tuple = ()
+    crs: str | None = None
+    units: Units | None = None
 
     def __post_init__(self):
         xyz = np.asarray(self.xyz, dtype=np.float64)
@@ -50,6 +59,8 @@ class PointCloud:
                 f"{int(bad.sum())} points have NaN or infinite coordinates (first at index "
                 f"{int(np.argmax(bad))}); remove them before running", path=self.path)
         self.xyz = xyz
+        if self.units is None:
+            self.units = units_of(self.crs, path=self.path)
         if self.labels is not None:
             self.labels = np.asarray(self.labels)
             if self.labels.shape != (xyz.shape[0],):
@@ -60,12 +71,8 @@ class PointCloud:
     def __len__(self):
         return self.xyz.shape[0]
 
-    @property
-    def extent(self):
-        """Side lengths (dx, dy, dz) of the axis-aligned bounding box, in coordinate units."""
-        return self.xyz.max(axis=0) - self.xyz.min(axis=0)
-
-    @property
-    def half_longest_side(self):
-        """Half the longest bounding-box side: one normalized unit in coordinate units (SPEC 2)."""
-        return float(self.extent.max()) / 2.0
+    def metric_xyz(self):
+        """(N, 3) coordinates in metres, centred on the bounding-box centre: what the neighbour
+        search and the kernels see (small numbers, so UTM-sized offsets cost no precision)."""
+        centre = (self.xyz.min(axis=0) + self.xyz.max(axis=0)) / 2.0
+        return (self.xyz - centre) * np.asarray(self.units.factors)

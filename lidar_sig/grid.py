@@ -194,6 +194,9 @@ def nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, origin, h,
                     t = prev_dk + delta if delta <= h else 1.2 * prev_dk
                 else:
                     t = h  # a guess, grown below until it holds k points
+                # A predecessor whose k-th neighbour coincides with it (duplicate points) gives
+                # t = 0, which widening would keep at 0 forever: start from a fraction of a voxel.
+                t = max(t, 1e-3 * h)
                 settled = True
                 while True:
                     t2 = t * t * (1.0 + 1e-12)  # round-off must not drop the k-th neighbour
@@ -252,7 +255,8 @@ def nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, origin, h,
                 done[qpos] = True
 
 
-_LUT_CELLS = 2**24
+#: Voxels of the dense voxel -> occupied-voxel look-up table, at most (else binary search).
+LUT_CELLS = 2**24
 
 
 class VoxelGrid:
@@ -283,7 +287,7 @@ class VoxelGrid:
         # huge and sparse (outliers far away), where a binary search over keys serves.
         n_cells = int(np.prod(self.dims.astype(np.float64)))
         self.lut = np.empty(0, np.int64)
-        if n_cells <= max(_LUT_CELLS, 8 * len(self.cell_keys)):
+        if n_cells <= max(LUT_CELLS, 8 * len(self.cell_keys)):
             self.lut = np.full(n_cells, -1, np.int64)
             self.lut[self.cell_keys] = np.arange(len(self.cell_keys))
 

@@ -80,45 +80,51 @@ def eigvalsh3(a00, a11, a22, a01, a02, a12):
 
 
 @njit(cache=True, parallel=True)
-def covariance_eigenvalues(xyz, rows, idx, counts):
+def covariance_eigenvalues(xyz, rows, idx, counts, weights):
     """Eigenvalues (B, S, 3) of the covariance tensor (C3DCM) at every scale.
 
-    T = (1/n) sum (q - qbar)(q - qbar)^T over the first ``counts[b, s]`` neighbours, from
-    running sums of offsets to the query point (small numbers, so no cancellation against
-    UTM-sized coordinates). Negative round-off is clamped to 0; count 0 gives NaN.
+    T = sum w_q (q - qbar)(q - qbar)^T / sum w_q over the first ``counts[b, s]`` neighbours,
+    qbar the weighted centroid; ``weights`` (N,) are the neighbours' weights, or empty for
+    equal ones (the paper's T = (1/n) sum (q - qbar)(q - qbar)^T). From running sums of offsets
+    to the query point (small numbers, so no cancellation against UTM-sized coordinates).
+    Negative round-off is clamped to 0; count 0 gives NaN.
     """
     B = idx.shape[0]
     S = counts.shape[1]
+    weighted = weights.size > 0
     out = np.empty((B, S, 3))
     for b in prange(B):
         i = rows[b]
         cx, cy, cz = xyz[i, 0], xyz[i, 1], xyz[i, 2]
-        sx = sy = sz = sxx = syy = szz = sxy = sxz = syz = 0.0
+        sw = sx = sy = sz = sxx = syy = szz = sxy = sxz = syz = 0.0
         n = 0
         for s in range(S):
             target = counts[b, s]
             while n < target:
                 j = idx[b, n]
+                w = weights[j] if weighted else 1.0
                 dx = xyz[j, 0] - cx
                 dy = xyz[j, 1] - cy
                 dz = xyz[j, 2] - cz
-                sx += dx
-                sy += dy
-                sz += dz
-                sxx += dx * dx
-                syy += dy * dy
-                szz += dz * dz
-                sxy += dx * dy
-                sxz += dx * dz
-                syz += dy * dz
+                wx, wy, wz = w * dx, w * dy, w * dz
+                sw += w
+                sx += wx
+                sy += wy
+                sz += wz
+                sxx += wx * dx
+                syy += wy * dy
+                szz += wz * dz
+                sxy += wx * dy
+                sxz += wx * dz
+                syz += wy * dz
                 n += 1
-            if target == 0:
+            if target == 0 or not sw > 0.0:
                 out[b, s, 0] = out[b, s, 1] = out[b, s, 2] = np.nan
                 continue
-            w = 1.0 / n
-            mx, my, mz = sx * w, sy * w, sz * w
-            l0, l1, l2 = eigvalsh3(sxx * w - mx * mx, syy * w - my * my, szz * w - mz * mz,
-                                   sxy * w - mx * my, sxz * w - mx * mz, syz * w - my * mz)
+            f = 1.0 / sw
+            mx, my, mz = sx * f, sy * f, sz * f
+            l0, l1, l2 = eigvalsh3(sxx * f - mx * mx, syy * f - my * my, szz * f - mz * mz,
+                                   sxy * f - mx * my, sxz * f - mx * mz, syz * f - my * mz)
             out[b, s, 0] = max(l0, 0.0)
             out[b, s, 1] = max(l1, 0.0)
             out[b, s, 2] = max(l2, 0.0)
@@ -126,16 +132,18 @@ def covariance_eigenvalues(xyz, rows, idx, counts):
 
 
 @njit(cache=True, parallel=True)
-def voting_eigenvalues(xyz, rows, idx, counts, sigma):
+def voting_eigenvalues(xyz, rows, idx, counts, sigma, weights):
     """Eigenvalues (B, S, 3), descending, of the ball-voting tensor (T3DVT) at every scale.
 
     T = sum_q mu (I - u u^T) / sum_q mu over the neighbours q != x_i (zero-length offsets
-    skipped), u = (q - x_i)/d, mu = exp(-d^2 / sigma^2) with sigma the scale's radius (SPEC 3).
+    skipped), u = (q - x_i)/d, mu = w_q exp(-d^2 / sigma^2) with sigma the scale's radius
+    (SPEC 3) and w_q the neighbour's weight (``weights``, or 1 when empty).
     T is accumulated as I - M / W with W = sum mu, M = sum (mu / d^2) v v^T, so eig(T) =
     1 - eig(M / W). NaN where the scale is undefined (count 0) or no vote was cast.
     """
     B = idx.shape[0]
     S = counts.shape[1]
+    weighted = weights.size > 0
     out = np.empty((B, S, 3))
     for b in prange(B):
         i = rows[b]
@@ -153,6 +161,8 @@ def voting_eigenvalues(xyz, rows, idx, counts, sigma):
                 if d2 == 0.0:
                     continue
                 mu = np.exp(-d2 * inv_s2)
+                if weighted:
+                    mu *= weights[j]
                 w = mu / d2
                 wsum += mu
                 mxx += w * dx * dx

@@ -198,21 +198,25 @@ def fv_distance(a, b, *, grid=FV_GRID):
                                 - fisher_vector(*triangle_positions(b), grid=grid)))
 
 
-def compare(a, b, *, sg_mode="density", color_bins=8):
+def compare(a, b, *, render="smooth", color_bins=8):
     """Every metric between two signatures, as a dict of floats (SPEC 6).
 
     Keys: ``bhattacharyya`` (d_BD-Img), ``ssim`` (s_SSIM), ``emd_info`` (d_EMD-Info, nats),
     ``emd_img`` (d_EMD-Img), ``fv`` (delta_FV), ``kl`` (delta_KL) and ``l1`` (L1); ``kl`` and
-    ``l1`` are None when either cloud is unlabeled. Raises LidarSigError when the signatures
-    are not comparable.
+    ``l1`` are None when either cloud is unlabeled. The image metrics see Sg and Sas rendered
+    as ``render`` (see :mod:`lidar_sig.signature`); the semantic ones the class counts of every
+    labelled point, its saliency defined or not. Raises LidarSigError when the signatures are
+    not comparable (frames, class tables or methods differ).
     """
     a.check_comparable(b)
     mask = a.frame.mask()
-    hist_a = color_histogram(a.sas(sg_mode), mask, bins=color_bins)
-    hist_b = color_histogram(b.sas(sg_mode), mask, bins=color_bins)
+    sg_a, sas_a = a.render(render)
+    sg_b, sas_b = b.render(render)
+    hist_a = color_histogram(sas_a, mask, bins=color_bins)
+    hist_b = color_histogram(sas_b, mask, bins=color_bins)
     out = {
         "bhattacharyya": bhattacharyya(hist_a, hist_b),
-        "ssim": ssim(a.sg(sg_mode), b.sg(sg_mode), mask),
+        "ssim": ssim(sg_a, sg_b, mask),
         "emd_info": emd_info(a.egeom_counts, b.egeom_counts),
         "emd_img": emd_img(hist_a, hist_b, bins=color_bins),
         "fv": fv_distance(a, b),
@@ -220,6 +224,6 @@ def compare(a, b, *, sg_mode="density", color_bins=8):
         "l1": None,
     }
     if a.classes.names:  # labeled: semantic metrics from class counts
-        out["kl"] = symmetric_kl(a.class_counts, b.class_counts)
-        out["l1"] = l1_distance(a.class_counts, b.class_counts)
+        out["kl"] = symmetric_kl(a.class_totals, b.class_totals)
+        out["l1"] = l1_distance(a.class_totals, b.class_totals)
     return out

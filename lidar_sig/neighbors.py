@@ -5,6 +5,14 @@ block of points serves them all. The search runs on a voxel grid (:mod:`lidar_si
 few queries it cannot settle within a few voxel shells (isolated outliers) go to a k-d tree.
 The index works on the points sorted by voxel: ``NeighborIndex.xyz`` is the sorted cloud and
 ``order`` maps its rows back to the input.
+
+Neighbours can be weighted by the area they stand for (``weights="area"``): the squared distance
+to a point's second-nearest other point, capped at ``AREA_CAP`` times the cloud's median of that
+distance. A neighbourhood's tensor then estimates the sampled surface rather than the scan
+pattern: where points cluster (overlapping strips, a random thinning) each counts less, where
+they are sparse each counts more. The weights use distances only, so they are invariant to
+rotation, translation, uniform scaling and point order. docs/comparison.md has the measurements
+that chose them.
 """
 from __future__ import annotations
 
@@ -13,12 +21,23 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .grid import VoxelGrid
+from .grid import LUT_CELLS, VoxelGrid
 
 # Bytes of neighbour lists (squared distance + index) held at once; bounds memory per block.
 _BLOCK_BYTES = 96 * 2**20
 # Voxel shells a k-nearest query may grow before it is handed to the k-d tree.
 _KNN_SHELLS = 6
+#: Neighbour weights: "area" (see the module docstring) or "none" (plain means, the paper's).
+WEIGHTS = ("area", "none")
+#: k-nearest neighbourhoods take every point tied with the k-th neighbour (squared distance
+#: within this relative tolerance): coordinates quantized to LAS steps tie often, and which of
+#: two tied points is "the k-th" would otherwise depend on round-off (a rotation) and point order.
+TIE = 2e-9
+#: Extra neighbours searched beyond the largest k to find such ties.
+TIE_SLACK = 8
+#: Area weights are capped at (AREA_CAP x the median second-neighbour distance)^2, so that an
+#: isolated point cannot dominate the neighbourhoods it falls in.
+AREA_CAP = 4.0
 
 
 @dataclass
@@ -49,6 +68,9 @@ class NeighborhoodBatch:
         neighbour (the Gaussian decay of tensor voting).
     capped : (B,) bool
         Spherical neighbourhoods cut at ``max_neighbors`` nearest.
+    weights : (N,) float64
+        Weight of every point of the cloud as a neighbour (sorted order); empty when neighbours
+        count equally.
     """
 
     xyz: np.ndarray
@@ -60,6 +82,7 @@ class NeighborhoodBatch:
     counts: np.ndarray
     sigma: np.ndarray
     capped: np.ndarray
+    weights: np.ndarray
 
     @property
     def dist(self):
@@ -83,9 +106,11 @@ class NeighborIndex:
         Cap of a spherical neighbourhood (nearest first), SPEC 2; default 512.
     min_neighbors : int
         A scale holding fewer neighbours (x_i included) gets count 0: undefined saliency.
+    weights : {"none", "area"}
+        How neighbours count (module docstring); "none" by default.
     """
 
-    def __init__(self, xyz, kind, scales, *, max_neighbors=512, min_neighbors=3):
+    def __init__(self, xyz, kind, scales, *, max_neighbors=512, min_neighbors=3, weights="none"):
         xyz = np.asarray(xyz, dtype=np.float64)
         self.kind = kind
         self.scales = np.asarray(scales)
@@ -93,7 +118,7 @@ class NeighborIndex:
         self.min_neighbors = int(min_neighbors)
         n = len(xyz)
         if kind == "knn":
-            self.width = int(min(self.scales.max(), n))
+            self.width = int(min(self.scales.max() + TIE_SLACK, n))
             cell = _knn_cell(xyz, self.width)
             self.s_max = _KNN_SHELLS
         else:
@@ -105,6 +130,7 @@ class NeighborIndex:
         self.order = self.grid.order
         self._tree = None
         self._buffers = None
+        self.weights = self.area_weights() if weights == "area" else np.empty(0)
 
     def rows_of(self, ids):
         """Sorted-order rows of input point indices ``ids``."""
@@ -137,64 +163,125 @@ class NeighborIndex:
         total = np.zeros(b, np.int64)
         done = np.zeros(b, np.bool_)
         if self.kind == "knn":
-            self.grid.search(rows, d2, idx, n, counts, total, done, ks=self.scales.astype(np.int64),
+            self.grid.search(rows, d2, idx, n, counts, total, done, ks=np.array([self.width]),
                              s_max=self.s_max)
         else:
             self.grid.search(rows, d2, idx, n, counts, total, done, cap=self.width, s_max=self.s_max,
                              radii2=self.scales.astype(np.float64) ** 2)
         if not done.all():
-            self._complete(rows, d2, idx, n, counts, total, done)
-        width = max(1, int(n.max()))
-        d2, idx = d2[:, :width], idx[:, :width]
+            self._complete(rows, d2, idx, n, counts, total, done, self.width)
         if self.kind == "knn":
-            counts = np.minimum(self.scales[None, :], n[:, None])
-            sigma = np.sqrt(np.take_along_axis(d2, np.maximum(counts - 1, 0), axis=1))
+            counts, sigma = _knn_counts(d2, n, self.scales)
+            n = counts[:, -1].copy()  # neighbours past the largest scale's ties are not needed
             capped = np.zeros(b, bool)
         else:
             sigma = np.broadcast_to(self.scales[None, :].astype(np.float64), counts.shape)
             capped = total > self.max_neighbors
+        width = max(1, int(n.max()))
+        d2, idx = d2[:, :width], idx[:, :width]
         counts = np.where(counts >= self.min_neighbors, counts, 0).astype(np.int64)
         return NeighborhoodBatch(self.xyz, rows, self.order[rows], idx, d2, n, counts,
-                                 np.ascontiguousarray(sigma), capped)
+                                 np.ascontiguousarray(sigma), capped, self.weights)
+
+    def area_weights(self):
+        """(N,) weight of each point as a neighbour, sorted order: the squared distance to its
+        second-nearest other point, capped at (AREA_CAP x its median)^2 (module docstring).
+
+        Exact duplicate points give zero distances; the pipeline merges them beforehand.
+        """
+        n = len(self.xyz)
+        k = min(3, n)  # the point itself and two others
+        d_second = np.zeros(n)
+        for rows in self.blocks():
+            b = len(rows)
+            d2, idx = np.empty((b, k)), np.empty((b, k), np.int64)
+            found, done = np.zeros(b, np.int64), np.zeros(b, np.bool_)
+            counts, total = np.zeros((b, 1), np.int64), np.zeros(b, np.int64)
+            self.grid.search(rows, d2, idx, found, counts, total, done, ks=np.array([k]), s_max=_KNN_SHELLS)
+            if not done.all():
+                self._complete(rows, d2, idx, found, counts, total, done, k, kind="knn")
+            d_second[rows] = np.sqrt(d2[:, k - 1])
+        cap = AREA_CAP * float(np.median(d_second))
+        return np.minimum(d_second, cap) ** 2
 
     def _kdtree(self):
         if self._tree is None:
             self._tree = cKDTree(self.xyz)
         return self._tree
 
-    def _complete(self, rows, d2, idx, n, counts, total, done):
+    def _complete(self, rows, d2, idx, n, counts, total, done, width, kind=None):
         # Queries the voxel shells could not settle (isolated points far from the rest).
+        kind = kind or self.kind
         todo = np.flatnonzero(~done)
         q = self.xyz[rows[todo]]
-        if self.kind == "knn":
-            dist, nb = self._kdtree().query(q, k=self.width)
+        if kind == "knn":
+            dist, nb = self._kdtree().query(q, k=width)
         else:
             bound = np.nextafter(float(self.scales.max()), np.inf)
-            dist, nb = self._kdtree().query(q, k=self.width, distance_upper_bound=bound)
+            dist, nb = self._kdtree().query(q, k=width, distance_upper_bound=bound)
         dist, nb = dist.reshape(len(todo), -1), nb.reshape(len(todo), -1)
         found = np.isfinite(dist)
         n[todo] = found.sum(1)
         d2[todo] = np.where(found, dist * dist, np.inf)
         idx[todo] = np.where(found, nb, -1)
-        if self.kind == "radius":
+        if kind == "radius":
             counts[todo] = np.stack([(dist <= r).sum(1) for r in self.scales], axis=1)
             # a full list may hide more points inside the sphere: ask for one more
-            full = todo[n[todo] == self.width]
+            full = todo[n[todo] == width]
             if len(full):
-                more, _ = self._kdtree().query(self.xyz[rows[full]], k=self.width + 1,
+                more, _ = self._kdtree().query(self.xyz[rows[full]], k=width + 1,
                                                distance_upper_bound=bound)
                 total[full] = np.isfinite(more).sum(1)
             total[todo] = np.maximum(total[todo], n[todo])
+
+
+def unique_points(xyz):
+    """The distinct locations of ``xyz`` and, if any repeat, each point's location.
+
+    Returns ``(support, inverse)`` with ``support[inverse] == xyz``; ``inverse`` is None (and
+    ``support`` is ``xyz`` itself) when no two points coincide, the usual case.
+    """
+    xyz = np.asarray(xyz)
+    order = np.lexsort((xyz[:, 2], xyz[:, 1], xyz[:, 0]))
+    ordered = xyz[order]
+    new = np.ones(len(xyz), bool)
+    np.any(ordered[1:] != ordered[:-1], axis=1, out=new[1:])
+    if new.all():
+        return xyz, None
+    inverse = np.empty(len(xyz), np.int64)
+    inverse[order] = np.cumsum(new) - 1
+    return ordered[new], inverse
+
+
+def _knn_counts(d2, n, ks):
+    """Neighbours per k-nearest scale, ties with the k-th included, and the k-th distances.
+
+    ``d2`` (B, W) squared distances sorted ascending, ``n`` (B,) valid per row, ``ks`` (S,).
+    Returns counts (B, S) and sigma (B, S), the distance to the k-th neighbour.
+    """
+    b = np.arange(len(n))
+    kth = np.minimum(np.asarray(ks)[None, :], n[:, None]) - 1  # (B, S), -1 for an empty row
+    d2_kth = d2[b[:, None], np.maximum(kth, 0)]
+    valid = np.arange(d2.shape[1])[None, :] < n[:, None]
+    counts = np.empty(kth.shape, np.int64)
+    for s in range(kth.shape[1]):
+        counts[:, s] = (valid & (d2 <= d2_kth[:, s:s + 1] * (1.0 + TIE))).sum(axis=1)
+    counts[kth < 0] = 0
+    return counts, np.sqrt(d2_kth)
 
 
 def _knn_cell(xyz, k):
     """Voxel side for k-nearest search: about the k-th neighbour distance of an airborne cloud.
 
     Estimated from the density over the two longest bounding-box sides (airborne clouds are
-    nearly 2.5D); a poor guess costs time, never correctness.
+    nearly 2.5D); a poor guess costs time, never correctness. Not smaller than the side at which
+    the box holds more voxels than the grid's dense look-up table (small k on a tall box would
+    otherwise fall back to binary searches).
     """
     extent = np.sort(xyz.max(axis=0) - xyz.min(axis=0))[::-1]
     area = max(extent[0] * extent[1], 1e-12)
     density = len(xyz) / area
     cell = 0.9 * np.sqrt(k / (np.pi * density))
+    volume = float(np.prod(np.maximum(extent, 1e-9)))
+    cell = max(cell, (volume / LUT_CELLS) ** (1.0 / 3.0))
     return float(cell) if np.isfinite(cell) and cell > 0 else 1.0

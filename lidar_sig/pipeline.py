@@ -11,11 +11,11 @@ from .classes import UNLABELED, class_table
 from .cloud import PointCloud
 from .errors import LidarSigError
 from .io.open3d import from_open3d, is_open3d
-from .neighbors import NeighborIndex
+from .neighbors import WEIGHTS, NeighborIndex, unique_points
 from .plugins import get_descriptor, get_strategy
 from .progress import progress as _progress
 from .saliency import Saliency
-from .scales import Scales
+from .scales import Scales, knn, radii
 from .signature import Frame, Signature
 
 
@@ -28,10 +28,11 @@ class Result:
     signature: Signature
     metadata: dict = field(default_factory=dict)
 
-    def write(self, path, *, overwrite=False, points=True):
+    def write(self, path, *, overwrite=False, points=True, render="smooth"):
         """Write to ``path`` by extension: a point cloud with per-point saliency (.las/.laz extra
         dimensions, .ply/.pcd attributes, .xyz/.txt/.pts/.csv columns), a signature archive
-        (.h5/.hdf5, with per-point datasets unless ``points=False``) or an image of Sas (.png)."""
+        (.h5/.hdf5, with per-point datasets unless ``points=False``) or an image of Sas (.png);
+        images are rendered as ``render``."""
         from .io import CLOUD_EXTENSIONS, HDF5_EXTENSIONS, write_archive, write_cloud
         from .render import write_signature_png
 
@@ -43,9 +44,9 @@ class Result:
             sources = [self.cloud.path] if self.cloud.path and Path(self.cloud.path).is_file() else []
             write_archive(path, self.signature, saliency=self.saliency if points else None,
                           labels=self.cloud.labels if points else None, sources=sources,
-                          overwrite=overwrite)
+                          render=render, overwrite=overwrite)
         elif ext == ".png":
-            write_signature_png(path, self.signature, overwrite=overwrite)
+            write_signature_png(path, self.signature, mode=render, overwrite=overwrite)
         else:
             raise LidarSigError(f"cannot write {ext or 'files without extension'}; use a point-cloud "
                                 "format, .h5 or .png", path=path)
@@ -71,8 +72,13 @@ class Pipeline:
     strategy : str or Strategy
         ``"multiscale"`` (default) or ``"optimal"``.
     scales : Scales, optional
-        Defaults to the strategy's paper default (Multiscale: normalized radii 0.009, 0.010,
-        0.011; Optimal-scale: k = 10, 20, ..., 100).
+        Defaults to the strategy's default: Multiscale k = 20, 30, 40 nearest neighbours;
+        Optimal-scale k = 10, 20, ..., 100 (the paper's). The paper's Multiscale setting is
+        ``radii(0.009, 0.010, 0.011, units="normalized")``.
+    weights : {"area", "none"}
+        How neighbours count in a neighbourhood's tensor: by the area each stands for (default;
+        robust to the scan pattern and to thinning, see :mod:`lidar_sig.neighbors`) or equally
+        (the paper's plain means).
     max_neighbors : int
         Cap of a spherical neighbourhood, nearest first (SPEC 2); default 512.
     min_neighbors : int
@@ -84,55 +90,85 @@ class Pipeline:
     progress : bool or None
         Show a progress bar; None shows it on a terminal only.
 
+    Exact duplicate points (same x, y, z) are one location: the neighbour search sees each
+    location once, so copies neither vote nor fill a neighbourhood, and every copy gets the
+    location's saliency. Their number is reported (``n_duplicates``).
+
     Examples
     --------
     >>> import lidar_sig as ls
-    >>> pipe = ls.Pipeline(descriptor="c3dcm", strategy="optimal")
-    >>> pipe.scales.describe()
+    >>> ls.Pipeline().scales.describe()
+    'k 20, 30, 40'
+    >>> ls.Pipeline(strategy="optimal").scales.describe()
     'k 10, 20, 30, 40, 50, 60, 70, 80, 90, 100'
     """
 
-    def __init__(self, descriptor="c3dcm", strategy="multiscale", scales=None, *, max_neighbors=512,
-                 min_neighbors=3, classes="asprs", frame=None, progress=None):
+    def __init__(self, descriptor="c3dcm", strategy="multiscale", scales=None, *, weights="area",
+                 max_neighbors=512, min_neighbors=3, classes="asprs", frame=None, progress=None):
         self.descriptor = get_descriptor(descriptor)
         self.strategy = get_strategy(strategy)
         self.scales = scales if scales is not None else self.strategy.default_scales
         if not isinstance(self.scales, Scales):
             raise LidarSigError("scales must be made with lidar_sig.radii(...) or lidar_sig.knn(...)")
+        if weights not in WEIGHTS:
+            raise LidarSigError(f"weights must be one of {', '.join(WEIGHTS)}, got {weights!r}")
         if max_neighbors < 3 or min_neighbors < 2:
             raise LidarSigError(f"max_neighbors must be >= 3 and min_neighbors >= 2, got "
                                 f"{max_neighbors} and {min_neighbors}")
+        self.weights = weights
         self.max_neighbors = int(max_neighbors)
         self.min_neighbors = int(min_neighbors)
         self.classes = class_table(classes)
         self.frame = frame or Frame()
         self.progress = progress
 
-    def resolved_scales(self, cloud):
-        """The scales in the cloud's coordinate units (radii) or as k."""
-        return self.scales.resolve(cloud)
+    @classmethod
+    def from_method(cls, method, **kwargs):
+        """The pipeline that made a signature, from its recorded method (:meth:`method`, as
+        archives keep it); ``kwargs`` as for the constructor (classes, frame, progress)."""
+        try:
+            kind, values = method["scale_kind"], method["scale_values"]
+            scales = knn(*values) if kind == "knn" else radii(*values, units=method.get("scale_units") or "metric")
+            descriptor = get_descriptor(method["descriptor"], **method.get("descriptor_params", {}))
+            extra = {k: int(method[k]) for k in ("max_neighbors", "min_neighbors") if k in method}
+            return cls(descriptor, method["strategy"], scales, weights=method.get("weights", "none"),
+                       **extra, **kwargs)
+        except (KeyError, TypeError) as exc:
+            raise LidarSigError(f"the recorded method is incomplete or damaged ({exc}); make the "
+                                "signature again") from None
 
-    def _check_size(self, cloud):
+    def method(self):
+        """What makes two signatures comparable (besides frame and class table): descriptor and
+        its parameters, strategy, scales, neighbour weights and neighbourhood limits."""
+        return {"descriptor": self.descriptor.name, "descriptor_params": self.descriptor.params(),
+                "strategy": self.strategy.name, "scale_kind": self.scales.kind,
+                "scale_values": list(self.scales.values), "scale_units": self.scales.units,
+                "weights": self.weights, "max_neighbors": self.max_neighbors,
+                "min_neighbors": self.min_neighbors}
+
+    def _check_size(self, cloud, n_locations):
         n = len(cloud)
-        need = min(self.scales.values) if self.scales.kind == "knn" else self.min_neighbors
-        if n < need:
+        need = max(self.scales.values) if self.scales.kind == "knn" else self.min_neighbors
+        if n_locations < need:
             what = f"k = {need}" if self.scales.kind == "knn" else f"{need} neighbours per point"
-            raise LidarSigError(f"holds {n} points, fewer than the smallest scale needs ({what}); "
-                                "use a larger cloud or smaller scales", path=cloud.path)
+            where = (f"{n_locations} distinct locations ({n} points)" if n_locations < n
+                     else f"{n} points")
+            raise LidarSigError(f"holds {where}, fewer than the largest scale needs ({what}); use a "
+                                "larger cloud or smaller scales", path=cloud.path)
 
     def saliency(self, cloud):
-        """Per-point Saliency of ``cloud`` and run statistics (undefined and capped counts)."""
-        self._check_size(cloud)
-        scales = self.resolved_scales(cloud)
-        # Centre on the bounding box once: the search and kernels then see small numbers.
-        centre = (cloud.xyz.min(axis=0) + cloud.xyz.max(axis=0)) / 2.0
-        xyz = cloud.xyz - centre
-        self.descriptor.prepare(xyz, self.scales.kind, scales, max_neighbors=self.max_neighbors,
+        """Per-point Saliency of ``cloud`` and run statistics (undefined, capped and duplicate
+        counts, scales in metres)."""
+        xyz = cloud.metric_xyz()
+        support, inverse = unique_points(xyz)
+        self._check_size(cloud, len(support))
+        scales = self.scales.resolve(support)
+        self.descriptor.prepare(support, self.scales.kind, scales, max_neighbors=self.max_neighbors,
                                 min_neighbors=self.min_neighbors, progress=self.progress)
-        index = NeighborIndex(xyz, self.scales.kind, scales, max_neighbors=self.max_neighbors,
-                              min_neighbors=self.min_neighbors)
-        n = len(cloud)
-        values = np.empty((n, 3))
+        index = NeighborIndex(support, self.scales.kind, scales, max_neighbors=self.max_neighbors,
+                              min_neighbors=self.min_neighbors, weights=self.weights)
+        m = len(support)
+        values = np.empty((m, 3))
         chosen = None
         n_capped = 0
         blocks = index.blocks()
@@ -145,45 +181,57 @@ class Pipeline:
             values[batch.ids] = combined
             if pick is not None:
                 if chosen is None:
-                    chosen = np.full(n, -1, dtype=np.int64)
+                    chosen = np.full(m, -1, dtype=np.int64)
                 chosen[batch.ids] = pick
             n_capped += int(batch.capped.sum())
+        if inverse is not None:  # every copy of a location takes its saliency
+            values = values[inverse]
+            chosen = chosen[inverse] if chosen is not None else None
         sal = Saliency.from_values(values, chosen)
+        n = len(cloud)
         n_undefined = int((~sal.defined).sum())
         if n_undefined == n:
             raise LidarSigError(
                 f"no point has a defined saliency: every neighbourhood at {self.scales.describe()} "
-                f"(= {_fmt(scales)} in file units) holds fewer than {self.min_neighbors} points; "
+                f"(= {_fmt(scales)} m) holds fewer than {self.min_neighbors} points; "
                 "use larger scales", path=cloud.path)
         stats = {"n_points": n, "n_undefined": n_undefined, "n_capped": n_capped,
-                 "scale_kind": self.scales.kind, "scale_values": list(self.scales.values),
-                 "scale_units": self.scales.units, "resolved_scales": scales.tolist()}
+                 "n_duplicates": n - m, "resolved_scales": scales.tolist(),
+                 "units": cloud.units.describe(), "metres_per_unit": list(cloud.units.factors),
+                 **self.method()}
         return sal, stats
 
-    def run(self, cloud):
-        """Saliency and signature of ``cloud`` (a PointCloud, a path or an Open3D point cloud)."""
-        if is_open3d(cloud):
-            cloud = from_open3d(cloud)
-        if not isinstance(cloud, PointCloud):
-            from .io import read
-            cloud = read(cloud)
+    def run(self, cloud, *, labels=None):
+        """Saliency and signature of ``cloud``: a PointCloud, a path, an (N, 3) array of
+        coordinates in metres (with optional ``labels``, one class code per point) or an Open3D
+        point cloud."""
+        cloud = as_point_cloud(cloud, labels)
         sal, stats = self.saliency(cloud)
         classes = self.classes if cloud.labels is not None else UNLABELED
-        labels = cloud.labels if cloud.labels is not None else np.zeros(len(cloud), np.int64)
-        metadata = {
-            "lidar_sig_version": __version__,
-            "source": cloud.path,
-            "descriptor": self.descriptor.name,
-            "descriptor_params": self.descriptor.params(),
-            "strategy": self.strategy.name,
-            "scales": self.scales.describe(),
-            "max_neighbors": self.max_neighbors,
-            "min_neighbors": self.min_neighbors,
-            **stats,
-        }
-        signature = Signature.from_saliency(sal.values, classes.index(labels), classes=classes,
+        codes = cloud.labels if cloud.labels is not None else np.zeros(len(cloud), np.int64)
+        metadata = {"lidar_sig_version": __version__, "source": cloud.path,
+                    "scales": self.scales.describe(), "crs": cloud.crs, **stats}
+        signature = Signature.from_saliency(sal.values, classes.index(codes), classes=classes,
                                             frame=self.frame, egeom=sal.egeom, metadata=metadata)
         return Result(cloud, sal, signature, metadata)
+
+
+def as_point_cloud(cloud, labels=None):
+    """A PointCloud from what :meth:`Pipeline.run` accepts (see there)."""
+    if isinstance(cloud, PointCloud):
+        if labels is not None:
+            raise LidarSigError("labels are given with a PointCloud: set PointCloud.labels instead")
+        return cloud
+    if is_open3d(cloud):
+        return from_open3d(cloud)
+    if isinstance(cloud, np.ndarray):
+        return PointCloud(cloud, labels)
+    if isinstance(cloud, (str, Path)):
+        from .io import read
+
+        return read(cloud)
+    raise LidarSigError(f"cannot run on a {type(cloud).__name__}; give a PointCloud, a file path, an "
+                        "(N, 3) numpy array or an Open3D point cloud")
 
 
 def _fmt(values):

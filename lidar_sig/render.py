@@ -8,7 +8,7 @@ from .io.atomic import atomic_output
 from .signature import to_uint8
 
 
-def signature_image(signature, kind="sas", mode="density"):
+def signature_image(signature, kind="sas", mode="smooth"):
     """(H, W, 3) uint8 picture of Sas or Sg: white outside the triangle, vertices labelled.
 
     Sg is drawn dark on white (1 - Sg), like Sas.
@@ -26,7 +26,7 @@ def signature_image(signature, kind="sas", mode="density"):
     return np.asarray(pil)
 
 
-def write_signature_png(path, signature, *, kind="sas", mode="density", overwrite=False):
+def write_signature_png(path, signature, *, kind="sas", mode="smooth", overwrite=False):
     """Write Sas (default) or Sg of ``signature`` as a PNG file."""
     with atomic_output(path, overwrite=overwrite) as tmp:
         Image.fromarray(signature_image(signature, kind, mode)).save(tmp, format="PNG")

@@ -1,4 +1,10 @@
-"""Scales of a run: spherical radii (metric or normalized) or k-nearest counts (SPEC 2)."""
+"""Scales of a run: k-nearest counts or spherical radii, metric or normalized (SPEC 2).
+
+Metric radii are metres (a survey in feet is converted, see :mod:`lidar_sig.crs`). Normalized
+radii are the paper's: r_n times half the longest side of the cloud's axis-aligned bounding box.
+They make a result independent of the unit but not of rotation or of how the tile was cut: the
+box turns and changes with the cloud.
+"""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -7,15 +13,20 @@ import numpy as np
 
 from .errors import LidarSigError
 
-UNITS = ("normalized", "metric")
+UNITS = ("metric", "normalized")
+#: Largest radius accepted: 100 km (metric), ten half-sides (normalized: far beyond the cloud).
+MAX_RADIUS = {"metric": 1e5, "normalized": 10.0}
+#: Largest k accepted (a neighbourhood of k points is held per query point).
+MAX_K = 100_000
 
 
 @dataclass(frozen=True)
 class Scales:
     """The scales of one run, sorted ascending.
 
-    kind is ``"radius"`` (spherical neighbourhoods, ``values`` in ``units``) or ``"knn"``
-    (``values`` are neighbour counts k, x_i included).
+    kind is ``"radius"`` (spherical neighbourhoods, ``values`` in ``units``: ``"metric"``,
+    metres, or ``"normalized"``) or ``"knn"`` (``values`` are neighbour counts k, x_i included,
+    extended to every point tied with the k-th).
     """
 
     kind: str
@@ -30,13 +41,22 @@ class Scales:
         if self.kind == "radius":
             if self.units not in UNITS:
                 raise LidarSigError(f"radius units must be one of {UNITS}, got {self.units!r}")
-            vals = tuple(sorted(float(v) for v in self.values))
-            if not all(np.isfinite(v) and v > 0 for v in vals):
-                raise LidarSigError(f"radii must be positive numbers, got {self.values}")
+            try:
+                vals = tuple(sorted(float(v) for v in self.values))
+            except (TypeError, ValueError):
+                raise LidarSigError(f"radii must be numbers, got {self.values}") from None
+            limit = MAX_RADIUS[self.units]
+            if not all(np.isfinite(v) and 0 < v <= limit for v in vals):
+                raise LidarSigError(f"{self.units} radii must be positive and at most {limit:g}, got "
+                                    f"{self.values}")
         else:
-            vals = tuple(sorted(int(v) for v in self.values))
-            if any(v < 2 or v != float(w) for v, w in zip(vals, sorted(self.values))):
-                raise LidarSigError(f"k must be whole numbers >= 2, got {self.values}")
+            try:
+                vals = tuple(sorted(float(v) for v in self.values))
+            except (TypeError, ValueError):
+                raise LidarSigError(f"k must be whole numbers, got {self.values}") from None
+            if not all(np.isfinite(v) and v == int(v) and 2 <= v <= MAX_K for v in vals):
+                raise LidarSigError(f"k must be whole numbers from 2 to {MAX_K:,}, got {self.values}")
+            vals = tuple(int(v) for v in vals)
         if len(set(vals)) != len(vals):
             raise LidarSigError(f"scales must be distinct, got {self.values}")
         object.__setattr__(self, "values", vals)
@@ -44,29 +64,35 @@ class Scales:
     def __len__(self):
         return len(self.values)
 
-    def resolve(self, cloud):
-        """Scales in the cloud's coordinate units: radii as float64, k as int64.
+    def resolve(self, xyz):
+        """Scales for coordinates ``xyz`` in metres (:meth:`PointCloud.metric_xyz`): radii in
+        metres as float64, k as int64.
 
         A normalized radius r_n becomes r_n times half the longest bounding-box side
         (paper, footnote on scales; SPEC 2).
         """
         if self.kind == "knn":
             return np.asarray(self.values, dtype=np.int64)
-        factor = cloud.half_longest_side if self.units == "normalized" else 1.0
+        factor = 1.0
+        if self.units == "normalized":
+            factor = float((xyz.max(axis=0) - xyz.min(axis=0)).max()) / 2.0
         return np.asarray(self.values, dtype=np.float64) * factor
 
     def describe(self):
         """Short human-readable text, e.g. ``radii 0.009, 0.01, 0.011 (normalized)``."""
         if self.kind == "knn":
             return "k " + ", ".join(str(v) for v in self.values)
-        return "radii " + ", ".join(f"{v:g}" for v in self.values) + f" ({self.units})"
+        unit = " m" if self.units == "metric" else " (normalized)"
+        return "radii " + ", ".join(f"{v:g}" for v in self.values) + unit
 
 
-def radii(*values, units="normalized"):
-    """Spherical scales; the paper's Multiscale default is ``radii(0.009, 0.010, 0.011)``."""
+def radii(*values, units="metric"):
+    """Spherical scales, in metres or ``units="normalized"`` (the paper's Multiscale setting is
+    ``radii(0.009, 0.010, 0.011, units="normalized")``)."""
     return Scales("radius", tuple(values), units)
 
 
 def knn(*values):
-    """k-nearest scales; the paper's Optimal-scale default is ``knn(*range(10, 101, 10))``."""
+    """k-nearest scales (x_i included); the package's Multiscale default is ``knn(20, 30, 40)``,
+    the paper's Optimal-scale setting ``knn(*range(10, 101, 10))``."""
     return Scales("knn", tuple(values))

@@ -3,6 +3,18 @@
 A signature's lossless core is ``counts[class, y, x]``, the number of points of each semantic
 class whose saliency map falls in each pixel of a fixed reference triangle; every rendering and
 metric is a deterministic function of it. Rasters are additive over disjoint tiles.
+
+Renderings (``RENDERINGS``), chosen by the ordering benchmark (docs/comparison.md):
+
+- ``"smooth"`` (default): a kernel density estimate of the saliency maps in the triangle. The
+  count rasters are smoothed by a Gaussian of standard deviation ``SMOOTH_BANDWIDTH`` (in
+  barycentric units, a fraction of the triangle's side: 6 px at 512 px). Sg is the
+  :func:`transfer` of each pixel's smoothed share of the points; Sas is the smoothed class
+  mixture's colour at full strength wherever the smoothed share reaches ``SMOOTH_FLOOR``, white
+  elsewhere. A random thinning changes neither much, whereas it empties and shades the sparse
+  pixels of the two per-pixel renderings.
+- ``"points"``: the paper's: a pixel is set where any point falls, in its classes' mean colour.
+- ``"density"``: the per-pixel share through :func:`transfer`, Sas shaded by it.
 """
 from __future__ import annotations
 
@@ -18,6 +30,12 @@ from .saliency import LN3, geometric_entropy
 #: at which a pixel saturates.
 DENSITY_REF = 1e-6
 DENSITY_SAT = 1e-2
+#: Renderings of Sg and Sas (module docstring); the first is the default.
+RENDERINGS = ("smooth", "points", "density")
+#: Standard deviation of the "smooth" rendering's Gaussian, as a fraction of the triangle's side.
+SMOOTH_BANDWIDTH = 0.0125
+#: Smoothed share of the points under which a pixel of the "smooth" Sas stays white.
+SMOOTH_FLOOR = 1e-6
 
 
 @dataclass(frozen=True)
@@ -100,6 +118,10 @@ class Signature:
         Points left out because their saliency is undefined at every scale.
     metadata : dict
         Descriptor, strategy, scales and sources that made it.
+    class_totals : (C,) int64
+        Points of each class in the whole cloud, those with undefined saliency included: a
+        point's class does not depend on its saliency (the semantic metrics use these).
+        Defaults to ``class_counts``.
     """
 
     counts: np.ndarray
@@ -108,6 +130,11 @@ class Signature:
     egeom_counts: np.ndarray
     n_undefined: int = 0
     metadata: dict = field(default_factory=dict)
+    class_totals: np.ndarray = None
+
+    def __post_init__(self):
+        if self.class_totals is None:
+            self.class_totals = self.class_counts
 
     @classmethod
     def from_saliency(cls, sal, class_index, *, classes, frame=None, egeom=None, egeom_bins=100,
@@ -127,7 +154,9 @@ class Signature:
         if egeom is None:
             egeom = geometric_entropy(sal)
         hist, _ = np.histogram(np.asarray(egeom)[ok], bins=egeom_bins, range=(0.0, LN3))
-        return cls(counts, frame, classes, hist.astype(np.int64), int((~ok).sum()), dict(metadata or {}))
+        totals = np.bincount(np.asarray(class_index), minlength=n_classes).astype(np.int64)
+        return cls(counts, frame, classes, hist.astype(np.int64), int((~ok).sum()), dict(metadata or {}),
+                   totals)
 
     @property
     def n_points(self):
@@ -144,31 +173,40 @@ class Signature:
         """(H, W) points per pixel, all classes."""
         return self.counts.sum(axis=0)
 
-    def sg(self, mode="density"):
-        """Geometric signature Sg, (H, W) float64 in [0, 1] (SPEC 5).
+    def sg(self, mode="smooth"):
+        """Geometric signature Sg, (H, W) float64 in [0, 1] (SPEC 5); ``mode`` one of
+        :data:`RENDERINGS` (module docstring)."""
+        return self.render(mode)[0]
 
-        ``"density"``: :func:`transfer` of each pixel's share of points (default).
-        ``"points"``: 1 where any point falls (the paper's rendering), else 0.
-        """
-        total = self.total
-        if mode == "points":
-            return (total > 0).astype(np.float64)
-        if mode != "density":
-            raise LidarSigError(f"unknown Sg mode {mode!r}; use 'density' or 'points'")
-        return transfer(total / max(self.n_points, 1))
-
-    def sas(self, mode="density"):
+    def sas(self, mode="smooth"):
         """Augmented semantic signature Sas, (H, W, 3) float64 RGB in [0, 1] (SPEC 5).
 
-        Each pixel is the count-weighted mean colour of its classes, blended over a white
-        background by the Sg intensity (white where no point falls), so no class hides another
-        by drawing order.
+        Each pixel shows the count-weighted mean colour of its classes (no class hides another
+        by drawing order), over a white background; ``mode`` as for :meth:`sg`.
         """
-        total = self.total
-        rgb = np.tensordot(self.counts, self.classes.class_colors, axes=([0], [0]))
+        return self.render(mode)[1]
+
+    def render(self, mode="smooth"):
+        """(Sg, Sas) in one pass; see :meth:`sg` and :meth:`sas`."""
+        if mode not in RENDERINGS:
+            raise LidarSigError(f"unknown rendering {mode!r}; use one of {', '.join(RENDERINGS)}")
+        counts = self.counts
+        if mode == "smooth":
+            counts = smooth_counts(counts, self.frame)
+        total = counts.sum(axis=0)
+        share = total / max(self.n_points, 1)
+        rgb = np.tensordot(counts, self.classes.class_colors, axes=([0], [0]))
         with np.errstate(invalid="ignore", divide="ignore"):
             mean = np.where(total[..., None] > 0, rgb / total[..., None], 1.0)
-        return 1.0 - self.sg(mode)[..., None] * (1.0 - mean)
+        if mode == "points":
+            sg = (total > 0).astype(np.float64)
+        else:
+            sg = transfer(share)
+        if mode == "smooth":
+            sas = np.where((share >= SMOOTH_FLOOR)[..., None], mean, 1.0)
+        else:
+            sas = 1.0 - sg[..., None] * (1.0 - mean)
+        return sg, sas
 
     def check_comparable(self, other):
         """Raise LidarSigError unless frames, class tables and Egeom bins agree (SPEC 5)."""
@@ -180,13 +218,63 @@ class Signature:
                                 f"{other.classes.name!r}); make both with the same --classes")
         if len(self.egeom_counts) != len(other.egeom_counts):
             raise LidarSigError("signatures have different Egeom histogram bins")
+        differ = method_differences(self.metadata, other.metadata)
+        if differ:
+            raise LidarSigError("signatures made with different methods are not comparable ("
+                                + "; ".join(differ) + "); make both with the same settings")
 
     def __add__(self, other):
         """Signature of the union of two disjoint clouds (counts are additive)."""
         self.check_comparable(other)
         return Signature(self.counts + other.counts, self.frame, self.classes,
                          self.egeom_counts + other.egeom_counts,
-                         self.n_undefined + other.n_undefined, dict(self.metadata))
+                         self.n_undefined + other.n_undefined, dict(self.metadata),
+                         self.class_totals + other.class_totals)
+
+
+#: Settings that make a signature; two signatures compare only when these agree.
+METHOD_KEYS = ("descriptor", "descriptor_params", "strategy", "scale_kind", "scale_values",
+               "scale_units", "weights", "max_neighbors", "min_neighbors")
+
+
+def method_differences(a, b):
+    """What differs between the methods recorded in two signatures' metadata, as
+    ``"strategy multiscale / optimal"`` texts; settings either lacks are not compared, nor the
+    neighbourhood cap where the scales are k-nearest (it then plays no part)."""
+    out = []
+    for key in METHOD_KEYS:
+        if key not in a or key not in b:
+            continue
+        if key == "max_neighbors" and a.get("scale_kind") == b.get("scale_kind") == "knn":
+            continue
+        va, vb = a[key], b[key]
+        if key == "scale_values":
+            va, vb = [float(v) for v in va], [float(v) for v in vb]
+        if va != vb:
+            out.append(f"{key.replace('_', ' ')} {_show(va)} / {_show(vb)}")
+    return out
+
+
+def _show(value):
+    if isinstance(value, (list, tuple)):
+        return ",".join(f"{v:g}" for v in value)
+    if isinstance(value, dict):
+        return ",".join(f"{k}={v}" for k, v in sorted(value.items())) or "{}"
+    return str(value)
+
+
+def smooth_counts(counts, frame, bandwidth=SMOOTH_BANDWIDTH):
+    """(C, H, W) float64: each class raster convolved with a Gaussian of standard deviation
+    ``bandwidth`` times the triangle's side in pixels (zero beyond the image, truncated at four
+    standard deviations); empty classes stay zero."""
+    from scipy.ndimage import gaussian_filter
+
+    v = frame.vertices
+    sigma = bandwidth * (v[1, 0] - v[2, 0])
+    out = np.zeros(counts.shape)
+    for k in np.flatnonzero(counts.reshape(len(counts), -1).any(axis=1)):
+        out[k] = gaussian_filter(counts[k].astype(np.float64), sigma, mode="constant", truncate=4.0)
+    return out
 
 
 def to_uint8(image):

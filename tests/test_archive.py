@@ -102,5 +102,5 @@ def test_compare_refuses_archive_with_another_class_table(tmp_path):
     ls.Pipeline(scales=ls.knn(10, 20)).run(SAMPLES / "epoch1.laz").write(arc)
     proc = _cli("compare", arc, SAMPLES / "epoch2.laz", "--classes", "paper", "--k", "10,20")
     assert proc.returncode == 2
-    assert "different class tables" in proc.stderr and "--classes" in proc.stderr
+    assert "class table 'asprs'" in proc.stderr and "--classes" in proc.stderr
     assert "Traceback" not in proc.stderr

@@ -55,17 +55,18 @@ def test_compare_file_with_itself_gives_zero_distances():
     assert out["kl"] == out["l1"] == 0.0
 
 
-def test_compare_warns_when_normalized_radii_differ():
+def test_compare_defaults_use_the_same_k_and_warn_only_for_normalized_radii():
     e1, e2 = SAMPLES / "epoch1.laz", SAMPLES / "epoch2.laz"
     proc = run("compare", e1, e2, "--json")
     assert proc.returncode == 0, proc.stderr
-    assert "--units metric" in proc.stderr
     out = json.loads(proc.stdout)
+    assert out["a"]["scales"] == out["b"]["scales"] == [20, 30, 40] and out["warnings"] == []
+    assert proc.stderr == ""
+    # the paper's normalized radii follow each cloud's bounding box: the epochs differ in extent
+    paper = run("compare", e1, e2, "--json", "--units", "normalized", "--radii", "0.009,0.010,0.011")
+    out = json.loads(paper.stdout)
     assert out["a"]["scales"] != out["b"]["scales"]
-    metric = json.loads(run("compare", e1, e2, "--json", "--units", "metric",
-                            "--radii", "0.5,0.6,0.7").stdout)
-    assert metric["a"]["scales"] == metric["b"]["scales"] == [0.5, 0.6, 0.7]
-    assert metric["warnings"] == []
+    assert any("normalized radii" in w for w in out["warnings"]) and "normalized radii" in paper.stderr
 
 
 def test_saliency_writes_laz_and_refuses_existing_output(tmp_path):

@@ -48,17 +48,41 @@ def test_signature_is_independent_of_point_order():
     assert np.array_equal(_sig(sal, labels).counts, _sig(sal[order], labels[order]).counts)
 
 
-def test_density_rendering_ignores_point_count_points_mode_marks_pixels():
+@pytest.mark.parametrize("mode", ["smooth", "density"])
+def test_share_renderings_ignore_point_count(mode):
     rng = np.random.default_rng(3)
     sal = rng.dirichlet([1, 2, 1], 2000)
     labels = rng.choice([2, 6], 2000)
     one = _sig(sal, labels)
     twice = _sig(np.vstack([sal, sal]), np.concatenate([labels, labels]))
-    np.testing.assert_allclose(one.sg(), twice.sg())
-    np.testing.assert_allclose(one.sas(), twice.sas())
-    assert set(np.unique(one.sg("points"))) == {0.0, 1.0}
-    assert (one.sg() > 0).sum() == (one.sg("points") > 0).sum()
-    assert one.sg().max() <= 1 and one.sas().min() >= 0
+    np.testing.assert_allclose(one.sg(mode), twice.sg(mode))
+    np.testing.assert_allclose(one.sas(mode), twice.sas(mode))
+    assert one.sg(mode).max() <= 1 and one.sas(mode).min() >= 0
+
+
+def test_points_rendering_marks_occupied_pixels_and_smooth_covers_them():
+    rng = np.random.default_rng(3)
+    sig = _sig(rng.dirichlet([1, 2, 1], 2000), rng.choice([2, 6], 2000))
+    occupied = sig.total > 0
+    assert set(np.unique(sig.sg("points"))) == {0.0, 1.0}
+    assert np.array_equal(sig.sg("points") > 0, occupied)
+    assert np.array_equal(sig.sg("density") > 0, occupied)
+    # the smoothed density spreads each point over its neighbourhood: every occupied pixel and
+    # more are lit, and Sas is coloured wherever the smoothed share reaches the floor
+    assert (sig.sg("smooth")[occupied] > 0).all() and (sig.sg("smooth") > 0).sum() > occupied.sum()
+    coloured = (sig.sas("smooth") < 1).any(axis=2)
+    assert coloured[occupied].mean() > 0.99 and coloured.sum() > occupied.sum()
+
+
+def test_smooth_rendering_is_robust_to_thinning():
+    # the reason it is the default: a random half of the points changes the smoothed Sg far
+    # less than the per-pixel renderings (relative L1 difference of the images)
+    rng = np.random.default_rng(4)
+    sal = rng.dirichlet([0.6, 3, 0.5], 20000)
+    labels = rng.choice([2, 6], 20000)
+    full, half = _sig(sal, labels), _sig(sal[::2], labels[::2])
+    change = {m: np.abs(full.sg(m) - half.sg(m)).sum() / full.sg(m).sum() for m in ("smooth", "points", "density")}
+    assert change["smooth"] < 0.5 * min(change["points"], change["density"])
 
 
 def test_sas_mixes_class_colours_by_count():
@@ -67,8 +91,10 @@ def test_sas_mixes_class_colours_by_count():
     r, c = Frame().pixels(sal[:1])
     colors = PAPER.class_colors
     mean = (3 * colors[1] + colors[0]) / 4  # building x3, tree x1
-    v = sig.sg()[r[0], c[0]]
-    np.testing.assert_allclose(sig.sas()[r[0], c[0]], 1 - v * (1 - mean))
+    v = sig.sg("density")[r[0], c[0]]
+    np.testing.assert_allclose(sig.sas("density")[r[0], c[0]], 1 - v * (1 - mean))
+    np.testing.assert_allclose(sig.sas("points")[r[0], c[0]], mean)
+    np.testing.assert_allclose(sig.sas("smooth")[r[0], c[0]], mean)  # full strength
 
 
 def test_class_tables_map_codes_and_other():

@@ -1,14 +1,12 @@
-"""`lidar-sig compare`: every metric between the signatures of two clouds."""
+"""`lidar-sig compare`: every metric between the signatures of two clouds or archives."""
 import json
-from pathlib import Path
 
 import click
 
-from ..io import HDF5_EXTENSIONS, load_signature, read
-from ..metrics import compare as compare_signatures
+from ..comparison import compare_sources
 from . import cli
-from .options import columns_option, pipeline_options
-from .report import run_summary
+from .options import columns_option, pipeline_options, render_option
+from .report import archive_summary_line, run_summary
 
 # (key, paper name, what it says)
 METRICS = (
@@ -20,65 +18,33 @@ METRICS = (
     ("kl", "delta_KL", "symmetric KL divergence of class distributions, 0 = same"),
     ("l1", "L1", "L1 distance of class distributions, 0 = same"),
 )
-# Normalized radii resolve against each cloud's extent; warn when they differ by more than this.
-RADII_TOLERANCE = 0.10
 
 
 @cli.command()
 @click.argument("a")
 @click.argument("b")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object on stdout.")
+@render_option
 @columns_option
 @pipeline_options
-def compare(a, b, as_json, columns, pipeline, quiet):
-    """Compare the signatures of A and B (point-cloud files or signature archives, in any mix)."""
-    paths = [a, b]
-    is_archive = [Path(p).suffix.lower() in HDF5_EXTENSIONS for p in paths]
-    clouds = [None if arch else read(p, columns=columns) for p, arch in zip(paths, is_archive)]
-    notes = []
-    loaded = [c for c in clouds if c is not None]
-    if len(loaded) == 2 and any(c.labels is None for c in loaded):
-        for c in loaded:  # both unlabeled: one class each, so the signatures stay comparable
-            c.labels = None
-    sigs, meta, lines = [], [], []
-    for path, cloud in zip(paths, clouds):
-        if cloud is None:
-            sig = load_signature(path)
-            sigs.append(sig)
-            meta.append(sig.metadata)
-            lines.append(f"{path}: archive of {sig.n_points:,} points, {sig.metadata.get('descriptor', '?')} "
-                         f"{sig.metadata.get('strategy', '?')}, {sig.metadata.get('scales', '?')}")
-        else:
-            result = pipeline.run(cloud)
-            sigs.append(result.signature)
-            meta.append(result.metadata)
-            lines.append(run_summary(path, result))
-    metrics = compare_signatures(sigs[0], sigs[1])
-    if metrics["kl"] is None:
-        notes.append("semantic metrics (kl, l1) need class labels in both clouds; comparing geometry only")
-    scales = [m.get("resolved_scales") for m in meta]
-    if (all(m.get("scale_kind") == "radius" and m.get("scale_units") == "normalized" for m in meta)
-            and all(s is not None for s in scales)):
-        ra, rb = scales[0][-1], scales[1][-1]
-        if max(ra, rb) > (1 + RADII_TOLERANCE) * min(ra, rb):
-            notes.append(f"normalized radii resolve to different metric radii ({ra:.4g} in A, "
-                         f"{rb:.4g} in B: {abs(ra / rb - 1):.0%} apart) because the clouds differ in "
-                         "extent; for the same neighbourhoods use --units metric --radii R1,R2,R3")
-    for note in notes:
+def compare(a, b, as_json, render, columns, pipeline, method_given, quiet):
+    """Compare the signatures of A and B (point-cloud files or signature archives, in any mix).
+
+    Both are made the same way: two clouds with the same method; a cloud compared with an
+    archive the archive's way; two archives must record the same method.
+    """
+    result = compare_sources(a, b, pipeline, render=render, columns=columns, method_given=method_given)
+    for note in result.warnings:
         click.echo(f"lidar-sig: warning: {note}", err=True)
     if as_json:
-        out = dict(metrics)
-        for key, path, m in zip("ab", paths, meta):
-            out[key] = {"path": path, "points": int(m.get("n_points", 0)), "undefined": int(m.get("n_undefined", 0)),
-                        "capped": int(m.get("n_capped", 0)), "scales": list(m.get("resolved_scales", [])),
-                        "scale_kind": m.get("scale_kind"), "scale_units": m.get("scale_units") or "k"}
-        out.update(descriptor=meta[0].get("descriptor"), strategy=meta[0].get("strategy"), warnings=notes)
-        click.echo(json.dumps(out))
+        click.echo(json.dumps(result.to_dict()))
         return
-    click.echo("A " + lines[0])
-    click.echo("B " + lines[1])
+    for label, side in (("A", result.a), ("B", result.b)):
+        line = run_summary(side.name, side.result) if side.result is not None else archive_summary_line(side)
+        click.echo(f"{label} {line}")
+    click.echo(f"  rendering {result.render}")
     click.echo("")
     for key, name, what in METRICS:
-        value = metrics[key]
+        value = result.metrics[key]
         shown = "n/a" if value is None else f"{value:.4f}"
         click.echo(f"  {name:<11} {shown:>8}   {what}")

@@ -1,75 +1,104 @@
-"""Options shared by the commands: descriptor, strategy, scales, classes, output."""
+"""Options shared by the commands: descriptor, strategy, scales, weights, classes, rendering."""
 from __future__ import annotations
 
 import functools
+import math
 
 import click
 
 from ..errors import LidarSigError
+from ..neighbors import WEIGHTS
 from ..pipeline import Pipeline
-from ..scales import knn, radii
+from ..scales import knn
+from ..scales import radii as make_radii
+from ..signature import RENDERINGS
+
+# Method options: None when not given, so that a command can tell what the user asked for (an
+# archive compared with a cloud brings its own method).
+METHOD_OPTIONS = ("descriptor", "strategy", "radii", "units", "k", "weights", "max_neighbors", "classes")
 
 
-def _floats(text, what):
+def _numbers(text, option):
+    """Comma-separated finite numbers of an option value; refuses empty or non-finite lists."""
     try:
-        return [float(v) for v in text.split(",") if v.strip()]
+        values = [float(v) for v in text.split(",") if v.strip()]
     except ValueError:
-        raise LidarSigError(f"{what} must be comma-separated numbers, got {text!r}") from None
+        raise LidarSigError(f"{option} must be comma-separated numbers, got {text!r}") from None
+    if not values:
+        raise LidarSigError(f"{option} needs at least one value, got {text!r}")
+    if not all(math.isfinite(v) for v in values):
+        raise LidarSigError(f"{option} must be finite numbers, got {text!r}")
+    return values
 
 
 def pipeline_options(func):
-    """Decorate a command with the method options; it receives ``pipeline`` instead."""
+    """Decorate a command with the method options; it receives ``pipeline`` (built from them)
+    and ``method_given`` (the names of those the user gave)."""
     opts = [
-        click.option("--descriptor", default="c3dcm", show_default=True,
-                     help="Local geometric descriptor (see `lidar-sig plugins`)."),
-        click.option("--strategy", default="multiscale", show_default=True,
-                     help="Scale strategy: multiscale or optimal."),
-        click.option("--radii", default=None,
-                     help="Spherical scales, comma-separated [default: 0.009,0.010,0.011 normalized "
-                          "for multiscale]."),
-        click.option("--units", type=click.Choice(["normalized", "metric"]), default=None,
-                     help="Units of --radii: normalized (half the longest bounding-box side is 1, "
-                          "the paper's choice) or metric (file units) [default: normalized]."),
+        click.option("--descriptor", default=None,
+                     help="Local geometric descriptor: c3dcm, t3dvt, t3dvt-get or a plugin (see "
+                          "`lidar-sig plugins`) [default: c3dcm]."),
+        click.option("--strategy", default=None,
+                     help="Scale strategy: multiscale or optimal [default: multiscale]."),
         click.option("--k", "k", default=None,
-                     help="k-nearest scales, comma-separated [default: 10,20,...,100 for optimal]."),
-        click.option("--max-neighbors", default=512, show_default=True, type=click.IntRange(3),
-                     help="Cap of a spherical neighbourhood (nearest first)."),
-        click.option("--classes", default="asprs", show_default=True,
+                     help="k-nearest scales, comma-separated [default: 20,30,40 for multiscale, "
+                          "10,20,...,100 for optimal]."),
+        click.option("--radii", default=None,
+                     help="Spherical scales instead of --k, comma-separated, in metres (converted "
+                          "to the file's unit from its CRS) or --units normalized."),
+        click.option("--units", type=click.Choice(["metric", "normalized"]), default=None,
+                     help="Units of --radii: metric (metres) or normalized (the paper's: half the "
+                          "longest bounding-box side is 1; not rotation invariant) [default: metric]."),
+        click.option("--weights", type=click.Choice(WEIGHTS), default=None,
+                     help="Neighbours count by the area they stand for, or equally (the paper's) "
+                          "[default: area]."),
+        click.option("--max-neighbors", default=None, type=click.IntRange(3, 100_000),
+                     help="Cap of a spherical neighbourhood, nearest first [default: 512]."),
+        click.option("--classes", default=None,
                      help="Class table for the augmented signature: asprs, paper, isprs-vaihingen, "
-                          "or a .toml/.json file (see docs/method.md)."),
+                          "or a .toml/.json file (see docs/method.md) [default: asprs]."),
         click.option("-q", "--quiet", is_flag=True, help="No progress bars or summaries."),
     ]
 
     @functools.wraps(func)
-    def wrapper(descriptor, strategy, radii, units, k, max_neighbors, classes, quiet, **kwargs):
-        pipeline = make_pipeline(descriptor, strategy, radii, units, k, max_neighbors, classes, quiet)
-        return func(pipeline=pipeline, quiet=quiet, **kwargs)
+    def wrapper(quiet, **kwargs):
+        method = {name: kwargs.pop(name) for name in METHOD_OPTIONS}
+        pipeline = make_pipeline(**method, quiet=quiet)
+        given = {name for name, value in method.items() if value is not None}
+        return func(pipeline=pipeline, method_given=given, quiet=quiet, **kwargs)
 
     for opt in reversed(opts):
         wrapper = opt(wrapper)
     return wrapper
 
 
-def make_pipeline(descriptor, strategy, radii_text, units, k_text, max_neighbors, classes, quiet):
-    """A Pipeline from command-line option values."""
-    if radii_text and k_text:
+def make_pipeline(descriptor=None, strategy=None, radii=None, units=None, k=None, weights=None,
+                  max_neighbors=None, classes=None, quiet=False):
+    """A Pipeline from command-line option values (None: the default)."""
+    if radii is not None and k is not None:
         raise LidarSigError("give either --radii or --k, not both")
-    if units and not radii_text:
-        raise LidarSigError(f"--units {units} needs --radii in those units (e.g. --units metric "
-                            "--radii 0.5,0.75,1.0)")
+    if units and radii is None:
+        raise LidarSigError(f"--units {units} needs --radii in those units (e.g. --units {units} "
+                            "--radii 1.0,1.1,1.2)")
     scales = None
-    if radii_text:
-        scales = radii(*_floats(radii_text, "--radii"), units=units or "normalized")
-    elif k_text:
-        values = _floats(k_text, "--k")
-        if any(v != int(v) for v in values):
-            raise LidarSigError(f"--k must be whole numbers, got {k_text!r}")
+    if radii is not None:
+        scales = make_radii(*_numbers(radii, "--radii"), units=units or "metric")
+    elif k is not None:
+        values = _numbers(k, "--k")
+        if any(v != int(v) or v < 2 for v in values):
+            raise LidarSigError(f"--k must be whole numbers >= 2, got {k!r}")
         scales = knn(*[int(v) for v in values])
-    return Pipeline(descriptor, strategy, scales, max_neighbors=max_neighbors, classes=classes,
-                    progress=False if quiet else None)
+    extra = {} if max_neighbors is None else {"max_neighbors": max_neighbors}
+    return Pipeline(descriptor or "c3dcm", strategy or "multiscale", scales, weights=weights or "area",
+                    classes=classes or "asprs", progress=False if quiet else None, **extra)
 
 
 overwrite_option = click.option("--overwrite", is_flag=True, help="Replace an existing output file.")
+
+render_option = click.option(
+    "--render", type=click.Choice(RENDERINGS), default=None,
+    help="Rendering of Sg and Sas: smooth (a density estimate, robust to sampling), points (the "
+         "paper's) or density (per-pixel shares) [default: smooth].")
 
 
 def _columns(ctx, param, value):

@@ -2,17 +2,32 @@
 import click
 
 
+def _scales_text(m):
+    if m["scale_kind"] == "knn":
+        return "k " + ", ".join(str(int(v)) for v in m["resolved_scales"])
+    return "radii " + ", ".join(f"{v:.4g}" for v in m["resolved_scales"]) + " m"
+
+
 def run_summary(source, result):
-    """One line: points, undefined, capped, scales in file units."""
+    """One line: points, method, scales, units, undefined, capped and duplicate counts."""
     m = result.metadata
-    unit = "" if m["scale_kind"] == "knn" else " (file units)"
-    scales = ", ".join(f"{v:.4g}" for v in m["resolved_scales"])
-    text = (f"{source}: {m['n_points']:,} points, {m['descriptor']} {m['strategy']}, "
-            f"{'k' if m['scale_kind'] == 'knn' else 'radii'} {scales}{unit}; "
-            f"{m['n_undefined']:,} undefined (excluded)")
+    text = (f"{source}: {m['n_points']:,} points, {m['descriptor']} {m['strategy']}, {_scales_text(m)}, "
+            f"{m['weights']} weights, units {m['units']}; {m['n_undefined']:,} undefined")
+    if m["n_undefined"]:
+        text += " (left out of the signature)"
     if m["n_capped"]:
         text += f", {m['n_capped']:,} neighbourhoods capped at {m['max_neighbors']}"
+    if m["n_duplicates"]:
+        text += f", {m['n_duplicates']:,} duplicate points (one location each)"
     return text
+
+
+def archive_summary_line(side):
+    """One line for an archive input of compare."""
+    m = side.signature.metadata
+    scales = _scales_text(m) if "resolved_scales" in m and "scale_kind" in m else m.get("scales", "?")
+    return (f"{side.name}: archive of {side.signature.n_points:,} points, {m.get('descriptor', '?')} "
+            f"{m.get('strategy', '?')}, {scales}, {m.get('weights', 'none')} weights")
 
 
 def echo_run(source, result):

@@ -18,7 +18,7 @@ from .report import echo_run
 @overwrite_option
 @columns_option
 @pipeline_options
-def saliency(source, output, overwrite, columns, pipeline, quiet):
+def saliency(source, output, overwrite, columns, pipeline, method_given, quiet):
     """Write SOURCE with per-point Cl, Cs, Cp, Egeom, GeomClass (and OptimalScale)."""
     if Path(output).suffix.lower() not in CLOUD_EXTENSIONS:
         raise LidarSigError(f"output must be a point cloud: {', '.join(CLOUD_EXTENSIONS)}", path=output)

@@ -7,7 +7,8 @@ from ..errors import LidarSigError
 from ..io import HDF5_EXTENSIONS, check_output, read
 from ..render import write_signature_png
 from . import cli
-from .options import columns_option, overwrite_option, pipeline_options
+from ..signature import RENDERINGS
+from .options import columns_option, overwrite_option, pipeline_options, render_option
 from .report import echo_run
 
 
@@ -18,12 +19,12 @@ from .report import echo_run
 @click.option("--png", "png_output", default=None, help="Also write Sas as PNG (with an .h5 output).")
 @click.option("--sg", "sg_output", default=None, help="Also write the geometric signature Sg as PNG.")
 @click.option("--no-points", is_flag=True, help="Leave the per-point datasets out of the archive.")
-@click.option("--mode", type=click.Choice(["density", "points"]), default="density", show_default=True,
-              help="Image rendering: per-pixel point share (density) or the paper's point marks.")
+@render_option
 @overwrite_option
 @columns_option
 @pipeline_options
-def signature(source, output, png_output, sg_output, no_points, mode, overwrite, columns, pipeline, quiet):
+def signature(source, output, png_output, sg_output, no_points, render, overwrite, columns, pipeline,
+              method_given, quiet):
     """Compute the signature of SOURCE; write it as an archive (.h5) and/or images (.png)."""
     ext = Path(output).suffix.lower()
     if ext not in HDF5_EXTENSIONS + (".png",):
@@ -34,15 +35,16 @@ def signature(source, output, png_output, sg_output, no_points, mode, overwrite,
             raise LidarSigError("signature images are written as .png", path=path)
     for path in [output] + images:
         check_output(path, overwrite=overwrite)
+    render = render or RENDERINGS[0]
     result = pipeline.run(read(source, columns=columns))
     if ext == ".png":
-        write_signature_png(output, result.signature, kind="sas", mode=mode, overwrite=overwrite)
+        write_signature_png(output, result.signature, kind="sas", mode=render, overwrite=overwrite)
     else:
-        result.write(output, overwrite=overwrite, points=not no_points)
+        result.write(output, overwrite=overwrite, points=not no_points, render=render)
     if png_output:
-        write_signature_png(png_output, result.signature, kind="sas", mode=mode, overwrite=overwrite)
+        write_signature_png(png_output, result.signature, kind="sas", mode=render, overwrite=overwrite)
     if sg_output:
-        write_signature_png(sg_output, result.signature, kind="sg", mode=mode, overwrite=overwrite)
+        write_signature_png(sg_output, result.signature, kind="sg", mode=render, overwrite=overwrite)
     if not quiet:
         echo_run(source, result)
         click.echo(f"wrote {', '.join([output] + images)}")

@@ -14,11 +14,14 @@ import numpy as np
 from ..classes import ClassTable
 from ..errors import LidarSigError
 from ..saliency import LN3
-from ..signature import Frame, Signature
+from ..signature import METHOD_KEYS, Frame, Signature
 from .atomic import atomic_output
 
 FORMAT = "lidar_sig signature archive"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
+# Root attributes copied from the signature's metadata, as text and as integers.
+_TEXT_ATTRS = ("descriptor", "strategy", "scales", "scale_kind", "scale_units", "weights", "units", "crs")
+_INT_ATTRS = ("n_points", "n_undefined", "n_capped", "n_duplicates", "max_neighbors", "min_neighbors")
 HDF5_EXTENSIONS = (".h5", ".hdf5")
 _GZIP = {"compression": "gzip", "compression_opts": 4, "shuffle": True}
 
@@ -40,10 +43,12 @@ def _dataset(group, name, data, description, units=None, compress=True):
     return ds
 
 
-def write_archive(path, signature, *, saliency=None, labels=None, sources=(), overwrite=False):
+def write_archive(path, signature, *, saliency=None, labels=None, sources=(), render="smooth",
+                  overwrite=False):
     """Write ``signature`` (and, if given, per-point ``saliency`` and ``labels``) to ``path``.
 
-    ``sources`` are the point-cloud files it was made from; their SHA-256 is recorded.
+    ``sources`` are the point-cloud files it was made from; their SHA-256 is recorded. The
+    stored Sg and Sas images are rendered as ``render``; the counts keep every rendering.
     """
     import h5py
 
@@ -57,23 +62,26 @@ def write_archive(path, signature, *, saliency=None, labels=None, sources=(), ov
             f.attrs["format_version"] = FORMAT_VERSION
             f.attrs["lidar_sig_version"] = __version__
             f.attrs["sources"] = json.dumps(source_list)
-            for key in ("descriptor", "strategy", "scales", "scale_kind", "scale_units"):
+            f.attrs["method"] = json.dumps({k: meta[k] for k in METHOD_KEYS if k in meta})
+            f.attrs["render"] = render
+            for key in _TEXT_ATTRS:
                 if meta.get(key) is not None:
                     f.attrs[key] = str(meta[key])
-            for key in ("n_points", "n_undefined", "n_capped", "max_neighbors", "min_neighbors"):
+            for key in _INT_ATTRS:
                 if key in meta:
                     f.attrs[key] = int(meta[key])
             if "resolved_scales" in meta:
                 f.attrs["resolved_scales"] = np.asarray(meta["resolved_scales"], dtype=np.float64)
-                f.attrs["resolved_scales_units"] = ("neighbours" if meta.get("scale_kind") == "knn"
-                                                    else "coordinate units of the source (metres)")
+                f.attrs["resolved_scales_units"] = "neighbours" if meta.get("scale_kind") == "knn" else "metres"
+            if "metres_per_unit" in meta:
+                f.attrs["metres_per_unit"] = np.asarray(meta["metres_per_unit"], dtype=np.float64)
             f.attrs["descriptor_params"] = json.dumps(meta.get("descriptor_params", {}))
-            _write_signature(f.create_group("signature"), signature)
+            _write_signature(f.create_group("signature"), signature, render)
             if saliency is not None:
                 _write_points(f.create_group("points"), saliency, labels)
 
 
-def _write_signature(g, sig):
+def _write_signature(g, sig, render):
     import h5py
 
     frame, classes = sig.frame, sig.classes
@@ -84,9 +92,11 @@ def _write_signature(g, sig):
     dtype = np.uint32 if sig.counts.max(initial=0) < 2**32 else np.uint64
     _dataset(g, "counts", sig.counts.astype(dtype),
              "points of each class (axis 0, class table order) per pixel (row, col)", "points")
-    _dataset(g, "sg", sig.sg().astype(np.float32), "geometric signature Sg, density rendering", "1")
-    _dataset(g, "sas", sig.sas().astype(np.float32),
-             "augmented semantic signature Sas, RGB, density rendering over white", "1")
+    sg, sas = sig.render(render)
+    _dataset(g, "sg", sg.astype(np.float32), f"geometric signature Sg, {render} rendering", "1")
+    _dataset(g, "sas", sas.astype(np.float32), f"augmented semantic signature Sas, RGB, {render} rendering", "1")
+    _dataset(g, "class_totals", sig.class_totals.astype(np.int64),
+             "points of each class in the cloud, undefined saliency included (semantic metrics)", "points")
     _dataset(g, "mask", frame.mask().astype(np.uint8), "1 for pixels of the reference triangle")
     tri = _dataset(g, "triangle", frame.vertices,
                    "reference triangle vertices V_l, V_s, V_p (line, surface, point) as (x, y)", "pixels")
@@ -176,10 +186,32 @@ def load_signature(path):
                                  colors=tuple(colors[:-1]))
             frame = Frame(int(g.attrs["frame_size"]), int(g.attrs["frame_margin"]))
             meta = {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in f.attrs.items()}
+            meta.update(_method(f.attrs))
+            totals = g["class_totals"][()].astype(np.int64) if "class_totals" in g else None
             return Signature(g["counts"][()].astype(np.int64), frame, classes,
-                             g["egeom_histogram"][()].astype(np.int64), int(g.attrs["n_undefined"]), meta)
+                             g["egeom_histogram"][()].astype(np.int64), int(g.attrs["n_undefined"]), meta,
+                             totals)
         except KeyError as exc:
             raise LidarSigError(f"archive lacks {exc}; it is damaged or incomplete", path=path) from None
+
+
+def _method(attrs):
+    """The method settings of an archive (METHOD_KEYS). Format 1 archives recorded them as
+    separate attributes, with the scales as text, and weighed neighbours equally."""
+    if "method" in attrs:
+        return json.loads(attrs["method"])
+    text = str(attrs.get("scales", ""))
+    values = [float(v) for v in text.split(" ", 1)[-1].split("(")[0].replace(",", " ").split()] if text else []
+    out = {"weights": "none", "descriptor_params": json.loads(attrs.get("descriptor_params", "{}"))}
+    for key in ("descriptor", "strategy", "scale_kind", "scale_units"):
+        if key in attrs:
+            out[key] = str(attrs[key])
+    for key in ("max_neighbors", "min_neighbors"):
+        if key in attrs:
+            out[key] = int(attrs[key])
+    if values:
+        out["scale_values"] = [int(v) for v in values] if out.get("scale_kind") == "knn" else values
+    return out
 
 
 def archive_summary(path):

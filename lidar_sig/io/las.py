@@ -16,6 +16,7 @@ import laspy
 import numpy as np
 
 from ..cloud import PointCloud
+from ..crs import las_crs, las_units
 from ..errors import LidarSigError, LidarSigWarning
 from .atomic import atomic_output
 
@@ -41,7 +42,6 @@ NO_DATA = {"f": np.nan, "u": 0}
 # LAS 1.0-1.3 point format -> the LAS 1.4 format with the same dimensions (and more).
 FORMAT_14 = {0: 6, 1: 6, 2: 7, 3: 7, 4: 9, 5: 10}
 SCAN_ANGLE_UNIT = 0.006  # degrees per step of the LAS 1.4 scan_angle dimension
-_VERTICAL_CS_KEY = 4096  # GeoTIFF VerticalCSTypeGeoKey
 
 
 def read_las(path):
@@ -60,7 +60,9 @@ def read_las(path):
     labels = np.asarray(las.classification, dtype=np.int64)
     if not labels.any():
         labels = None  # class 0 "created, never classified" everywhere: an unlabeled cloud
-    return PointCloud(xyz, labels, source=las, path=str(path), previous_outputs=lidar_sig_dims(las))
+    crs, units = las_units(las.header, path=path)
+    return PointCloud(xyz, labels, source=las, path=str(path), previous_outputs=lidar_sig_dims(las),
+                      crs=crs, units=units)
 
 
 def _reason(exc):
@@ -207,24 +209,10 @@ def upgrade_to_14(las):
 
 
 def _wkt_from_geotiff(header):
-    """OGC WKT 1 (as GDAL and PDAL write it) of the EPSG CRS in the GeoTIFF keys, or None.
-
-    The horizontal CRS is laspy's reading of the keys; a vertical EPSG code makes it compound.
-    """
-    import pyproj
-
-    try:
-        crs = header.parse_crs(prefer_wkt=False)
-        if crs is None:
-            return None
-        keys = {k.id: k.value_offset for k in header.vlrs.get("GeoKeyDirectoryVlr")[0].geo_keys}
-        vertical = keys.get(_VERTICAL_CS_KEY, 0)
-        if 1024 <= vertical <= 32766:  # the range of EPSG codes in GeoTIFF keys
-            crs = pyproj.crs.CompoundCRS(f"{crs.name} + {pyproj.CRS.from_epsg(vertical).name}",
-                                         [crs, pyproj.CRS.from_epsg(vertical)])
-        return crs.to_wkt(version="WKT1_GDAL")
-    except pyproj.exceptions.CRSError:
-        return None
+    """OGC WKT 1 (as GDAL and PDAL write it) of the CRS in the GeoTIFF keys, or None
+    (compound when a vertical EPSG code is given; see :func:`lidar_sig.crs.las_crs`)."""
+    crs = las_crs(header)
+    return crs.to_wkt(version="WKT1_GDAL") if crs is not None else None
 
 
 def _drop_copc(header):

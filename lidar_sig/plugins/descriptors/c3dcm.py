@@ -15,4 +15,4 @@ class C3DCM(Descriptor):
     summary = "covariance tensor of the neighbourhood (C3DCM)"
 
     def eigenvalues(self, batch):
-        return covariance_eigenvalues(batch.xyz, batch.rows, batch.idx, batch.counts)
+        return covariance_eigenvalues(batch.xyz, batch.rows, batch.idx, batch.counts, batch.weights)

@@ -41,7 +41,7 @@ class T3DVT(Descriptor):
         return {"delta": self.delta, "diffusion": self.diffusion}
 
     def eigenvalues(self, batch):
-        w = voting_eigenvalues(batch.xyz, batch.rows, batch.idx, batch.counts, batch.sigma)
+        w = voting_eigenvalues(batch.xyz, batch.rows, batch.idx, batch.counts, batch.sigma, batch.weights)
         if not self.diffusion:
             return w
         # eig(D) = exp(-w / delta): the order reverses, so the descending ones come from the

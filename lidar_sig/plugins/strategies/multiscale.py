@@ -3,19 +3,21 @@ import warnings
 
 import numpy as np
 
-from ...scales import radii
+from ...scales import knn
 from ..base import Strategy
 
 
 class Multiscale(Strategy):
     """Average of (Cl, Cs, Cp) over the scales where the saliency is defined.
 
-    Paper default: spherical radii 0.009, 0.010, 0.011 in normalized units.
+    Default scales: k = 20, 30, 40 nearest neighbours, chosen by the ordering benchmark
+    (docs/comparison.md); the paper's are spherical radii 0.009, 0.010, 0.011 in normalized
+    units, ``radii(0.009, 0.010, 0.011, units="normalized")``.
     """
 
     name = "multiscale"
-    summary = "average saliency over scales (paper: normalized radii 0.009, 0.010, 0.011)"
-    default_scales = radii(0.009, 0.010, 0.011, units="normalized")
+    summary = "average saliency over scales (default k = 20, 30, 40)"
+    default_scales = knn(20, 30, 40)
 
     def combine(self, per_scale):
         with warnings.catch_warnings():

@@ -13,7 +13,7 @@ class OptimalScale(Strategy):
     """
 
     name = "optimal"
-    summary = "saliency at the scale of minimum entropy (paper: k = 10, 20, ..., 100)"
+    summary = "saliency at the scale of minimum entropy (default k = 10, 20, ..., 100)"
     default_scales = knn(*range(10, 101, 10))
 
     def combine(self, per_scale):

@@ -1,0 +1,220 @@
+"""Comparing two clouds, or their archives, with one method (SPEC 6): `lidar-sig compare`.
+
+Both sides must be made the same way: two clouds are computed with one pipeline (the same k, or
+the same radii in metres); a cloud compared with an archive is computed the way the archive was
+made; two archives must record the same method, class table and frame. The image metrics render
+both signatures alike (the counts are lossless, so any rendering can be chosen afterwards).
+Warnings say what may make the figures mislead, and nothing else.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .cloud import PointCloud
+from .errors import LidarSigError
+from .metrics import compare as compare_signatures
+from .signature import RENDERINGS, Signature, method_differences
+
+#: Share of a cloud's points with undefined saliency above which compare warns.
+UNDEFINED_WARNING = 0.05
+#: Share of a cloud's points in classes the other cloud does not use above which compare warns
+#: that the semantic metrics measure the classification schemes.
+CLASS_OVERLAP_WARNING = 0.25
+#: Normalized radii resolving to metric radii further apart than this get a warning.
+RADII_TOLERANCE = 0.10
+
+
+@dataclass
+class Side:
+    """One input of a comparison: where it came from, its signature and, for a cloud, the run."""
+
+    name: str
+    signature: Signature
+    result: object = None  # pipeline Result for a cloud, None for an archive
+
+    @property
+    def kind(self):
+        return "cloud" if self.result is not None else "archive"
+
+    def summary(self):
+        """The side's facts for people and JSON: points, undefined, capped, duplicates, scales,
+        units."""
+        m = self.signature.metadata
+        return {"path": self.name, "kind": self.kind, "points": int(m.get("n_points", self.signature.n_points)),
+                "undefined": int(m.get("n_undefined", self.signature.n_undefined)),
+                "capped": int(m.get("n_capped", 0)), "duplicates": int(m.get("n_duplicates", 0)),
+                "scale_kind": m.get("scale_kind"), "scales": list(m.get("resolved_scales", [])),
+                "scales_unit": "k" if m.get("scale_kind") == "knn" else "m",
+                "units": m.get("units", "unknown")}
+
+
+@dataclass
+class Comparison:
+    """The result of :func:`compare_sources`: both sides, the metrics, the rendering they were
+    computed under, the method, and the warnings of the run."""
+
+    a: Side
+    b: Side
+    metrics: dict
+    render: str
+    method: dict
+    warnings: list = field(default_factory=list)
+
+    def to_dict(self):
+        """Everything as plain JSON-able values: the metrics at the top level (as before),
+        ``a`` and ``b`` with each side's facts, ``method``, ``render`` and ``warnings``."""
+        out = dict(self.metrics)
+        out.update(a=self.a.summary(), b=self.b.summary(), method=self.method, render=self.render,
+                   warnings=list(self.warnings))
+        return out
+
+
+def compare_sources(a, b, pipeline=None, *, render=None, columns=None, method_given=()):
+    """Compare two point clouds or signature archives, in any mix (SPEC 6).
+
+    Parameters
+    ----------
+    a, b : str, Path, PointCloud or Signature
+        Point-cloud files (.las/.laz, .ply, .pcd, text), archives (.h5), clouds or signatures.
+    pipeline : Pipeline, optional
+        The method for clouds; default ``Pipeline()``. Ignored where an archive brings its own
+        method, unless ``method_given`` names options the user set, which must then agree.
+    render : str, optional
+        Rendering for the image metrics (see :mod:`lidar_sig.signature`); by default the
+        archives' own when they agree, else "smooth".
+    columns : tuple, optional
+        Column names of text clouds.
+    """
+    from .pipeline import Pipeline
+
+    pipeline = pipeline or Pipeline()
+    names = [_name(x) for x in (a, b)]
+    loaded = [_load(x, columns) for x in (a, b)]
+    sigs = [x for x in loaded if isinstance(x, Signature)]
+    clouds = [x for x in loaded if isinstance(x, PointCloud)]
+    labelled = [bool(x.classes.names) for x in sigs] + [c.labels is not None for c in clouds]
+    warnings = []
+    if any(labelled) and not all(labelled):
+        warnings.append("semantic metrics (kl, l1) need class labels in both clouds; comparing geometry only")
+    if len(clouds) == 2 and sum(c.labels is None for c in clouds) == 1:
+        for c in clouds:  # one unlabeled: one class each, so the signatures stay comparable
+            c.labels = None
+    if sigs:
+        reference = sigs[0]
+        pipeline = _archive_pipeline(reference, pipeline, method_given, names[loaded.index(reference)])
+        for c in clouds:
+            if not reference.classes.names:
+                c.labels = None
+    sides = []
+    for name, x in zip(names, loaded):
+        if isinstance(x, Signature):
+            sides.append(Side(name, x))
+        else:
+            result = pipeline.run(x)
+            sides.append(Side(name, result.signature, result))
+    first, second = sides[0].signature, sides[1].signature
+    differ = method_differences(first.metadata, second.metadata)
+    if differ:
+        raise LidarSigError(f"{names[0]} and {names[1]} were made with different methods ("
+                            + "; ".join(differ) + "); make both with the same settings")
+    render = render or _recorded_render(sides)
+    metrics = compare_signatures(first, second, render=render)
+    warnings += _undefined_warnings(sides) + _class_warnings(sides) + _radii_warnings(sides)
+    method = {k: first.metadata[k] for k in ("descriptor", "descriptor_params", "strategy", "scale_kind",
+                                             "scale_values", "scale_units", "weights") if k in first.metadata}
+    return Comparison(sides[0], sides[1], metrics, render, method, warnings)
+
+
+def _name(x):
+    if isinstance(x, (str, Path)):
+        return str(x)
+    return getattr(x, "path", None) or (x.metadata.get("source") if isinstance(x, Signature) else None) or "(in memory)"
+
+
+def _load(x, columns):
+    from .io import HDF5_EXTENSIONS, load_signature, read
+
+    if isinstance(x, (PointCloud, Signature)):
+        return x
+    if isinstance(x, (str, Path)):
+        if Path(x).suffix.lower() in HDF5_EXTENSIONS:
+            return load_signature(x)
+        return read(x, columns=columns)
+    raise LidarSigError(f"cannot compare a {type(x).__name__}; give a file path, a PointCloud or a Signature")
+
+
+def _archive_pipeline(signature, pipeline, method_given, name):
+    """The pipeline that made an archive, for the cloud compared with it; refuses options the
+    user set that contradict it."""
+    from .pipeline import Pipeline
+
+    recorded = {k: signature.metadata[k] for k in signature.metadata if k in pipeline.method()}
+    if "classes" in method_given and signature.classes.names and pipeline.classes != signature.classes:
+        raise LidarSigError(f"{name} is an archive made with class table {signature.classes.name!r}, not "
+                            f"{pipeline.classes.name!r}; leave out --classes or make the archive again with it")
+    if set(method_given) - {"classes"}:
+        differ = method_differences(recorded, pipeline.method())
+        if differ:
+            raise LidarSigError(f"{name} is an archive made with another method (" + "; ".join(differ)
+                                + "); leave out the method options to compute the cloud the archive's way")
+    return Pipeline.from_method(recorded, classes=signature.classes, frame=signature.frame,
+                                progress=pipeline.progress)
+
+
+def _recorded_render(sides):
+    recorded = {str(s.signature.metadata["render"]) for s in sides
+                if s.kind == "archive" and "render" in s.signature.metadata}
+    if len(recorded) > 1:
+        raise LidarSigError(f"the archives were rendered differently ({', '.join(sorted(recorded))}); give "
+                            f"--render ({', '.join(RENDERINGS)}) to compare both under one rendering")
+    return recorded.pop() if recorded else RENDERINGS[0]
+
+
+def _undefined_warnings(sides):
+    out = []
+    for s in sides:
+        info = s.summary()
+        n, undefined = info["points"], info["undefined"]
+        if n and undefined / n > UNDEFINED_WARNING:
+            scales = info["scales"]
+            what = ("radii " + ", ".join(f"{v:.3g}" for v in scales) + " m" if info["scale_kind"] == "radius"
+                    else "k " + ", ".join(str(int(v)) for v in scales))
+            out.append(f"{s.name}: {undefined:,} of {n:,} points ({undefined / n:.0%}) have no defined saliency "
+                       f"at {what} and are left out of its signature; use larger scales (or the default "
+                       "k-nearest scales)")
+    return out
+
+
+def _class_warnings(sides):
+    """Warn when a cloud's points are largely in classes the other cloud does not use."""
+    a, b = (s.signature for s in sides)
+    if not a.classes.names:
+        return []
+    pa, pb = (np.asarray(s.class_totals, np.float64) for s in (a, b))
+    out = []
+    for side, p, q in ((sides[0], pa, pb), (sides[1], pb, pa)):
+        alone = (p > 0) & (q == 0)
+        share = p[alone].sum() / max(p.sum(), 1.0)
+        if share > CLASS_OVERLAP_WARNING:
+            names = ", ".join(n for n, on in zip(a.classes.class_names, alone) if on)
+            out.append(f"{share:.0%} of the points of {side.name} are in classes the other cloud does not use "
+                       f"({names}): the clouds are classified differently, so delta_KL and L1 measure the "
+                       "classification schemes as much as the land")
+    return out
+
+
+def _radii_warnings(sides):
+    """Normalized radii resolve per cloud: warn when the two clouds' metric radii differ."""
+    m = [s.signature.metadata for s in sides]
+    if not all(x.get("scale_kind") == "radius" and x.get("scale_units") == "normalized"
+               and x.get("resolved_scales") for x in m):
+        return []
+    ra, rb = m[0]["resolved_scales"][-1], m[1]["resolved_scales"][-1]
+    if max(ra, rb) <= (1 + RADII_TOLERANCE) * min(ra, rb):
+        return []
+    return [f"normalized radii resolve to different metric radii ({ra:.4g} m in A, {rb:.4g} m in B: "
+            f"{abs(ra / rb - 1):.0%} apart) because the clouds' bounding boxes differ; for the same "
+            "neighbourhoods leave out --units normalized"]
