@@ -22,7 +22,7 @@ from .signature import RENDERINGS, Signature, method_differences
 UNDEFINED_WARNING = 0.05
 #: Share of a cloud's points in classes the other cloud does not use above which compare warns
 #: that the semantic metrics measure the classification schemes.
-CLASS_OVERLAP_WARNING = 0.25
+CLASS_OVERLAP_WARNING = 0.10
 #: Normalized radii resolving to metric radii further apart than this get a warning.
 RADII_TOLERANCE = 0.10
 

@@ -31,8 +31,11 @@ _KNN_SHELLS = 6
 WEIGHTS = ("area", "none")
 #: k-nearest neighbourhoods take every point tied with the k-th neighbour (squared distance
 #: within this relative tolerance): coordinates quantized to LAS steps tie often, and which of
-#: two tied points is "the k-th" would otherwise depend on round-off (a rotation) and point order.
-TIE = 2e-9
+#: two tied points is "the k-th" would otherwise depend on round-off (a rotation, a unit
+#: conversion) and point order. Likewise a point at a sphere's radius, to this tolerance, is in.
+#: It covers the round-off of coordinates as large as UTM northings (about 1e-9 m) at neighbour
+#: distances down to a centimetre, and is far below any LAS coordinate step (0.25 um at 0.5 m).
+TIE = 1e-6
 #: Extra neighbours searched beyond the largest k to find such ties.
 TIE_SLACK = 8
 #: Area weights are capped at (AREA_CAP x the median second-neighbour distance)^2, so that an
@@ -167,7 +170,7 @@ class NeighborIndex:
                              s_max=self.s_max)
         else:
             self.grid.search(rows, d2, idx, n, counts, total, done, cap=self.width, s_max=self.s_max,
-                             radii2=self.scales.astype(np.float64) ** 2)
+                             radii2=self.scales.astype(np.float64) ** 2 * (1.0 + TIE))
         if not done.all():
             self._complete(rows, d2, idx, n, counts, total, done, self.width)
         if self.kind == "knn":
@@ -217,7 +220,7 @@ class NeighborIndex:
         if kind == "knn":
             dist, nb = self._kdtree().query(q, k=width)
         else:
-            bound = np.nextafter(float(self.scales.max()), np.inf)
+            bound = float(self.scales.max()) * np.sqrt(1.0 + TIE)
             dist, nb = self._kdtree().query(q, k=width, distance_upper_bound=bound)
         dist, nb = dist.reshape(len(todo), -1), nb.reshape(len(todo), -1)
         found = np.isfinite(dist)
@@ -225,7 +228,7 @@ class NeighborIndex:
         d2[todo] = np.where(found, dist * dist, np.inf)
         idx[todo] = np.where(found, nb, -1)
         if kind == "radius":
-            counts[todo] = np.stack([(dist <= r).sum(1) for r in self.scales], axis=1)
+            counts[todo] = np.stack([(dist <= r * np.sqrt(1.0 + TIE)).sum(1) for r in self.scales], axis=1)
             # a full list may hide more points inside the sphere: ask for one more
             full = todo[n[todo] == width]
             if len(full):
