@@ -34,3 +34,27 @@ def test_descriptor_benchmark_runs_on_real_tile():
     assert proc.returncode == 0, proc.stdout + proc.stderr
     for name in ("c3dcm", "t3dvt", "t3dvt-get"):
         assert name in proc.stdout
+
+
+def test_ordering_benchmark_defaults_measure_the_land(tmp_path):
+    # issue 8: no rotation ranks farther than any thinning or other tile in any metric, and the
+    # image and information metrics rank 80% < adjacent tile < other city for every reference
+    need_data(IGN / "test_data_77060_627760_LA93_IGN69.laz")
+    out = tmp_path / "ordering.json"
+    proc = subprocess.run([sys.executable, str(BENCH / "ordering.py"), "--json", str(out)],
+                          capture_output=True, text=True, timeout=1200)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    import json
+
+    results = json.loads(out.read_text())["results"]
+    references = [r for r in results if r != "IGN 77050_627755"]  # printed apart: see the script
+    assert len(references) == 7
+    for ref in references:
+        v = results[ref]
+        for key in ("bhattacharyya", "ssim", "emd_info", "emd_img", "fv", "kl", "l1"):
+            sign = -1 if key == "ssim" else 1
+            rot = max(sign * v[c][key] for c in ("rotated 30", "rotated 90"))
+            assert all(rot <= sign * v[c][key] for c in ("80%", "60%", "adjacent", "other city")), (ref, key)
+        for key in ("bhattacharyya", "ssim", "emd_info", "fv"):
+            sign = -1 if key == "ssim" else 1
+            assert sign * v["80%"][key] < sign * v["adjacent"][key] < sign * v["other city"][key], (ref, key)

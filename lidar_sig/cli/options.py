@@ -18,7 +18,7 @@ from ..signature import RENDERINGS
 METHOD_OPTIONS = ("descriptor", "strategy", "radii", "units", "k", "weights", "max_neighbors", "classes")
 
 
-def _numbers(text, option):
+def number_list(text, option):
     """Comma-separated finite numbers of an option value; refuses empty or non-finite lists."""
     try:
         values = [float(v) for v in text.split(",") if v.strip()]
@@ -82,9 +82,9 @@ def make_pipeline(descriptor=None, strategy=None, radii=None, units=None, k=None
                             "--radii 1.0,1.1,1.2)")
     scales = None
     if radii is not None:
-        scales = make_radii(*_numbers(radii, "--radii"), units=units or "metric")
+        scales = make_radii(*number_list(radii, "--radii"), units=units or "metric")
     elif k is not None:
-        values = _numbers(k, "--k")
+        values = number_list(k, "--k")
         if any(v != int(v) or v < 2 for v in values):
             raise LidarSigError(f"--k must be whole numbers >= 2, got {k!r}")
         scales = knn(*[int(v) for v in values])

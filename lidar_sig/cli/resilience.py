@@ -1,0 +1,53 @@
+"""`lidar-sig resilience`: how much each metric moves under random subsampling of one cloud."""
+import json
+
+import click
+
+from ..errors import LidarSigError
+from ..io import check_output, read
+from ..resilience import DEFAULT_FRACTIONS, METRIC_KEYS, METRIC_NAMES, plot_resilience, resilience
+from . import cli
+from .options import columns_option, number_list, overwrite_option, pipeline_options, render_option
+
+
+@cli.command("resilience")
+@click.argument("source")
+@click.option("--fractions", default=",".join(f"{f:g}" for f in DEFAULT_FRACTIONS), show_default=True,
+              help="Fractions of the points to keep, comma-separated, each in (0, 1].")
+@click.option("--repeats", default=3, show_default=True, type=click.IntRange(1, 1000),
+              help="Random subsamples per fraction.")
+@click.option("--seed", default=0, show_default=True, type=int, help="Seed of the random subsamples.")
+@click.option("--json", "as_json", is_flag=True, help="Print one JSON object on stdout.")
+@click.option("--plot", default=None, help="Also draw every metric against the fraction as a PNG file.")
+@render_option
+@overwrite_option
+@columns_option
+@pipeline_options
+def resilience_command(source, fractions, repeats, seed, as_json, plot, render, overwrite, columns, pipeline,
+                       method_given, quiet):
+    """Compare SOURCE with uniform random subsamples of itself, fraction by fraction."""
+    values = number_list(fractions, "--fractions")
+    if not all(0.0 < f <= 1.0 for f in values):
+        raise LidarSigError(f"--fractions must be in (0, 1], got {fractions!r}")
+    if plot:
+        if not plot.lower().endswith(".png"):
+            raise LidarSigError("the plot is written as .png", path=plot)
+        check_output(plot, overwrite=overwrite)
+    result = resilience(read(source, columns=columns), pipeline, fractions=values, repeats=repeats, seed=seed,
+                        render=render or "smooth", progress=False if quiet else None)
+    if plot:
+        plot_resilience(result, plot, overwrite=overwrite)
+    if as_json:
+        click.echo(json.dumps(result.to_dict()))
+        return
+    keys = [k for k in METRIC_KEYS if result.to_dict()["metrics"][k] is not None]
+    click.echo(f"{source}: {result.repeats} random subsamples per fraction (seed {result.seed}), "
+               f"{result.render} rendering; mean ± standard deviation against the full cloud")
+    header = f"{'fraction':>8} {'points':>10} " + " ".join(f"{METRIC_NAMES[k]:>17}" for k in keys)
+    click.echo(header)
+    stats = {k: result.summary(k) for k in keys}
+    for i, (fraction, n) in enumerate(zip(result.fractions, result.points)):
+        cells = " ".join(f"{stats[k][0][i]:>9.4f} ± {stats[k][1][i]:<6.4f}" for k in keys)
+        click.echo(f"{fraction:>8g} {n:>10,} {cells}")
+    if plot and not quiet:
+        click.echo(f"wrote {plot}")
