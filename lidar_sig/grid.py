@@ -255,6 +255,29 @@ def nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, origin, h,
                 done[qpos] = True
 
 
+@njit(cache=True, parallel=True)
+def knn_counts(d2, n, ks, tie, counts, kth_d2):
+    """Neighbours within each k-nearest scale, ties with the k-th included, into ``counts``
+    (B, S), and the k-th squared distances into ``kth_d2`` (B, S).
+
+    Rows of ``d2`` are sorted ascending with ``n[b]`` valid entries; a neighbour ties with the
+    k-th when its squared distance is at most (1 + ``tie``) times the k-th's.
+    """
+    for b in prange(d2.shape[0]):
+        for s in range(ks.size):
+            kth = min(ks[s], n[b]) - 1
+            if kth < 0:
+                counts[b, s] = 0
+                kth_d2[b, s] = 0.0
+                continue
+            limit = d2[b, kth] * (1.0 + tie)
+            c = kth + 1
+            while c < n[b] and d2[b, c] <= limit:
+                c += 1
+            counts[b, s] = c
+            kth_d2[b, s] = d2[b, kth]
+
+
 #: Voxels of the dense voxel -> occupied-voxel look-up table, at most (else binary search).
 LUT_CELLS = 2**24
 

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .grid import LUT_CELLS, VoxelGrid
+from .grid import LUT_CELLS, VoxelGrid, knn_counts
 
 # Bytes of neighbour lists (squared distance + index) held at once; bounds memory per block.
 _BLOCK_BYTES = 96 * 2**20
@@ -271,15 +271,10 @@ def _knn_counts(d2, n, ks):
     ``d2`` (B, W) squared distances sorted ascending, ``n`` (B,) valid per row, ``ks`` (S,).
     Returns counts (B, S) and sigma (B, S), the distance to the k-th neighbour.
     """
-    b = np.arange(len(n))
-    kth = np.minimum(np.asarray(ks)[None, :], n[:, None]) - 1  # (B, S), -1 for an empty row
-    d2_kth = d2[b[:, None], np.maximum(kth, 0)]
-    valid = np.arange(d2.shape[1])[None, :] < n[:, None]
-    counts = np.empty(kth.shape, np.int64)
-    for s in range(kth.shape[1]):
-        counts[:, s] = (valid & (d2 <= d2_kth[:, s:s + 1] * (1.0 + TIE))).sum(axis=1)
-    counts[kth < 0] = 0
-    return counts, np.sqrt(d2_kth)
+    counts = np.empty((len(n), len(ks)), np.int64)
+    kth_d2 = np.empty((len(n), len(ks)))
+    knn_counts(d2, n, np.asarray(ks, dtype=np.int64), TIE, counts, kth_d2)
+    return counts, np.sqrt(kth_d2)
 
 
 def _knn_cell(xyz, k):
