@@ -28,7 +28,7 @@ def child(descriptor, path):
     cloud = ls.PointCloud(read_xyz(path))
     warm_up(descriptors=(descriptor,))
     start = time.perf_counter()
-    ls.Pipeline(descriptor=descriptor, progress=False).saliency(cloud)
+    ls.Pipeline(descriptor=descriptor, scales=ls.scales.PAPER_RADII, weights="none", progress=False).saliency(cloud)
     report({"seconds": time.perf_counter() - start, "points": len(cloud)})
 
 

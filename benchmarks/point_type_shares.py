@@ -36,7 +36,8 @@ def main():
     for label, descriptor in configs:
         point, corner, total = {c: 0 for c in CLASSES}, {c: 0 for c in CLASSES}, {c: 0 for c in CLASSES}
         for i, cloud in enumerate(clouds):
-            sal, _ = ls.Pipeline(descriptor=descriptor, progress=False).saliency(cloud)
+            sal, _ = ls.Pipeline(descriptor=descriptor, scales=ls.scales.PAPER_RADII, weights="none",
+                                 progress=False).saliency(cloud)
             if label == "T3DVT":
                 t3dvt_class[i] = sal.geom_class
             for code in CLASSES:

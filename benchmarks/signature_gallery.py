@@ -40,9 +40,11 @@ def main():
     frame = ls.Frame(args.size, margin=max(8, args.size // 32))
     panels = []
     for title, descriptor, strategy in CONFIGS:
-        result = ls.Pipeline(descriptor=descriptor, strategy=strategy, classes="paper", frame=frame,
-                             progress=False).run(cloud)
-        img = Image.fromarray(signature_image(result.signature, "sas"))
+        # the paper's setting: its scales, plain means; the density rendering of the figure
+        scales = ls.scales.PAPER_RADII if strategy == "multiscale" else ls.scales.PAPER_K
+        result = ls.Pipeline(descriptor=descriptor, strategy=strategy, scales=scales, weights="none",
+                             classes="paper", frame=frame, progress=False).run(cloud)
+        img = Image.fromarray(signature_image(result.signature, "sas", mode="density"))
         draw = ImageDraw.Draw(img)
         draw.text((6, 4), title, fill=(0, 0, 0))
         draw.text((6, 16), f"{result.signature.n_points:,} points", fill=(90, 90, 90))

@@ -96,3 +96,9 @@ def knn(*values):
     """k-nearest scales (x_i included); the package's Multiscale default is ``knn(20, 30, 40)``,
     the paper's Optimal-scale setting ``knn(*range(10, 101, 10))``."""
     return Scales("knn", tuple(values))
+
+
+#: The paper's scales: Multiscale over normalized radii 0.009, 0.010, 0.011, Optimal-scale over
+#: k = 10, 20, ..., 100 (with ``weights="none"`` and the ``points`` rendering, its setting).
+PAPER_RADII = radii(0.009, 0.010, 0.011, units="normalized")
+PAPER_K = knn(*range(10, 101, 10))

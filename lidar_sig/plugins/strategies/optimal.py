@@ -2,7 +2,7 @@
 import numpy as np
 
 from ...saliency import geometric_entropy
-from ...scales import knn
+from ...scales import PAPER_K
 from ..base import Strategy
 
 
@@ -14,7 +14,7 @@ class OptimalScale(Strategy):
 
     name = "optimal"
     summary = "saliency at the scale of minimum entropy (default k = 10, 20, ..., 100)"
-    default_scales = knn(*range(10, 101, 10))
+    default_scales = PAPER_K
 
     def combine(self, per_scale):
         entropy = geometric_entropy(per_scale)
