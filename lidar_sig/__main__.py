@@ -1,4 +1,6 @@
 """``python -m lidar_sig`` runs the command line."""
+import sys
+
 from .cli import main
 
-main()
+sys.exit(main())

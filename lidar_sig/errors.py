@@ -16,3 +16,14 @@ class LidarSigError(ValueError):
 class LidarSigWarning(UserWarning):
     """Something a user should know about a result that is still written in full (e.g. a COPC
     input written as plain LAZ); the command line prints it as one note line on stderr."""
+
+
+class Interrupted(KeyboardInterrupt):
+    """SIGINT or SIGTERM arrived: raised where the run can stop cleanly (between blocks of work,
+    or once an output being written is complete and its temporary file removed)."""
+
+    def __init__(self, signum):
+        import signal
+
+        self.signum = int(signum)
+        super().__init__(signal.Signals(self.signum).name)

@@ -1,33 +1,41 @@
 """The ``lidar-sig`` command line: parsing and printing only, the science is in the library.
 
-A user error (LidarSigError) ends with one line on stderr and exit status 2; a note from the
-library (LidarSigWarning) is one line on stderr.
+Every way a run can end says so in one line on stderr: a user error (LidarSigError, or a bad
+option) with exit status 2; an interrupt (Ctrl-C, SIGTERM) with 130 or 143, outputs left as they
+were; a note from the library (LidarSigWarning) is one line too and does not stop the run.
 """
+import signal
+import sys
 import warnings
 
 import click
 
-from ..errors import LidarSigError, LidarSigWarning
+from ..errors import Interrupted, LidarSigError, LidarSigWarning
+
+
+def _note(message, category, filename, lineno, file=None, line=None, _shown=warnings.showwarning):
+    if issubclass(category, LidarSigWarning):
+        click.echo(f"lidar-sig: note: {message}", err=True)
+    else:
+        _shown(message, category, filename, lineno, file, line)
 
 
 class _Group(click.Group):
     def invoke(self, ctx):
         try:
             with warnings.catch_warnings():
-                shown = warnings.showwarning
-
-                def note(message, category, *args, **kwargs):
-                    if issubclass(category, LidarSigWarning):
-                        click.echo(f"lidar-sig: note: {message}", err=True)
-                    else:
-                        shown(message, category, *args, **kwargs)
-
                 warnings.simplefilter("always", LidarSigWarning)
-                warnings.showwarning = note
+                warnings.showwarning = _note
                 return super().invoke(ctx)
         except LidarSigError as exc:
             click.echo(f"lidar-sig: error: {exc}", err=True)
             ctx.exit(2)
+        except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM as Interrupted
+            signum = exc.signum if isinstance(exc, Interrupted) else signal.SIGINT
+            name = signal.Signals(signum).name
+            click.echo(f"lidar-sig: interrupted ({name}); outputs not written, earlier ones left as they were",
+                       err=True)
+            ctx.exit(128 + signum)
 
 
 @click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})
@@ -39,6 +47,29 @@ def cli():
 from . import compare, info, plugins, resilience, saliency, signature  # noqa: E402,F401  (registers the commands)
 
 
+def _terminate(signum, frame):
+    raise Interrupted(signum)
+
+
 def main(argv=None):
-    """Console-script entry point."""
-    cli.main(args=argv, prog_name="lidar-sig")
+    """Console-script entry point; returns the exit status."""
+    signal.signal(signal.SIGTERM, _terminate)
+    try:
+        status = cli.main(args=argv, prog_name="lidar-sig", standalone_mode=False)
+    except click.exceptions.NoArgsIsHelpError as exc:
+        click.echo(exc.ctx.get_help())
+        return 0
+    except click.ClickException as exc:  # bad option or argument: one line, not click's three
+        command = f"lidar-sig {exc.ctx.info_name}" if getattr(exc, "ctx", None) and exc.ctx.parent else "lidar-sig"
+        message = exc.format_message().rstrip(".")
+        click.echo(f"lidar-sig: error: {message}{' ' if message.endswith('?') else '; '}see `{command} --help`",
+                   err=True)
+        return exc.exit_code
+    except click.exceptions.Abort:  # Ctrl-C while click itself was prompting or parsing
+        click.echo("lidar-sig: interrupted (SIGINT)", err=True)
+        return 130
+    return status if isinstance(status, int) else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -4,7 +4,7 @@ from pathlib import Path
 import click
 
 from ..errors import LidarSigError
-from ..io import HDF5_EXTENSIONS, check_output, read
+from ..io import HDF5_EXTENSIONS, check_outputs, output_group, read
 from ..render import write_signature_png
 from . import cli
 from ..signature import RENDERINGS
@@ -33,18 +33,18 @@ def signature(source, output, png_output, sg_output, no_points, render, overwrit
     for path in images:
         if Path(path).suffix.lower() != ".png":
             raise LidarSigError("signature images are written as .png", path=path)
-    for path in [output] + images:
-        check_output(path, overwrite=overwrite)
+    check_outputs([output] + images, overwrite=overwrite)  # all of them, before any work
     render = render or RENDERINGS[0]
     result = pipeline.run(read(source, columns=columns))
-    if ext == ".png":
-        write_signature_png(output, result.signature, kind="sas", mode=render, overwrite=overwrite)
-    else:
-        result.write(output, overwrite=overwrite, points=not no_points, render=render)
-    if png_output:
-        write_signature_png(png_output, result.signature, kind="sas", mode=render, overwrite=overwrite)
-    if sg_output:
-        write_signature_png(sg_output, result.signature, kind="sg", mode=render, overwrite=overwrite)
+    with output_group():  # all outputs or none
+        if ext == ".png":
+            write_signature_png(output, result.signature, kind="sas", mode=render, overwrite=overwrite)
+        else:
+            result.write(output, overwrite=overwrite, points=not no_points, render=render)
+        if png_output:
+            write_signature_png(png_output, result.signature, kind="sas", mode=render, overwrite=overwrite)
+        if sg_output:
+            write_signature_png(sg_output, result.signature, kind="sg", mode=render, overwrite=overwrite)
     if not quiet:
         echo_run(source, result)
         click.echo(f"wrote {', '.join([output] + images)}")

@@ -8,15 +8,16 @@ import os
 from pathlib import Path
 
 from ..errors import LidarSigError
-from .atomic import atomic_output, check_output
+from .atomic import atomic_output, check_output, check_outputs, output_group
 from .hdf5 import HDF5_EXTENSIONS, archive_summary, load_signature, write_archive
-from .las import LAS_EXTENSIONS, read_las, saliency_fields, write_las
+from .las import LAS_EXTENSIONS, check_las_output, read_las, saliency_fields, write_las
 from .open3d import OPEN3D_EXTENSIONS, read_open3d, write_open3d
 from .text import TEXT_EXTENSIONS, parse_columns, read_text, write_text
 
 CLOUD_EXTENSIONS = LAS_EXTENSIONS + OPEN3D_EXTENSIONS + TEXT_EXTENSIONS
 
-__all__ = ["read", "write_cloud", "parse_columns", "CLOUD_EXTENSIONS", "atomic_output", "check_output", "write_las", "write_archive", "load_signature",
+__all__ = ["read", "write_cloud", "parse_columns", "CLOUD_EXTENSIONS", "atomic_output", "check_output",
+           "check_outputs", "output_group", "check_cloud_output", "write_las", "write_archive", "load_signature",
            "archive_summary", "LAS_EXTENSIONS", "TEXT_EXTENSIONS", "HDF5_EXTENSIONS"]
 
 
@@ -25,6 +26,12 @@ def read(path, *, columns=None):
 
     ``columns`` names the columns of a text file (see :mod:`lidar_sig.io.text`).
     """
+    if not isinstance(path, (str, os.PathLike)):
+        raise LidarSigError(f"read takes a file path, got {path!r}")
+    if isinstance(columns, str):
+        columns = parse_columns(columns)
+    elif columns is not None:
+        columns = parse_columns(",".join(map(str, columns)))
     path = Path(path)
     if not path.exists():
         raise LidarSigError("no such file; check the path", path=path)
@@ -44,6 +51,13 @@ def read(path, *, columns=None):
                             "or lidar_sig.load_signature", path=path)
     raise LidarSigError(f"unknown point-cloud format {ext or '(no extension)'!r}; "
                         f"use one of {', '.join(CLOUD_EXTENSIONS)}", path=path)
+
+
+def check_cloud_output(path, cloud):
+    """Refuse, before any work, a cloud that the format of ``path`` cannot hold (see
+    :func:`lidar_sig.io.las.check_las_output`)."""
+    if Path(path).suffix.lower() in LAS_EXTENSIONS:
+        check_las_output(cloud, path)
 
 
 def write_cloud(path, cloud, saliency, *, scale_kind=None, scale_values=None, overwrite=False):

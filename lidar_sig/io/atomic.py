@@ -1,30 +1,106 @@
 """Outputs appear whole or not at all: write to a temporary file beside, then rename.
 
-The file gets the mode an ordinary ``open(path, "w")`` would give it: 0666 less the umask for a
-new file (0644 under umask 022), the old mode for a file being overwritten.
+- The temporary file is hidden and named after its output, the host and the process:
+  ``.tile.laz.<host>.<pid>.<random>.tmp.laz``. A process killed outright (SIGKILL) leaves one
+  behind; the next run that writes the same output removes it (when its process is gone).
+- SIGINT and SIGTERM are held while an output is written and acted on once the writer is done:
+  the temporary file is then removed, the output left as it was, and :class:`Interrupted`
+  raised. (Signals raised inside a C library's callbacks would otherwise be lost or leave
+  half a file.)
+- Errors of the file system (no space left, read-only or immutable folder, permission) become a
+  :class:`LidarSigError` naming the output and the fix.
+- Several outputs of one command can be committed together (:func:`output_group`): all
+  renamed at the end, none if anything failed.
+- The file gets the mode an ordinary ``open(path, "w")`` would give it: 0666 less the umask for
+  a new file (0644 under umask 022), the old mode for a file being overwritten.
 """
 from __future__ import annotations
 
 import contextlib
+import contextvars
+import errno
 import os
+import secrets
+import signal
+import socket
 import stat
-import tempfile
+import threading
 from pathlib import Path
 
-from ..errors import LidarSigError
+from ..errors import Interrupted, LidarSigError
+
+_HOST = socket.gethostname().replace(".", "-")[:32] or "host"
+# Outputs written inside an output_group, waiting to be renamed: [(tmp, path, overwrite)]
+_PENDING = contextvars.ContextVar("lidar_sig_pending_outputs", default=None)
+_REASONS = {
+    errno.ENOSPC: "no space left on the device; free some space or write elsewhere",
+    errno.EDQUOT: "the disk quota is exceeded; free some space or write elsewhere",
+    errno.EFBIG: "the file is too large for this file system or its limits; write elsewhere",
+    errno.EROFS: "the output folder is on a read-only file system; write elsewhere",
+    errno.EACCES: "permission denied in the output folder; write elsewhere or change its permissions",
+    errno.EPERM: "the output folder does not allow writing (read-only or immutable); write elsewhere",
+}
 
 
 def check_output(path, *, overwrite=False):
-    """Refuse an output path that exists (unless ``overwrite``) or whose folder is missing."""
+    """Refuse an output path that exists (unless ``overwrite``), is a folder, or whose folder is
+    missing or not writable; return it as a Path."""
     path = Path(path)
-    if path.exists() and not overwrite:
-        raise LidarSigError("output already exists; pass --overwrite to replace it", path=path)
     if path.is_dir():
         raise LidarSigError("output is a folder; give a file name", path=path)
+    if path.exists() and not overwrite:
+        raise LidarSigError("output already exists; pass --overwrite to replace it", path=path)
     parent = path.parent if str(path.parent) else Path(".")
     if not parent.is_dir():
         raise LidarSigError("the output folder does not exist; create it first", path=path)
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise LidarSigError("the output folder is not writable; write elsewhere or change its permissions",
+                            path=path)
     return path
+
+
+def check_outputs(paths, *, overwrite=False):
+    """:func:`check_output` for every path of a command, and refuse one given twice."""
+    seen = {}
+    for path in paths:
+        path = check_output(path, overwrite=overwrite)
+        key = os.path.realpath(path)
+        if key in seen:
+            raise LidarSigError(f"is given twice (also as {seen[key]}); give each output its own name", path=path)
+        seen[key] = path
+    return list(seen.values())
+
+
+def temp_name(path):
+    """Prefix and suffix of the temporary files of ``path`` (see the module docstring)."""
+    path = Path(path)
+    return f".{path.name}.{_HOST}.{os.getpid()}.", f".tmp{path.suffix}"
+
+
+def remove_stale_temps(path):
+    """Remove temporary files of ``path`` left by processes of this host that are gone."""
+    path = Path(path)
+    folder = path.parent if str(path.parent) else Path(".")
+    head = f".{path.name}.{_HOST}."
+    with contextlib.suppress(OSError):
+        for entry in os.scandir(folder):
+            name = entry.name
+            if not (name.startswith(head) and name.endswith(f".tmp{path.suffix}")):
+                continue
+            pid = name[len(head):].split(".", 1)[0]
+            if pid.isdigit() and not _alive(int(pid)):
+                with contextlib.suppress(OSError):
+                    os.unlink(entry.path)
+
+
+def _alive(pid):
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
 
 
 @contextlib.contextmanager
@@ -32,22 +108,90 @@ def atomic_output(path, *, overwrite=False):
     """Yield a temporary path in the same folder; rename it to ``path`` only on success.
 
     The temporary name ends with the output's extension, for writers that choose the format
-    from it.
+    from it. Inside an :func:`output_group` the rename waits for the group's end.
     """
     path = check_output(path, overwrite=overwrite)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=f".tmp{path.suffix}", dir=path.parent or ".")
-    os.close(fd)
+    remove_stale_temps(path)
+    prefix, suffix = temp_name(path)
+    tmp = path.parent / f"{prefix}{secrets.token_hex(4)}{suffix}"
+    pending = _PENDING.get()
+    committed = False
     try:
-        yield Path(tmp)
+        with os_errors(path), deferred_signals():
+            tmp.touch(mode=0o600, exist_ok=False)
+            yield tmp
+            if not tmp.exists():
+                raise LidarSigError("the writer produced no file; this is a bug, please report it", path=path)
+        if pending is not None:
+            pending.append((tmp, path, overwrite))
+            committed = True
+        else:
+            _commit([(tmp, path, overwrite)])
+            committed = True
+    finally:
+        if not committed:
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
+
+
+@contextlib.contextmanager
+def output_group():
+    """Commit every output written inside the block together: each is written to its temporary
+    file, and all are renamed at the end, or none if anything failed or was interrupted."""
+    pending = []
+    token = _PENDING.set(pending)
+    try:
+        yield
+        _commit(pending)
+    finally:
+        _PENDING.reset(token)
+        for tmp, _, _ in pending:
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
+
+
+def _commit(items):
+    """Rename temporary files onto their outputs, with the right mode, signals held."""
+    for _, path, overwrite in items:
         if path.exists() and not overwrite:  # appeared while we were working
             raise LidarSigError("output already exists; pass --overwrite to replace it", path=path)
-        # mkstemp creates 0600, private to us; set the mode only now, after any writer has
-        # (re)created the temporary file.
-        os.chmod(tmp, _output_mode(path))
-        os.replace(tmp, path)
+    with deferred_signals():
+        for tmp, path, _ in items:
+            with os_errors(path):
+                os.chmod(tmp, _output_mode(path))
+                os.replace(tmp, path)
+
+
+@contextlib.contextmanager
+def os_errors(path):
+    """Turn a file-system error while writing ``path`` into a LidarSigError that names the fix."""
+    try:
+        yield
+    except OSError as exc:
+        reason = _REASONS.get(exc.errno) or f"{exc.strerror or exc}; check the output folder"
+        raise LidarSigError(f"could not be written: {reason}", path=path) from None
+
+
+@contextlib.contextmanager
+def deferred_signals():
+    """Hold SIGINT and SIGTERM while the block runs; then raise :class:`Interrupted` if one came.
+
+    Only in the main thread (the only one that receives Python signal handlers); elsewhere the
+    block runs as is.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    received = []
+    previous = {s: signal.signal(s, lambda signum, frame: received.append(signum))
+                for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
     finally:
-        with contextlib.suppress(FileNotFoundError):
-            os.unlink(tmp)
+        for s, handler in previous.items():
+            signal.signal(s, handler)
+    if received:
+        raise Interrupted(received[0])
 
 
 def _output_mode(path):

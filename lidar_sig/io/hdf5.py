@@ -7,6 +7,7 @@ from which files (with SHA-256). docs/archive.md lists the layout. Written atomi
 from __future__ import annotations
 
 import hashlib
+import io
 import json
 
 import numpy as np
@@ -56,8 +57,11 @@ def write_archive(path, signature, *, saliency=None, labels=None, sources=(), re
 
     meta = dict(signature.metadata)
     source_list = [{"path": str(p), "sha256": sha256_of(p)} for p in sources]
+    # The archive is built in memory and its bytes written by Python: a full disk or a signal
+    # then stops our write, not one inside the HDF5 library (which may crash on a full disk).
+    buffer = io.BytesIO()
     with atomic_output(path, overwrite=overwrite) as tmp:
-        with h5py.File(tmp, "w") as f:
+        with h5py.File(buffer, "w") as f:
             f.attrs["format"] = FORMAT
             f.attrs["format_version"] = FORMAT_VERSION
             f.attrs["lidar_sig_version"] = __version__
@@ -79,6 +83,7 @@ def write_archive(path, signature, *, saliency=None, labels=None, sources=(), re
             _write_signature(f.create_group("signature"), signature, render)
             if saliency is not None:
                 _write_points(f.create_group("points"), saliency, labels)
+        tmp.write_bytes(buffer.getbuffer())
 
 
 def _write_signature(g, sig, render):
@@ -154,6 +159,7 @@ def _write_points(g, sal, labels):
 
 
 def _open(path):
+    """The archive open for reading, after checking it is one this version reads."""
     import h5py
 
     try:
@@ -161,45 +167,96 @@ def _open(path):
     except OSError as exc:
         raise LidarSigError(f"cannot be read as HDF5 ({str(exc).splitlines()[0][:120]}); "
                             "check that the file is complete", path=path) from None
-    if f.attrs.get("format") != FORMAT:
+    fmt, version = f.attrs.get("format"), f.attrs.get("format_version", 0)
+    problem = None
+    if fmt != FORMAT:
+        problem = ("is an HDF5 file but not a lidar_sig signature archive; make one with "
+                   "`lidar-sig signature CLOUD -o OUT.h5`")
+    elif not isinstance(version, (int, np.integer)) or isinstance(version, bool) or version < 1:
+        problem = f"has a format_version that is not a version number ({version!r}); the archive is damaged"
+    elif version > FORMAT_VERSION:
+        problem = (f"archive format version {int(version)} is newer than this lidar_sig reads "
+                   f"({FORMAT_VERSION}); upgrade lidar_sig")
+    if problem:
         f.close()
-        raise LidarSigError("is an HDF5 file but not a lidar_sig signature archive; make one with "
-                            "`lidar-sig signature CLOUD -o OUT.h5`", path=path)
-    if int(f.attrs.get("format_version", 0)) > FORMAT_VERSION:
-        f.close()
-        raise LidarSigError(f"archive format version {int(f.attrs['format_version'])} is newer than this "
-                            "lidar_sig reads; upgrade lidar_sig", path=path)
+        raise LidarSigError(problem, path=path)
     return f
 
 
 def load_signature(path):
-    """The Signature stored in an archive; compares exactly like the one that was written."""
+    """The Signature stored in an archive; compares exactly like the one that was written.
+
+    Every part is checked before use (shapes, counts, the class table, the method record): a
+    damaged or hand-edited archive gives a LidarSigError naming what is wrong.
+    """
     with _open(path) as f:
         try:
-            g = f["signature"]
-            c = g["classes"]
-            names = [n.decode() if isinstance(n, bytes) else str(n) for n in c["names"][()]]
-            colors = [tuple(int(v) for v in row) for row in c["colors"][()]]
-            codes, offsets = c["codes"][()], c["code_offsets"][()]
-            groups = [tuple(int(v) for v in codes[offsets[k]:offsets[k + 1]]) for k in range(len(names))]
-            classes = ClassTable(str(c.attrs["table"]), names=tuple(names[:-1]), codes=tuple(groups[:-1]),
-                                 colors=tuple(colors[:-1]))
-            frame = Frame(int(g.attrs["frame_size"]), int(g.attrs["frame_margin"]))
-            meta = {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in f.attrs.items()}
-            meta.update(_method(f.attrs))
-            totals = g["class_totals"][()].astype(np.int64) if "class_totals" in g else None
-            return Signature(g["counts"][()].astype(np.int64), frame, classes,
-                             g["egeom_histogram"][()].astype(np.int64), int(g.attrs["n_undefined"]), meta,
-                             totals)
+            return _read_signature(f, path)
         except KeyError as exc:
             raise LidarSigError(f"archive lacks {exc}; it is damaged or incomplete", path=path) from None
+        except (OSError, TypeError, ValueError, IndexError) as exc:
+            if isinstance(exc, LidarSigError):
+                raise LidarSigError(str(exc).removeprefix(f"{path}: "), path=path) from None
+            raise LidarSigError(f"cannot be read as a signature archive ({str(exc).splitlines()[0][:120]}); "
+                                "it is damaged", path=path) from None
+
+
+def _read_signature(f, path):
+    def damaged(what):
+        return LidarSigError(f"{what}; the archive is damaged or was edited by hand", path=path)
+
+    g = f["signature"]
+    c = g["classes"]
+    names = [n.decode() if isinstance(n, bytes) else str(n) for n in c["names"][()]]
+    colors = [tuple(int(v) for v in row) for row in c["colors"][()]]
+    codes, offsets = c["codes"][()], c["code_offsets"][()]
+    if len(colors) != len(names) or len(offsets) != len(names) + 1 or np.any(np.diff(offsets) < 0) \
+            or offsets[0] != 0 or offsets[-1] != len(codes):
+        raise damaged("its class table is inconsistent (names, colours and codes do not match)")
+    groups = [tuple(int(v) for v in codes[offsets[k]:offsets[k + 1]]) for k in range(len(names))]
+    classes = ClassTable(str(c.attrs["table"]), names=tuple(names[:-1]), codes=tuple(groups[:-1]),
+                         colors=tuple(colors[:-1]))
+    frame = Frame(_int_attr(g.attrs, "frame_size", damaged), _int_attr(g.attrs, "frame_margin", damaged))
+    counts = g["counts"]
+    expected = (len(classes), frame.size, frame.size)
+    if counts.shape != expected or counts.dtype.kind not in "iu":
+        raise damaged(f"its count raster has shape {counts.shape} ({counts.dtype}), not {expected} integers "
+                      "as its frame and class table say")
+    counts = counts[()].astype(np.int64)
+    egeom = g["egeom_histogram"][()]
+    if egeom.ndim != 1 or not len(egeom) or egeom.dtype.kind not in "iu":
+        raise damaged("its Egeom histogram is not a list of counts")
+    totals = g["class_totals"][()] if "class_totals" in g else None
+    if totals is not None and (totals.shape != (len(classes),) or totals.dtype.kind not in "iu"):
+        raise damaged(f"its class totals have shape {totals.shape}, not ({len(classes)},)")
+    n_undefined = _int_attr(g.attrs, "n_undefined", damaged)
+    if counts.min(initial=0) < 0 or egeom.min(initial=0) < 0 or n_undefined < 0 \
+            or (totals is not None and totals.min(initial=0) < 0):
+        raise damaged("it holds negative counts")
+    meta = {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in f.attrs.items()}
+    try:
+        meta.update(_method(f.attrs))
+    except (ValueError, TypeError, AttributeError):
+        raise damaged("its method record is not readable") from None
+    return Signature(counts, frame, classes, egeom.astype(np.int64), n_undefined, meta,
+                     None if totals is None else totals.astype(np.int64))
+
+
+def _int_attr(attrs, name, damaged):
+    value = attrs[name]
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        raise damaged(f"its {name} is not a whole number ({value!r})")
+    return int(value)
 
 
 def _method(attrs):
     """The method settings of an archive (METHOD_KEYS). Format 1 archives recorded them as
     separate attributes, with the scales as text, and weighed neighbours equally."""
     if "method" in attrs:
-        return json.loads(attrs["method"])
+        method = json.loads(attrs["method"])
+        if not isinstance(method, dict):
+            raise ValueError("method is not a JSON object")
+        return method
     text = str(attrs.get("scales", ""))
     values = [float(v) for v in text.split(" ", 1)[-1].split("(")[0].replace(",", " ").split()] if text else []
     out = {"weights": "none", "descriptor_params": json.loads(attrs.get("descriptor_params", "{}"))}
@@ -215,21 +272,25 @@ def _method(attrs):
 
 
 def archive_summary(path):
-    """Lines describing an archive, for `lidar-sig info`."""
+    """Lines describing an archive, for `lidar-sig info`; a damaged record is said, not fatal."""
     sig = load_signature(path)
     with _open(path) as f:
         attrs = dict(f.attrs)
-        has_points = "points" in f
+        has_points = "points" in f and "cl" in f["points"]
         n_rows = f["points/cl"].shape[0] if has_points else 0
-    lines = [f"{path}: {FORMAT} v{attrs['format_version']} (lidar_sig {attrs['lidar_sig_version']})",
-             f"  descriptor {attrs.get('descriptor', '?')}, strategy {attrs.get('strategy', '?')}, "
-             f"{attrs.get('scales', '?')}",
+    m = sig.metadata
+    lines = [f"{path}: {FORMAT} v{attrs['format_version']} (lidar_sig {attrs.get('lidar_sig_version', '?')})",
+             f"  descriptor {m.get('descriptor', '?')}, strategy {m.get('strategy', '?')}, "
+             f"{attrs.get('scales', '?')}, {m.get('weights', '?')} weights",
              f"  signature: {sig.n_points:,} points, {sig.n_undefined:,} undefined, frame {sig.frame.size} px, "
              f"class table {sig.classes.name!r}",
              f"  per-point datasets: {'yes, ' + format(n_rows, ',') + ' points' if has_points else 'no'}"]
-    for name, count in zip(sig.classes.class_names, sig.class_counts):
+    for name, count in zip(sig.classes.class_names, sig.class_totals):
         if count:
             lines.append(f"    {name}: {int(count):,}")
-    for src in json.loads(attrs.get("sources", "[]")):
-        lines.append(f"  source {src['path']} sha256 {src['sha256']}")
+    try:
+        sources = json.loads(attrs.get("sources", "[]"))
+        lines += [f"  source {src['path']} sha256 {src['sha256']}" for src in sources]
+    except (ValueError, TypeError, KeyError):
+        lines.append("  sources: unreadable (the record is not the JSON list lidar_sig writes)")
     return lines
