@@ -120,9 +120,16 @@ class NeighborIndex:
         self.max_neighbors = int(max_neighbors)
         self.min_neighbors = int(min_neighbors)
         n = len(xyz)
-        if kind == "knn":
-            self.width = int(min(self.scales.max() + TIE_SLACK, n))
-            cell = _knn_cell(xyz, self.width)
+        density, volume = _robust_density(xyz)
+        # Spheres expected to hold far more than the cap are served by a k-nearest search of
+        # cap + 1, cut at the radii: the same neighbourhoods (the nearest max_neighbors within
+        # the radius), without scanning every point of a huge sphere (radii inflated by an outlier).
+        self.capped_search = (kind == "radius"
+                              and density * np.pi * float(self.scales.max()) ** 2 > 2 * self.max_neighbors)
+        if kind == "knn" or self.capped_search:
+            want = self.scales.max() + TIE_SLACK if kind == "knn" else self.max_neighbors + 1
+            self.width = int(min(want, n))
+            cell = _knn_cell(self.width, density, volume)
             self.s_max = _KNN_SHELLS
         else:
             self.width = min(self.max_neighbors, n)
@@ -165,14 +172,17 @@ class NeighborIndex:
         counts = np.zeros((b, len(self.scales)), np.int64)
         total = np.zeros(b, np.int64)
         done = np.zeros(b, np.bool_)
-        if self.kind == "knn":
+        if self.kind == "knn" or self.capped_search:
             self.grid.search(rows, d2, idx, n, counts, total, done, ks=np.array([self.width]),
                              s_max=self.s_max)
         else:
             self.grid.search(rows, d2, idx, n, counts, total, done, cap=self.width, s_max=self.s_max,
                              radii2=self.scales.astype(np.float64) ** 2 * (1.0 + TIE))
         if not done.all():
-            self._complete(rows, d2, idx, n, counts, total, done, self.width)
+            self._complete(rows, d2, idx, n, counts, total, done, self.width,
+                           kind="knn" if self.capped_search else None)
+        if self.capped_search:
+            counts, total, n = _cut_at_radii(d2, n, self.scales, self.max_neighbors)
         if self.kind == "knn":
             counts, sigma = _knn_counts(d2, n, self.scales)
             n = counts[:, -1].copy()  # neighbours past the largest scale's ties are not needed
@@ -277,18 +287,36 @@ def _knn_counts(d2, n, ks):
     return counts, np.sqrt(kth_d2)
 
 
-def _knn_cell(xyz, k):
-    """Voxel side for k-nearest search: about the k-th neighbour distance of an airborne cloud.
+def _cut_at_radii(d2, n, radii, cap):
+    """Spherical neighbourhoods from sorted k-nearest lists of cap + 1: counts (B, S) within each
+    radius among the cap nearest, the number within the largest radius as far as the list
+    tells (cap + 1 when even the last is inside: the sphere was capped), and the list lengths."""
+    r2 = np.asarray(radii, dtype=np.float64) ** 2 * (1.0 + TIE)
+    valid = np.arange(d2.shape[1])[None, :] < n[:, None]
+    inside = valid & (d2 <= r2[-1])
+    total = inside.sum(axis=1)
+    keep = np.minimum(total, cap)
+    within = valid & (np.arange(d2.shape[1])[None, :] < keep[:, None])
+    counts = np.stack([(within & (d2 <= r)).sum(axis=1) for r in r2], axis=1)
+    return counts, total, keep
 
-    Estimated from the density over the two longest bounding-box sides (airborne clouds are
-    nearly 2.5D); a poor guess costs time, never correctness. Not smaller than the side at which
-    the box holds more voxels than the grid's dense look-up table (small k on a tall box would
-    otherwise fall back to binary searches).
-    """
-    extent = np.sort(xyz.max(axis=0) - xyz.min(axis=0))[::-1]
-    area = max(extent[0] * extent[1], 1e-12)
-    density = len(xyz) / area
+
+def _robust_density(xyz):
+    """(points per square metre, cubic metres) of the cloud's core: the box between the 1st and
+    99th percentiles of each axis (from at most 100,000 points), so that far outliers inflate
+    neither. Airborne clouds are nearly 2.5D: the density is over the two longest sides."""
+    sample = xyz[:: max(1, len(xyz) // 100_000)]
+    lo, hi = np.percentile(sample, [1, 99], axis=0)
+    inside = np.all((sample >= lo) & (sample <= hi), axis=1).mean() * len(xyz)
+    extent = np.sort(np.maximum(hi - lo, 1e-9))[::-1]
+    return max(inside, 1.0) / max(extent[0] * extent[1], 1e-12), float(np.prod(extent))
+
+
+def _knn_cell(k, density, volume):
+    """Voxel side for k-nearest search: about the k-th neighbour distance at the cloud's density
+    (a poor guess costs time, never correctness). Not smaller than the side at which the core
+    box holds more voxels than the grid's dense look-up table (small k on a tall box would
+    otherwise fall back to binary searches)."""
     cell = 0.9 * np.sqrt(k / (np.pi * density))
-    volume = float(np.prod(np.maximum(extent, 1e-9)))
     cell = max(cell, (volume / LUT_CELLS) ** (1.0 / 3.0))
     return float(cell) if np.isfinite(cell) and cell > 0 else 1.0
