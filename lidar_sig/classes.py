@@ -8,6 +8,8 @@ import numpy as np
 from .errors import LidarSigError
 
 OTHER_COLOR = (128, 128, 128)
+#: Largest label code a class table may name (codes are stored as 32-bit integers).
+MAX_CODE = 2**31 - 1
 
 
 @dataclass(frozen=True)
@@ -26,7 +28,12 @@ class ClassTable:
     def __post_init__(self):
         if not (len(self.names) == len(self.codes) == len(self.colors)):
             raise LidarSigError("a class table needs one name, code list and colour per class")
-        seen = [c for cs in self.codes for c in cs]
+        for cs in self.codes:
+            for c in cs:
+                if isinstance(c, bool) or not isinstance(c, (int, np.integer)) or not 0 <= c <= MAX_CODE:
+                    raise LidarSigError(f"class table {self.name!r}: codes must be whole numbers from 0 to "
+                                        f"{MAX_CODE:,}, got {c!r}")
+        seen = [int(c) for cs in self.codes for c in cs]
         if len(seen) != len(set(seen)):
             raise LidarSigError(f"class table {self.name!r} maps a code to two classes")
 
@@ -44,19 +51,22 @@ class ClassTable:
         return len(self.names) + 1
 
     def index(self, labels):
-        """Class index per point (0..C-1); codes outside the table -> the last, ``other``."""
+        """Class index per point (0..C-1); codes outside the table -> the last, ``other``.
+
+        A sorted look-up of the table's codes, so memory does not grow with the largest code.
+        """
+        labels = np.asarray(labels)
         n = len(labels)
+        other = len(self.names)
         if not self.codes or n == 0:
-            return np.full(n, len(self.names), dtype=np.int64)
-        labels = np.asarray(labels, dtype=np.int64)
-        lut_size = max(max(cs) for cs in self.codes if cs) + 1
-        lut = np.full(lut_size, len(self.names), dtype=np.int64)
-        for k, cs in enumerate(self.codes):
-            lut[list(cs)] = k
-        inside = (labels >= 0) & (labels < lut_size)
-        out = np.full(n, len(self.names), dtype=np.int64)
-        out[inside] = lut[labels[inside]]
-        return out
+            return np.full(n, other, dtype=np.int64)
+        codes = np.array([c for cs in self.codes for c in cs], dtype=np.int64)
+        classes = np.array([k for k, cs in enumerate(self.codes) for _ in cs], dtype=np.int64)
+        order = np.argsort(codes)
+        codes, classes = codes[order], classes[order]
+        labels = labels.astype(np.int64)
+        pos = np.clip(np.searchsorted(codes, labels), 0, len(codes) - 1)
+        return np.where(codes[pos] == labels, classes[pos], other)
 
 
 # ASPRS LAS 1.4 standard classes (R15), colours close to common viewer palettes.
@@ -146,16 +156,18 @@ def load_class_table(path):
     for k, entry in enumerate(entries):
         try:
             c = entry["codes"]
-            c = (c,) if isinstance(c, int) else tuple(int(v) for v in c)
-            rgb = tuple(int(v) for v in entry["color"])
-            if len(rgb) != 3 or not all(0 <= v <= 255 for v in rgb) or any(v < 0 for v in c):
+            c = (c,) if not isinstance(c, list) else tuple(c)
+            rgb = tuple(entry["color"])
+            whole = all(isinstance(v, int) and not isinstance(v, bool) for v in c + rgb)
+            if (not c or not whole or len(rgb) != 3 or not all(0 <= v <= 255 for v in rgb)
+                    or not all(0 <= v <= MAX_CODE for v in c) or not isinstance(entry["name"], str)):
                 raise ValueError
-            names.append(str(entry["name"]))
+            names.append(entry["name"])
             codes.append(c)
             colors.append(rgb)
         except (KeyError, TypeError, ValueError):
-            raise LidarSigError(f"class entry {k + 1} needs a name, non-negative integer codes and an "
-                                "RGB color of three values 0-255", path=p) from None
+            raise LidarSigError(f"class entry {k + 1} needs a name, codes that are whole numbers from 0 to "
+                                f"{MAX_CODE:,} and an RGB color of three whole numbers 0-255", path=p) from None
     try:
         return ClassTable(str(data.get("name", p.stem)), tuple(names), tuple(codes), tuple(colors))
     except LidarSigError as exc:

@@ -48,7 +48,11 @@ class PointCloud:
     units: Units | None = None
 
     def __post_init__(self):
-        xyz = np.asarray(self.xyz, dtype=np.float64)
+        try:
+            xyz = np.asarray(self.xyz, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise LidarSigError(f"coordinates must be numbers, an (N, 3) array; got {type(self.xyz).__name__}",
+                                path=self.path) from None
         if xyz.ndim != 2 or xyz.shape[1] != 3:
             raise LidarSigError(f"coordinates must have shape (N, 3), got {xyz.shape}", path=self.path)
         if xyz.shape[0] == 0:
@@ -62,11 +66,7 @@ class PointCloud:
         if self.units is None:
             self.units = units_of(self.crs, path=self.path)
         if self.labels is not None:
-            self.labels = np.asarray(self.labels)
-            if self.labels.shape != (xyz.shape[0],):
-                raise LidarSigError(
-                    f"labels must have one value per point: {self.labels.shape} for {xyz.shape[0]} points",
-                    path=self.path)
+            self.labels = _class_codes(self.labels, xyz.shape[0], self.path)
 
     def __len__(self):
         return self.xyz.shape[0]
@@ -76,3 +76,20 @@ class PointCloud:
         search and the kernels see (small numbers, so UTM-sized offsets cost no precision)."""
         centre = (self.xyz.min(axis=0) + self.xyz.max(axis=0)) / 2.0
         return (self.xyz - centre) * np.asarray(self.units.factors)
+
+
+def _class_codes(labels, n, path):
+    """Labels as int64 class codes: one whole number per point, from 0 to 2**31 - 1."""
+    from .classes import MAX_CODE
+
+    values = np.asarray(labels)
+    if values.shape != (n,):
+        raise LidarSigError(f"labels must have one value per point: {values.shape} for {n} points", path=path)
+    if values.dtype.kind not in "iuf" or (values.dtype.kind == "f" and not np.all(np.isfinite(values))):
+        raise LidarSigError(f"labels must be class codes (whole numbers), got {values.dtype} values", path=path)
+    if values.dtype.kind == "f" and not np.all(values == np.round(values)):
+        raise LidarSigError("labels must be class codes (whole numbers), got fractions", path=path)
+    if n and (values.min() < 0 or values.max() > MAX_CODE):
+        raise LidarSigError(f"labels must be class codes from 0 to {MAX_CODE:,}, got {values.min()} to "
+                            f"{values.max()}", path=path)
+    return values.astype(np.int64)

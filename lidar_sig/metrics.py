@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.ndimage import gaussian_filter
 
+from .errors import LidarSigError
 from .saliency import LN3
 from .signature import to_uint8
 
@@ -208,6 +209,12 @@ def compare(a, b, *, render="smooth", color_bins=8):
     labelled point, its saliency defined or not. Raises LidarSigError when the signatures are
     not comparable (frames, class tables or methods differ).
     """
+    from .signature import Signature
+
+    for name, sig in (("a", a), ("b", b)):
+        if not isinstance(sig, Signature):
+            raise LidarSigError(f"compare takes two signatures (result.signature or load_signature(path)); "
+                                f"{name} is {sig!r}")
     a.check_comparable(b)
     mask = a.frame.mask()
     sg_a, sas_a = a.render(render)

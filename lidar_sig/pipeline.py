@@ -1,6 +1,7 @@
 """Pipeline: cloud -> neighbourhoods -> descriptor -> strategy -> Saliency and Signature."""
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -9,7 +10,8 @@ import numpy as np
 from . import __version__
 from .classes import UNLABELED, class_table
 from .cloud import PointCloud
-from .errors import LidarSigError
+from .compile import announce_compilation
+from .errors import LidarSigError, LidarSigWarning
 from .io.open3d import from_open3d, is_open3d
 from .neighbors import WEIGHTS, NeighborIndex, unique_points
 from .plugins import get_descriptor, get_strategy
@@ -17,6 +19,10 @@ from .progress import progress as _progress
 from .saliency import Saliency
 from .scales import Scales, knn, radii
 from .signature import Frame, Signature
+
+
+#: Share of neighbourhoods cut at max_neighbors above which a run warns.
+CAPPED_WARNING = 0.5
 
 
 @dataclass
@@ -112,9 +118,12 @@ class Pipeline:
             raise LidarSigError("scales must be made with lidar_sig.radii(...) or lidar_sig.knn(...)")
         if weights not in WEIGHTS:
             raise LidarSigError(f"weights must be one of {', '.join(WEIGHTS)}, got {weights!r}")
-        if max_neighbors < 3 or min_neighbors < 2:
-            raise LidarSigError(f"max_neighbors must be >= 3 and min_neighbors >= 2, got "
-                                f"{max_neighbors} and {min_neighbors}")
+        whole = all(isinstance(v, (int, np.integer)) and not isinstance(v, bool) for v in (max_neighbors, min_neighbors))
+        if not whole or not 3 <= max_neighbors <= 100_000 or not 2 <= min_neighbors <= max_neighbors:
+            raise LidarSigError(f"max_neighbors must be a whole number from 3 to 100,000 and min_neighbors one "
+                                f"from 2 to max_neighbors, got {max_neighbors!r} and {min_neighbors!r}")
+        if frame is not None and not isinstance(frame, Frame):
+            raise LidarSigError(f"frame must be a lidar_sig.Frame, got {frame!r}")
         self.weights = weights
         self.max_neighbors = int(max_neighbors)
         self.min_neighbors = int(min_neighbors)
@@ -159,6 +168,7 @@ class Pipeline:
     def saliency(self, cloud):
         """Per-point Saliency of ``cloud`` and run statistics (undefined, capped and duplicate
         counts, scales in metres)."""
+        announce_compilation(self.progress)
         xyz = cloud.metric_xyz()
         support, inverse = unique_points(xyz)
         self._check_size(cloud, len(support))
@@ -195,6 +205,14 @@ class Pipeline:
                 f"no point has a defined saliency: every neighbourhood at {self.scales.describe()} "
                 f"(= {_fmt(scales)} m) holds fewer than {self.min_neighbors} points; "
                 "use larger scales", path=cloud.path)
+        if n_capped > CAPPED_WARNING * m:
+            warnings.warn(
+                f"{cloud.path or 'the cloud'}: {n_capped:,} of {m:,} neighbourhoods hold more than {self.max_neighbors} "
+                f"points within the largest radius ({scales.max():.4g} m) and were cut to the nearest "
+                f"{self.max_neighbors}: the radii are large for this cloud"
+                + (" (normalized radii follow the bounding box, which a far outlier inflates)"
+                   if self.scales.units == "normalized" else "")
+                + "; use smaller radii or the default k-nearest scales", LidarSigWarning, stacklevel=2)
         stats = {"n_points": n, "n_undefined": n_undefined, "n_capped": n_capped,
                  "n_duplicates": n - m, "resolved_scales": scales.tolist(),
                  "units": cloud.units.describe(), "metres_per_unit": list(cloud.units.factors),

@@ -30,6 +30,8 @@ from .saliency import LN3, geometric_entropy
 #: at which a pixel saturates.
 DENSITY_REF = 1e-6
 DENSITY_SAT = 1e-2
+#: Largest signature image side, in pixels (a count raster per class is held in memory).
+MAX_FRAME = 4096
 #: Renderings of Sg and Sas (module docstring); the first is the default.
 RENDERINGS = ("smooth", "points", "density")
 #: Standard deviation of the "smooth" rendering's Gaussian, as a fraction of the triangle's side.
@@ -51,8 +53,13 @@ class Frame:
     margin: int = 16
 
     def __post_init__(self):
-        if self.size < 16 or not 0 <= self.margin < self.size // 4:
-            raise LidarSigError(f"signature size {self.size} px with margin {self.margin} px is too small")
+        if isinstance(self.size, bool) or not isinstance(self.size, (int, np.integer)) \
+                or isinstance(self.margin, bool) or not isinstance(self.margin, (int, np.integer)):
+            raise LidarSigError(f"signature size and margin must be whole numbers of pixels, got "
+                                f"{self.size!r} and {self.margin!r}")
+        if not 16 <= self.size <= MAX_FRAME or not 0 <= self.margin < self.size // 4:
+            raise LidarSigError(f"signature size {self.size} px with margin {self.margin} px: the size must be "
+                                f"16 to {MAX_FRAME} px and the margin less than a quarter of it")
 
     @property
     def vertices(self):

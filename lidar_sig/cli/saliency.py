@@ -5,7 +5,7 @@ from pathlib import Path
 import click
 
 from ..errors import LidarSigError
-from ..io import CLOUD_EXTENSIONS, check_output, read
+from ..io import CLOUD_EXTENSIONS, check_cloud_output, check_output, read
 from . import cli
 from .options import columns_option, overwrite_option, pipeline_options
 from .report import echo_run
@@ -25,6 +25,7 @@ def saliency(source, output, overwrite, columns, pipeline, method_given, quiet):
     check_output(output, overwrite=overwrite)
     start = time.perf_counter()
     cloud = read(source, columns=columns)
+    check_cloud_output(output, cloud)  # before the work, not after
     result = pipeline.run(cloud)
     result.write(output, overwrite=overwrite)
     if not quiet:

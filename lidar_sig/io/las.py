@@ -56,6 +56,11 @@ def read_las(path):
     if len(las.points) != las.header.point_count:
         raise LidarSigError(f"holds {len(las.points)} points but its header says "
                             f"{las.header.point_count}; the file is truncated", path=path)
+    records = _records_in_file(path, las.header)
+    if records is not None and records > las.header.point_count:
+        warnings.warn(f"{path}: the header counts {las.header.point_count:,} points but the file holds "
+                      f"{records:,} point records; only the header's {las.header.point_count:,} are read (fix the "
+                      "header's point count to use them all)", LidarSigWarning, stacklevel=3)
     xyz = np.column_stack([np.asarray(las.x), np.asarray(las.y), np.asarray(las.z)])
     labels = np.asarray(las.classification, dtype=np.int64)
     if not labels.any():
@@ -63,6 +68,22 @@ def read_las(path):
     crs, units = las_units(las.header, path=path)
     return PointCloud(xyz, labels, source=las, path=str(path), previous_outputs=lidar_sig_dims(las),
                       crs=crs, units=units)
+
+
+def _records_in_file(path, header):
+    """Point records an uncompressed LAS file holds, from its size (None for LAZ, where only the
+    compressed chunks know): a header may count fewer than there are."""
+    import os
+
+    if header.are_points_compressed:
+        return None
+    end = os.path.getsize(path)
+    if header.number_of_evlrs and header.start_of_first_evlr:
+        end = min(end, header.start_of_first_evlr)
+    waveforms = getattr(header, "start_of_waveform_data_packet_record", 0)
+    if waveforms and waveforms > header.offset_to_point_data:
+        end = min(end, waveforms)
+    return max(0, end - header.offset_to_point_data) // header.point_format.size
 
 
 def _reason(exc):
@@ -143,9 +164,12 @@ def _new_lasdata(cloud):
     columns.pop("label", None)
     fmt = 6 + ("red" in columns) + ("red" in columns and "nir" in columns)
     header = laspy.LasHeader(point_format=fmt, version="1.4")
-    header.offsets = np.floor(cloud.xyz.min(axis=0))
-    header.scales = np.array([0.001, 0.001, 0.001])
-    header.global_encoding.wkt = True  # required with point formats 6-10; no CRS known
+    header.offsets, header.scales = las_scaling(cloud.xyz)
+    header.global_encoding.wkt = True  # required with point formats 6-10
+    if cloud.crs:
+        import pyproj
+
+        header.add_crs(pyproj.CRS.from_user_input(cloud.crs))
     standard = set(header.point_format.dimension_names) - {"X", "Y", "Z", "classification"}
     fitting = {n: v for n, v in columns.items() if n in standard and _fits(v, header.point_format.dimension_by_name(n))}
     extra = {(n if n not in standard else f"{n}_value"): v for n, v in columns.items() if n not in fitting}
@@ -160,6 +184,28 @@ def _new_lasdata(cloud):
     for name, values in extra.items():
         las[name] = values
     return las
+
+
+def las_scaling(xyz):
+    """LAS offsets and scales for coordinates ``xyz``: offsets at the floor of the minimum,
+    millimetre scales unless the extent needs coarser ones to fit LAS's 32-bit integers (then
+    the next power of ten)."""
+    lo, hi = xyz.min(axis=0), xyz.max(axis=0)
+    offsets = np.floor(lo)
+    span = np.maximum(hi - offsets, 1e-12)
+    scales = np.maximum(1e-3, 10.0 ** np.ceil(np.log10(span / (2**31 - 2))))
+    return offsets, scales
+
+
+def check_las_output(cloud, path=None):
+    """Refuse, before any work, a cloud whose values a LAS file cannot hold: class codes outside
+    0-255 (a cloud from another format; a LAS source's codes are LAS codes already)."""
+    if isinstance(cloud.source, laspy.LasData) or cloud.labels is None or not len(cloud.labels):
+        return
+    lo, hi = int(cloud.labels.min()), int(cloud.labels.max())
+    if lo < 0 or hi > 255:
+        raise LidarSigError(f"class codes {lo} to {hi} do not fit a LAS classification (0-255); write .ply, "
+                            f".pcd or text instead, or relabel the cloud", path=path or cloud.path)
 
 
 def _fits(values, dim):
@@ -256,6 +302,7 @@ def write_las(path, cloud, saliency, *, scale_kind=None, scale_values=None, over
     caller should know (an upgraded version, a dropped COPC index, renamed outputs) is issued as
     a :class:`LidarSigWarning` once the file is written.
     """
+    check_las_output(cloud, path)
     las, notes = to_lasdata(cloud)
     previous = lidar_sig_dims(las)
     if previous:  # a re-run replaces instead of duplicating

@@ -14,7 +14,13 @@ not pay for it.
 """
 from __future__ import annotations
 
+import contextlib
+import os
+import sys
+import tempfile
 import warnings
+
+from pathlib import Path
 
 import numpy as np
 
@@ -84,11 +90,43 @@ def from_open3d(pcd, *, path=None):
 
 
 def read_open3d(path):
-    """Read a PLY or PCD point cloud (see :func:`from_open3d`)."""
+    """Read a PLY or PCD point cloud (see :func:`from_open3d`).
+
+    What Open3D's readers print (RPly's "Unexpected end of file" and the like) is caught and
+    becomes the one-line error of a damaged file, instead of lines of its own on the terminal.
+    """
     o3d = _open3d(path)
-    cloud = from_open3d(o3d.t.io.read_point_cloud(str(path)), path=str(path))
+    with c_output() as printed:
+        pc = o3d.t.io.read_point_cloud(str(path))
+    problems = [line.strip() for line in printed[0].splitlines() if line.strip()]
+    if problems:
+        raise LidarSigError(f"cannot be read as {Path(path).suffix.lstrip('.').upper()} ({problems[0][:160]}); "
+                            "check that the file is complete", path=path)
+    cloud = from_open3d(pc, path=str(path))
     cloud.previous_outputs = parse_marker(_header_comments(path))
     return cloud
+
+
+@contextlib.contextmanager
+def c_output():
+    """Capture what C and C++ code prints on the standard output and error (file descriptors
+    1 and 2) during the block; yields a list that holds the text afterwards."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    saved = [os.dup(1), os.dup(2)]
+    printed = []
+    with tempfile.TemporaryFile() as sink:
+        os.dup2(sink.fileno(), 1)
+        os.dup2(sink.fileno(), 2)
+        try:
+            yield printed
+        finally:
+            os.dup2(saved[0], 1)
+            os.dup2(saved[1], 2)
+            for fd in saved:
+                os.close(fd)
+            sink.seek(0)
+            printed.append(sink.read().decode("utf-8", "replace"))
 
 
 def _header_comments(path):

@@ -34,7 +34,7 @@ def parse_columns(text):
     """``"x,y,z,-,label"`` -> a tuple of column names; must hold x, y and z."""
     cols = tuple(_name(c.strip()) for c in str(text).split(",") if c.strip())
     if not {"x", "y", "z"} <= set(cols) or len(set(c for c in cols if c != "-")) != len([c for c in cols if c != "-"]):
-        raise LidarSigError(f"--columns must name x, y and z once each, got {text!r} (e.g. x,y,z,-,label)")
+        raise LidarSigError(f"columns must name x, y and z once each, got {text!r} (e.g. x,y,z,-,label)")
     return cols
 
 

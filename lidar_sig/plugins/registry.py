@@ -56,14 +56,24 @@ def available(kind):
     return out
 
 
+# The method each kind of plugin must have (see plugins/base.py).
+_METHOD = {"descriptor": "saliency", "strategy": "combine"}
+
+
 def _get(kind, name, **params):
     if not isinstance(name, str):
+        if isinstance(name, type) or not callable(getattr(name, _METHOD[kind], None)):
+            raise LidarSigError(f"{kind} must be a registered name ({', '.join(sorted(_plugins(GROUPS[kind])))}) "
+                                f"or a {kind.capitalize()} instance, got {name!r}")
         return name  # an instance given directly
     plugins = _plugins(GROUPS[kind])
     key = name.lower()
     if key not in plugins:
         raise LidarSigError(f"unknown {kind} {name!r}; available: {', '.join(sorted(plugins))}")
-    return plugins[key].load()(**params)
+    try:
+        return plugins[key].load()(**params)
+    except TypeError as exc:  # parameters the plugin does not take
+        raise LidarSigError(f"{kind} {name!r} does not take these parameters ({exc})") from None
 
 
 def get_descriptor(name, **params):
