@@ -4,25 +4,42 @@ Sreevalsan-Nair & Mohapatra, "Augmented Semantic Signatures of Airborne LiDAR Po
 for Comparison". A cloud's per-point saliency map (Cl, Cs, Cp), placed in barycentric
 coordinates of a fixed triangle, makes an image: the geometric signature Sg, or coloured by
 semantic class, the augmented semantic signature Sas; metrics between signatures compare clouds.
+
+The public names below are loaded on first use (PEP 562), so that ``import lidar_sig`` and the
+start of the command line are quick and a Ctrl-C at that moment is handled like any other.
 """
 __version__ = "0.1.0"
 
-import warnings  # noqa: E402
+import importlib
+import warnings
 
 # numba probes the TBB threading layer first and warns when an older TBB (such as the one
 # Open3D ships) is on the path; it then uses OpenMP or its own work queue, which is all we need.
 warnings.filterwarnings("ignore", message=".*The TBB threading layer requires TBB")
 
-from .classes import ASPRS, PAPER, ClassTable, class_table  # noqa: E402
-from .cloud import PointCloud  # noqa: E402
-from .errors import LidarSigError  # noqa: E402
-from .io import load_signature, read  # noqa: E402
-from .metrics import compare  # noqa: E402
-from .pipeline import Pipeline, Result  # noqa: E402
-from .saliency import Saliency  # noqa: E402
-from .scales import Scales, knn, radii  # noqa: E402
-from .signature import Frame, Signature  # noqa: E402
+# public name -> module that defines it
+_EXPORTS = {
+    "ASPRS": "classes", "PAPER": "classes", "ClassTable": "classes", "class_table": "classes",
+    "PointCloud": "cloud", "LidarSigError": "errors", "load_signature": "io", "read": "io",
+    "compare": "metrics", "Pipeline": "pipeline", "Result": "pipeline", "Saliency": "saliency",
+    "Scales": "scales", "knn": "scales", "radii": "scales", "Frame": "signature", "Signature": "signature",
+    "compare_sources": "comparison", "Comparison": "comparison", "resilience": "resilience",
+}
+__all__ = sorted(_EXPORTS)
 
-__all__ = ["ASPRS", "PAPER", "ClassTable", "Frame", "LidarSigError", "Pipeline", "PointCloud",
-           "Result", "Saliency", "Scales", "Signature", "class_table", "compare", "knn",
-           "load_signature", "radii", "read"]
+
+def __getattr__(name):
+    if name in _EXPORTS:
+        value = getattr(importlib.import_module(f".{_EXPORTS[name]}", __name__), name)
+        globals()[name] = value
+        return value
+    try:  # a submodule, e.g. lidar_sig.scales
+        return importlib.import_module(f".{name}", __name__)
+    except ModuleNotFoundError as exc:
+        if exc.name != f"{__name__}.{name}":
+            raise
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}") from None
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_EXPORTS))

@@ -1,6 +1,27 @@
-"""``python -m lidar_sig`` runs the command line."""
+"""``python -m lidar_sig`` and the ``lidar-sig`` command: the command line, with Ctrl-C and
+SIGTERM handled from its first instant (the libraries take a second to load)."""
+import signal
 import sys
 
-from .cli import main
 
-sys.exit(main())
+def _terminate(signum, frame):
+    from .errors import Interrupted
+
+    raise Interrupted(signum)
+
+
+def main(argv=None):
+    """Start the command line; returns the exit status."""
+    signal.signal(signal.SIGTERM, _terminate)
+    try:
+        from .cli import main as cli_main
+    except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM while the libraries load
+        signum = getattr(exc, "signum", signal.SIGINT)
+        print(f"lidar-sig: interrupted ({signal.Signals(signum).name}) while starting; nothing was written",
+              file=sys.stderr)
+        return 128 + signum
+    return cli_main(argv)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -9,36 +9,44 @@ from __future__ import annotations
 import sys
 
 _ANNOUNCED = False
+# Kernels every run calls, and those of each built-in descriptor (module, function names); the
+# functions they call are compiled and cached with them.
+_COMMON = (("grid", ("nearest", "knn_counts")), ("saliency", ("_saliency_rows", "_entropy_rows")))
+_DESCRIPTOR = {
+    "c3dcm": (("kernels", ("covariance_eigenvalues",)),),
+    "t3dvt": (("kernels", ("voting_eigenvalues",)),),
+    "t3dvt-get": (("kernels", ("voting_eigenvalues",)), ("get", ("first_pass", "second_pass", "third_pass"))),
+}
 
 
-def _dispatchers():
-    from . import get, grid, kernels, saliency
+def _dispatchers(descriptor):
+    import importlib
 
-    for module in (grid, kernels, saliency, get):
-        for value in vars(module).values():
-            # inlined helpers are compiled into their callers and have no cache of their own
-            if hasattr(value, "_cache") and value.targetoptions.get("inline") != "always":
-                yield value
+    for module, names in _COMMON + _DESCRIPTOR.get(descriptor, ()):
+        mod = importlib.import_module(f"lidar_sig.{module}")
+        for name in names:
+            yield getattr(mod, name)
 
 
-def kernels_cached():
-    """True if every kernel has a compiled version cached for its current source, False if one
-    will be compiled, None if that cannot be told (numba's cache layout is not public)."""
+def kernels_cached(descriptor="c3dcm"):
+    """True if every kernel a run of ``descriptor`` calls has a compiled version cached for its
+    current source, False if one will be compiled, None if that cannot be told (numba's cache
+    layout is not public)."""
     try:
-        return all(bool(d._cache._cache_file._load_index()) for d in _dispatchers())
+        return all(bool(d._cache._cache_file._load_index()) for d in _dispatchers(descriptor))
     except Exception:  # a numba without this layout: do not guess
         return None
 
 
-def announce_compilation(enabled=None):
-    """Print once per process, on a terminal (or when ``enabled``), that the kernels are being
-    compiled, when they are."""
+def announce_compilation(enabled=None, descriptor="c3dcm"):
+    """Print once per process, on a terminal (or when ``enabled``), that the kernels a run of
+    ``descriptor`` needs are being compiled, when they are."""
     global _ANNOUNCED
     if _ANNOUNCED:
         return
-    _ANNOUNCED = True
     if enabled is False or (enabled is None and not sys.stderr.isatty()):
         return
-    if kernels_cached() is False:
+    if kernels_cached(descriptor) is False:
+        _ANNOUNCED = True
         print("lidar-sig: compiling the numerical kernels: the first run after installing takes "
               "15-20 s more, later runs use the cache", file=sys.stderr, flush=True)

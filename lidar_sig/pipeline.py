@@ -168,7 +168,7 @@ class Pipeline:
     def saliency(self, cloud):
         """Per-point Saliency of ``cloud`` and run statistics (undefined, capped and duplicate
         counts, scales in metres)."""
-        announce_compilation(self.progress)
+        announce_compilation(self.progress, self.descriptor.name)
         xyz = cloud.metric_xyz()
         support, inverse = unique_points(xyz)
         self._check_size(cloud, len(support))

@@ -5,7 +5,6 @@ option) with exit status 2; an interrupt (Ctrl-C, SIGTERM) with 130 or 143, outp
 were; a note from the library (LidarSigWarning) is one line too and does not stop the run.
 """
 import signal
-import sys
 import warnings
 
 import click
@@ -47,13 +46,9 @@ def cli():
 from . import compare, info, plugins, resilience, saliency, signature  # noqa: E402,F401  (registers the commands)
 
 
-def _terminate(signum, frame):
-    raise Interrupted(signum)
-
-
 def main(argv=None):
-    """Console-script entry point; returns the exit status."""
-    signal.signal(signal.SIGTERM, _terminate)
+    """Run the command line; returns the exit status (``lidar_sig.__main__.main`` first installs
+    the signal handlers)."""
     try:
         status = cli.main(args=argv, prog_name="lidar-sig", standalone_mode=False)
     except click.exceptions.NoArgsIsHelpError as exc:
@@ -70,6 +65,3 @@ def main(argv=None):
         return 130
     return status if isinstance(status, int) else 0
 
-
-if __name__ == "__main__":
-    sys.exit(main())

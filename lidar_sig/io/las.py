@@ -322,16 +322,40 @@ def write_las(path, cloud, saliency, *, scale_kind=None, scale_values=None, over
     for name, values in fields.items():
         las[names[name]] = values
     compress = str(path).lower().endswith(".laz")
-    with atomic_output(path, overwrite=overwrite) as tmp:
-        with open(tmp, "wb") as fh, laspy.LasWriter(fh, las.header, do_compress=compress,
-                                                     closefd=False) as writer:
-            writer.write_points(las.points)
-            if las.evlrs:
-                writer.write_evlrs(las.evlrs)
-            # the writer rewrites its header, VLRs included, when it closes
-            set_extra_bytes_ranges(writer.header, las.points)
+    with atomic_output(path, overwrite=overwrite) as tmp, open(tmp, "wb") as raw:
+        fh = _KeepsWriteErrors(raw)
+        try:
+            with laspy.LasWriter(fh, las.header, do_compress=compress, closefd=False) as writer:
+                writer.write_points(las.points)
+                if las.evlrs:
+                    writer.write_evlrs(las.evlrs)
+                # the writer rewrites its header, VLRs included, when it closes
+                set_extra_bytes_ranges(writer.header, las.points)
+        except Exception:
+            if fh.error is not None:  # lazrs reports a failed write as an error of its own
+                raise fh.error from None
+            raise
     for text in notes:
         warnings.warn(text, LidarSigWarning, stacklevel=4)  # the caller of Result.write
+
+
+class _KeepsWriteErrors:
+    """A file that keeps the OSError of a failed write (a full disk, a quota), so that it is
+    reported as such when the LAZ compressor turns it into an error of its own."""
+
+    def __init__(self, fh):
+        self._fh = fh
+        self.error = None
+
+    def write(self, data):
+        try:
+            return self._fh.write(data)
+        except OSError as exc:
+            self.error = exc
+            raise
+
+    def __getattr__(self, name):
+        return getattr(self._fh, name)
 
 
 def set_extra_bytes_ranges(header, points):
