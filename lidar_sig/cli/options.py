@@ -9,6 +9,7 @@ import click
 from ..errors import LidarSigError
 from ..neighbors import WEIGHTS
 from ..pipeline import Pipeline
+from ..progress import settings as progress_settings
 from ..scales import knn
 from ..scales import radii as make_radii
 from ..signature import RENDERINGS
@@ -58,14 +59,18 @@ def pipeline_options(func):
                      help="Class table for the augmented signature: asprs, paper, isprs-vaihingen, "
                           "or a .toml/.json file (see docs/method.md) [default: asprs]."),
         click.option("-q", "--quiet", is_flag=True, help="No progress bars or summaries."),
+        click.option("-v", "--verbose", is_flag=True,
+                     help="Print the parameters and timing of each step on stderr."),
     ]
 
     @functools.wraps(func)
-    def wrapper(quiet, **kwargs):
+    def wrapper(quiet, verbose, **kwargs):
         method = {name: kwargs.pop(name) for name in METHOD_OPTIONS}
         pipeline = make_pipeline(**method, quiet=quiet)
         given = {name for name, value in method.items() if value is not None}
-        return func(pipeline=pipeline, method_given=given, quiet=quiet, **kwargs)
+        # progress bars on a terminal unless --quiet; step timings with --verbose
+        with progress_settings(enabled=False if quiet else None, verbose=verbose):
+            return func(pipeline=pipeline, method_given=given, quiet=quiet, **kwargs)
 
     for opt in reversed(opts):
         wrapper = opt(wrapper)
