@@ -19,10 +19,11 @@ from .errors import LidarSigError  # noqa: E402
 from .io import load_signature, read  # noqa: E402
 from .metrics import compare  # noqa: E402
 from .pipeline import Pipeline, Result  # noqa: E402
+from .reporting import Report, report  # noqa: E402
 from .saliency import Saliency  # noqa: E402
 from .scales import Scales, knn, radii  # noqa: E402
 from .signature import Frame, Signature  # noqa: E402
 
 __all__ = ["ASPRS", "PAPER", "ClassTable", "Frame", "LidarSigError", "Pipeline", "PointCloud",
-           "Result", "Saliency", "Scales", "Signature", "class_table", "compare", "knn",
-           "load_signature", "radii", "read"]
+           "Report", "Result", "Saliency", "Scales", "Signature", "class_table", "compare", "knn",
+           "load_signature", "radii", "read", "report"]

@@ -71,6 +71,13 @@ class Comparison:
                    warnings=list(self.warnings))
         return out
 
+    def report(self):
+        """The HTML report of this comparison (:class:`lidar_sig.reporting.Report`): shown in
+        a notebook, ``.save("report.html")`` writes it."""
+        from .reporting import comparison_report
+
+        return comparison_report(self)
+
 
 def compare_sources(a, b, pipeline=None, *, render=None, columns=None, method_given=()):
     """Compare two point clouds or signature archives, in any mix (SPEC 6).
