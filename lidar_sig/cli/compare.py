@@ -6,23 +6,29 @@ import click
 from ..comparison import compare_sources
 from ..metrics import METRICS
 from . import cli
-from .options import columns_option, pipeline_options, render_option
+from ..reporting import COMPARISON_PLOTS
+from .options import (check_report_outputs, columns_option, overwrite_option, pipeline_options, render_option,
+                      report_options, write_report)
 from .report import archive_summary_line, run_summary
 
 @cli.command()
 @click.argument("a")
 @click.argument("b")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object on stdout.")
+@report_options
 @render_option
+@overwrite_option
 @columns_option
 @pipeline_options
-def compare(a, b, as_json, render, columns, pipeline, method_given, quiet):
+def compare(a, b, as_json, report, plots, render, overwrite, columns, pipeline, method_given, quiet):
     """Compare the signatures of A and B (point-cloud files or signature archives, in any mix).
 
     Both are made the same way: two clouds with the same method; a cloud compared with an
     archive the archive's way; two archives must record the same method.
     """
+    check_report_outputs(report, plots, COMPARISON_PLOTS, overwrite)
     result = compare_sources(a, b, pipeline, render=render, columns=columns, method_given=method_given)
+    written = write_report(result.report(), report, plots, overwrite) if report or plots else []
     for note in result.warnings:
         click.echo(f"lidar-sig: warning: {note}", err=True)
     if as_json:
@@ -37,3 +43,6 @@ def compare(a, b, as_json, render, columns, pipeline, method_given, quiet):
         value = result.metrics[m.key]
         shown = "n/a" if value is None else f"{value:.4f}"
         click.echo(f"  {m.name:<11} {shown:>8}   {m.short}, {m.same:g} = same")
+    if not quiet:
+        for line in written:
+            click.echo(line)

@@ -116,3 +116,32 @@ columns_option = click.option(
     "--columns", default=None, callback=_columns,
     help="Columns of text point clouds, e.g. x,y,z,-,label ('-' skips one) [default: by count: "
          "3 xyz, 4 xyz+label, 7 ISPRS Vaihingen 3D; or the file's '# x y z ...' header].")
+
+
+def report_options(func):
+    """Decorate a command with ``--report FILE.html`` and ``--plots DIR``."""
+    func = click.option("--plots", default=None, metavar="DIR",
+                        help="Also write every figure of the report as a PNG file in DIR.")(func)
+    return click.option("--report", default=None, metavar="FILE.html",
+                        help="Write an HTML report with the figures (one self-contained file).")(func)
+
+
+def check_report_outputs(report, plots, names, overwrite):
+    """Refuse report and plot outputs that cannot be written, before anything is computed."""
+    from ..reporting import check_plots_folder, check_report_path
+
+    if report:
+        check_report_path(report, overwrite=overwrite)
+    if plots:
+        check_plots_folder(plots, names, overwrite=overwrite)
+
+
+def write_report(made, report, plots, overwrite):
+    """Write the report made for ``--report`` and ``--plots``; lines saying what was written."""
+    lines = []
+    if report:
+        made.save(report, overwrite=overwrite)
+        lines.append(f"wrote {report}")
+    if plots:
+        lines.append(f"wrote {len(made.save_plots(plots, overwrite=overwrite))} plots in {plots}")
+    return lines

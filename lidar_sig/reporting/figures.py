@@ -21,10 +21,10 @@ SALIENCY_BINS = 50
 DPI = 100
 
 
-def _figure(width, height):
+def _figure(width, height, layout="constrained"):
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=(width, height), dpi=DPI, layout="constrained")
+    fig = Figure(figsize=(width, height), dpi=DPI, layout=layout)
     fig.set_facecolor("white")
     return fig
 
@@ -67,8 +67,11 @@ def saliency_pdfs(signatures, names, *, bins=SALIENCY_BINS):
     classes = signatures[0].classes
     rows = present_classes(signatures)
     hists = [saliency_histograms(s, bins=bins) for s in signatures]
-    fig = _figure(9.0, 0.4 + 1.55 * max(len(rows), 1))
-    axes = np.atleast_2d(fig.subplots(max(len(rows), 1), 3, sharex=True, squeeze=False))
+    height = 0.9 + 1.55 * max(len(rows), 1)
+    fig = _figure(9.0, height, layout=None)  # fixed margins: a constrained layout of many axes is slow
+    axes = fig.subplots(max(len(rows), 1), 3, sharex=True, squeeze=False)
+    fig.subplots_adjust(left=0.09, right=0.98, top=1 - 0.55 / height, bottom=0.45 / height, wspace=0.18,
+                        hspace=0.22)
     edges = np.linspace(0.0, 1.0, bins + 1)
     for r, k in enumerate(rows):
         for c, label in enumerate(("Cl (line)", "Cs (surface)", "Cp (point)")):
