@@ -4,7 +4,7 @@ console said, and a full-page screenshot.
 
 Used by the report tests; also a command that makes the docs' screenshot of a report:
 
-    python3 tests/browser.py report.html screenshot.png [--width 1280] [--max-height 0]
+    python3 tests/browser.py report.html screenshot.png [--width 1280] [--max-height 0] [--scale 1]
 """
 from __future__ import annotations
 
@@ -85,14 +85,15 @@ class Browser:
         """The console's entries since the page opened: [(level, message)]."""
         return [(e["level"], e["message"]) for e in self.driver.get_log("browser")]
 
-    def screenshot(self, path, *, max_height=0):
-        """A PNG of the whole page (or its top ``max_height`` CSS px) at the window's width."""
+    def screenshot(self, path, *, max_height=0, scale=1.0):
+        """A PNG of the whole page (or its top ``max_height`` CSS px) at the window's width,
+        ``scale`` device pixels per CSS pixel."""
         height = self.driver.execute_script("return document.documentElement.scrollHeight")
         if max_height:
             height = min(height, max_height)
         shot = self.driver.execute_cdp_cmd("Page.captureScreenshot", {
             "format": "png", "captureBeyondViewport": True,
-            "clip": {"x": 0, "y": 0, "width": self.width, "height": height, "scale": 1}})
+            "clip": {"x": 0, "y": 0, "width": self.width, "height": height, "scale": scale}})
         Path(path).write_bytes(base64.b64decode(shot["data"]))
         return Path(path)
 
@@ -105,13 +106,14 @@ def main(argv):
     parser.add_argument("png")
     parser.add_argument("--width", type=int, default=1280)
     parser.add_argument("--max-height", type=int, default=0, help="Top of the page only (CSS px).")
+    parser.add_argument("--scale", type=float, default=1.0, help="Pixels per CSS px of the picture.")
     args = parser.parse_args(argv)
     why = missing()
     if why:
         sys.exit(f"cannot take a screenshot: {why}")
     with Browser(args.width) as browser:
         browser.open(args.html)
-        browser.screenshot(args.png, max_height=args.max_height)
+        browser.screenshot(args.png, max_height=args.max_height, scale=args.scale)
     print(f"wrote {args.png}")
 
 
