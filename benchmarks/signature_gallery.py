@@ -13,12 +13,12 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+import cv2
 import numpy as np
-from PIL import Image, ImageDraw
 
 import lidar_sig as ls
 from lidar_sig.plugins.descriptors.t3dvt import T3DVT
-from lidar_sig.render import signature_image
+from lidar_sig.render import signature_image, write_png
 
 CONFIGS = [
     ("Multiscale C3DCM", "c3dcm", "multiscale"),
@@ -44,15 +44,15 @@ def main():
         scales = ls.scales.PAPER_RADII if strategy == "multiscale" else ls.scales.PAPER_K
         result = ls.Pipeline(descriptor=descriptor, strategy=strategy, scales=scales, weights="none",
                              classes="paper", frame=frame, progress=False).run(cloud)
-        img = Image.fromarray(signature_image(result.signature, "sas", mode="density"))
-        draw = ImageDraw.Draw(img)
-        draw.text((6, 4), title, fill=(0, 0, 0))
-        draw.text((6, 16), f"{result.signature.n_points:,} points", fill=(90, 90, 90))
-        panels.append(np.asarray(img))
+        img = signature_image(result.signature, "sas", mode="density")
+        cv2.putText(img, title, (6, 14), cv2.FONT_HERSHEY_SIMPLEX, 0.4, (0, 0, 0), 1, cv2.LINE_AA)
+        cv2.putText(img, f"{result.signature.n_points:,} points", (6, 28), cv2.FONT_HERSHEY_SIMPLEX, 0.4,
+                    (90, 90, 90), 1, cv2.LINE_AA)
+        panels.append(img)
         print(f"{title}: {result.signature.n_points:,} points in the signature, "
               f"{result.metadata['n_undefined']:,} undefined")
     rows = [np.hstack(panels[i:i + 3]) for i in (0, 3)]
-    Image.fromarray(np.vstack(rows)).save(args.output)
+    write_png(args.output, np.vstack(rows), overwrite=True)
     print(f"wrote {args.output} ({Path(args.file).name})")
 
 

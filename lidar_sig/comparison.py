@@ -16,6 +16,7 @@ import numpy as np
 from .cloud import PointCloud
 from .errors import LidarSigError
 from .metrics import compare as compare_signatures
+from .progress import step
 from .signature import RENDERINGS, Signature, method_differences
 
 #: Share of a cloud's points with undefined saliency above which compare warns.
@@ -71,6 +72,13 @@ class Comparison:
                    warnings=list(self.warnings))
         return out
 
+    def report(self):
+        """The HTML report of this comparison (:class:`lidar_sig.reporting.Report`): shown in
+        a notebook, ``.save("report.html")`` writes it."""
+        from .reporting import comparison_report
+
+        return comparison_report(self)
+
 
 def compare_sources(a, b, pipeline=None, *, render=None, columns=None, method_given=()):
     """Compare two point clouds or signature archives, in any mix (SPEC 6).
@@ -121,7 +129,8 @@ def compare_sources(a, b, pipeline=None, *, render=None, columns=None, method_gi
         raise LidarSigError(f"{names[0]} and {names[1]} were made with different methods ("
                             + "; ".join(differ) + "); make both with the same settings")
     render = render or _recorded_render(sides)
-    metrics = compare_signatures(first, second, render=render)
+    with step("metrics", rendering=render):
+        metrics = compare_signatures(first, second, render=render)
     warnings += _undefined_warnings(sides) + _class_warnings(sides) + _radii_warnings(sides)
     method = {k: first.metadata[k] for k in ("descriptor", "descriptor_params", "strategy", "scale_kind",
                                              "scale_values", "scale_units", "weights") if k in first.metadata}

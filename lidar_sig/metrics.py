@@ -1,11 +1,14 @@
 """Comparison metrics between two signatures (SPEC 6); pure functions returning floats.
 
-Distances are 0 for identical inputs; SSIM is 1.
+Distances are 0 for identical inputs; SSIM is 1. Image work (colour histograms, the SSIM's
+Gaussian window) goes through OpenCV, imported on first use so that computing saliency alone
+never loads it; tests check it against the numpy, scipy and scikit-image definitions.
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
-from scipy.ndimage import gaussian_filter
 
 from .errors import LidarSigError
 from .saliency import LN3
@@ -13,6 +16,41 @@ from .signature import to_uint8
 
 #: Additive (Jeffreys) smoothing of class counts before the KL divergence.
 KL_ALPHA = 0.5
+
+
+@dataclass(frozen=True)
+class Metric:
+    """What a metric of :func:`compare` is, for tables and reports: its key, the paper's name,
+    its range, the value of two identical signatures, whether a larger value means more
+    different, a short definition and what it reacts to, in a user's words."""
+
+    key: str
+    name: str
+    range: str
+    same: float
+    larger_differs: bool
+    short: str
+    reacts: str
+
+
+METRICS = (
+    Metric("bhattacharyya", "d_BD-Img", "0 to 1", 0.0, True,
+           "Bhattacharyya distance of Sas colour histograms",
+           "which semantic classes cover how much of the signature (the colours of Sas), not where"),
+    Metric("ssim", "s_SSIM", "-1 to 1", 1.0, False, "structural similarity of Sg images",
+           "the shape of the geometric signature Sg: where in the triangle the points lie, locally"),
+    Metric("emd_info", "d_EMD-Info", "0 to ln 3 (1.10) nats", 0.0, True, "EMD of Egeom histograms (nats)",
+           "how mixed the local geometry is (Egeom): e.g. more vegetation or clutter raises it"),
+    Metric("emd_img", "d_EMD-Img", "0 to 1.73", 0.0, True, "EMD of Sas colour histograms (RGB in [0, 1])",
+           "the colours of Sas like d_BD-Img, but a change to a similar colour counts less"),
+    Metric("fv", "delta_FV", "0 to 2", 0.0, True, "distance of Fisher vectors of saliency positions",
+           "shifts of the points' distribution in the triangle (line-, surface- or point-type), "
+           "at the scale of an eighth of its side"),
+    Metric("kl", "delta_KL", "0 to infinity", 0.0, True, "symmetric KL divergence of class distributions",
+           "changes in class shares, strongly where a class is rare in one cloud"),
+    Metric("l1", "L1", "0 to 2", 0.0, True, "L1 distance of class distributions",
+           "changes in class shares: twice the share of points that would have to change class"),
+)
 
 
 def _as_counts(p, q):
@@ -72,7 +110,7 @@ def ssim(img_a, img_b, mask=None, *, sigma=1.5, k1=0.01, k2=0.03, data_range=1.0
         raise ValueError(f"images differ in shape: {a.shape} and {b.shape}")
 
     def blur(x):
-        return gaussian_filter(x, sigma, truncate=3.5, mode="reflect")
+        return gaussian_blur(x, sigma, truncate=3.5)
 
     mu_a, mu_b = blur(a), blur(b)
     var_a = blur(a * a) - mu_a * mu_a
@@ -83,18 +121,29 @@ def ssim(img_a, img_b, mask=None, *, sigma=1.5, k1=0.01, k2=0.03, data_range=1.0
     return float(s[mask].mean() if mask is not None else s.mean())
 
 
-def color_histogram(rgb, mask=None, *, bins=8):
-    """Normalized 3-D colour histogram (bins per channel) of an RGB image in [0, 1].
+def gaussian_blur(image, sigma, *, truncate=3.5):
+    """A 2-D float image convolved with a Gaussian of standard deviation ``sigma`` pixels,
+    cut at ``truncate`` sigma, edges mirrored (d c b a | a b c d): scipy's
+    ``gaussian_filter(image, sigma, truncate=truncate, mode="reflect")``, computed by OpenCV."""
+    import cv2
 
-    The image is first quantized to 8 bits as stored in PNG; bin = value * bins // 256,
-    as OpenCV's calcHist over [0, 256).
+    radius = int(truncate * sigma + 0.5)  # scipy's rule, so both use the same window
+    size = 2 * radius + 1
+    return cv2.GaussianBlur(np.asarray(image, dtype=np.float64), (size, size), sigmaX=sigma, sigmaY=sigma,
+                            borderType=cv2.BORDER_REFLECT)
+
+
+def color_histogram(rgb, mask=None, *, bins=8):
+    """Normalized 3-D colour histogram (bins per channel, R major) of an RGB image in [0, 1].
+
+    The image is first quantized to 8 bits as stored in PNG; bin = value * bins // 256
+    (OpenCV's calcHist over [0, 256)).
     """
-    px = to_uint8(rgb).reshape(-1, 3)
-    if mask is not None:
-        px = px[np.asarray(mask).ravel()]
-    idx = (px.astype(np.int64) * bins) // 256
-    flat = (idx[:, 0] * bins + idx[:, 1]) * bins + idx[:, 2]
-    hist = np.bincount(flat, minlength=bins ** 3).astype(np.float64)
+    import cv2
+
+    px = to_uint8(rgb)
+    m = None if mask is None else np.asarray(mask, dtype=np.uint8)
+    hist = cv2.calcHist([px], [0, 1, 2], m, [bins] * 3, [0, 256] * 3).ravel().astype(np.float64)
     return hist / max(hist.sum(), 1.0)
 
 

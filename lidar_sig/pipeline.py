@@ -1,6 +1,7 @@
 """Pipeline: cloud -> neighbourhoods -> descriptor -> strategy -> Saliency and Signature."""
 from __future__ import annotations
 
+import time
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -15,7 +16,7 @@ from .errors import LidarSigError, LidarSigWarning
 from .io.open3d import from_open3d, is_open3d
 from .neighbors import WEIGHTS, NeighborIndex, unique_points
 from .plugins import get_descriptor, get_strategy
-from .progress import progress as _progress
+from .progress import step
 from .saliency import Saliency
 from .scales import Scales, knn, radii
 from .signature import Frame, Signature
@@ -39,10 +40,13 @@ class Result:
         dimensions, .ply/.pcd attributes, .xyz/.txt/.pts/.csv columns), a signature archive
         (.h5/.hdf5, with per-point datasets unless ``points=False``) or an image of Sas (.png);
         images are rendered as ``render``."""
+        with step(f"writing {Path(path).name}", points=len(self.cloud)):
+            self._write(path, Path(path).suffix.lower(), overwrite, points, render)
+
+    def _write(self, path, ext, overwrite, points, render):
         from .io import CLOUD_EXTENSIONS, HDF5_EXTENSIONS, write_archive, write_cloud
         from .render import write_signature_png
 
-        ext = Path(path).suffix.lower()
         if ext in CLOUD_EXTENSIONS:
             write_cloud(path, self.cloud, self.saliency, scale_kind=self.metadata["scale_kind"],
                         scale_values=self.metadata["scale_values"], overwrite=overwrite)
@@ -169,31 +173,41 @@ class Pipeline:
         """Per-point Saliency of ``cloud`` and run statistics (undefined, capped and duplicate
         counts, scales in metres)."""
         announce_compilation(self.progress, self.descriptor.name)
-        xyz = cloud.metric_xyz()
-        support, inverse = unique_points(xyz)
-        self._check_size(cloud, len(support))
-        scales = self.scales.resolve(support)
-        self.descriptor.prepare(support, self.scales.kind, scales, max_neighbors=self.max_neighbors,
-                                min_neighbors=self.min_neighbors, progress=self.progress)
-        index = NeighborIndex(support, self.scales.kind, scales, max_neighbors=self.max_neighbors,
-                              min_neighbors=self.min_neighbors, weights=self.weights)
+        with step("neighbourhoods", enabled=self.progress, points=len(cloud),
+                  scales=self.scales.describe(), weights=self.weights) as s:
+            xyz = cloud.metric_xyz()
+            support, inverse = unique_points(xyz)
+            self._check_size(cloud, len(support))
+            scales = self.scales.resolve(support)
+            self.descriptor.prepare(support, self.scales.kind, scales, max_neighbors=self.max_neighbors,
+                                    min_neighbors=self.min_neighbors, progress=self.progress)
+            index = NeighborIndex(support, self.scales.kind, scales, max_neighbors=self.max_neighbors,
+                                  min_neighbors=self.min_neighbors, weights=self.weights)
+            s.note(locations=len(support))
         m = len(support)
         values = np.empty((m, 3))
         chosen = None
         n_capped = 0
-        blocks = index.blocks()
-        for rows in _progress(blocks, desc=f"{self.descriptor.name} {self.strategy.name}",
-                              enabled=self.progress, unit="block"):
-            batch = index.query(rows)
-            per_scale = self.descriptor.saliency(batch)
-            combined, pick = self.strategy.combine(per_scale)
-            combined = self.descriptor.refine(batch, combined)
-            values[batch.ids] = combined
-            if pick is not None:
-                if chosen is None:
-                    chosen = np.full(m, -1, dtype=np.int64)
-                chosen[batch.ids] = pick
-            n_capped += int(batch.capped.sum())
+        searching = describing = 0.0  # seconds, for --verbose: the two interleave per block
+        with step(f"saliency ({self.descriptor.name} {self.strategy.name})", enabled=self.progress) as s:
+            blocks = index.blocks()
+            for rows in s.track(blocks, unit="block"):
+                t0 = time.perf_counter()
+                batch = index.query(rows)
+                t1 = time.perf_counter()
+                per_scale = self.descriptor.saliency(batch)
+                combined, pick = self.strategy.combine(per_scale)
+                combined = self.descriptor.refine(batch, combined)
+                describing += time.perf_counter() - t1
+                searching += t1 - t0
+                values[batch.ids] = combined
+                if pick is not None:
+                    if chosen is None:
+                        chosen = np.full(m, -1, dtype=np.int64)
+                    chosen[batch.ids] = pick
+                n_capped += int(batch.capped.sum())
+            s.note(blocks=len(blocks), neighbour_search=f"{searching:.2f} s",
+                   descriptor=f"{describing:.2f} s", capped=n_capped)
         if inverse is not None:  # every copy of a location takes its saliency
             values = values[inverse]
             chosen = chosen[inverse] if chosen is not None else None
@@ -229,8 +243,9 @@ class Pipeline:
         codes = cloud.labels if cloud.labels is not None else np.zeros(len(cloud), np.int64)
         metadata = {"lidar_sig_version": __version__, "source": cloud.path,
                     "scales": self.scales.describe(), "crs": cloud.crs, **stats}
-        signature = Signature.from_saliency(sal.values, classes.index(codes), classes=classes,
-                                            frame=self.frame, egeom=sal.egeom, metadata=metadata)
+        with step("signature", enabled=self.progress, classes=classes.name):
+            signature = Signature.from_saliency(sal.values, classes.index(codes), classes=classes,
+                                                frame=self.frame, egeom=sal.egeom, metadata=metadata)
         return Result(cloud, sal, signature, metadata)
 
 

@@ -125,3 +125,31 @@ def test_fv_distance_of_signatures_is_symmetric():
     sb = pipe.run(ls.PointCloud(xyz * [1, 1, 2], labels)).signature
     assert fv_distance(sa, sb) == pytest.approx(fv_distance(sb, sa), rel=1e-12)
     assert fv_distance(sa, sa) == 0.0
+
+
+def test_opencv_colour_histogram_equals_numpy_binning_of_the_8_bit_image():
+    """color_histogram uses OpenCV's calcHist; the definition is numpy's 3-D histogram of the
+    8-bit values over [0, 256) with `bins` equal bins per channel, R major."""
+    rng = np.random.default_rng(7)
+    rgb = rng.uniform(0, 1, (64, 48, 3)) ** 1.7
+    mask = rng.uniform(0, 1, (64, 48)) > 0.3
+    u8 = np.clip(np.rint(rgb * 255), 0, 255)[mask]
+    for bins in (4, 8, 16):
+        ref, _ = np.histogramdd(u8, bins=bins, range=[(0, 256)] * 3)
+        assert np.array_equal(color_histogram(rgb, mask, bins=bins), ref.ravel() / mask.sum())
+    whole, _ = np.histogramdd(np.clip(np.rint(rgb * 255), 0, 255).reshape(-1, 3), bins=8, range=[(0, 256)] * 3)
+    assert np.array_equal(color_histogram(rgb), whole.ravel() / whole.sum())
+
+
+def test_opencv_gaussian_blur_equals_scipy_gaussian_filter():
+    """The SSIM's window goes through OpenCV; scipy's gaussian_filter is the definition
+    (and what scikit-image's SSIM uses)."""
+    from scipy.ndimage import gaussian_filter
+
+    from lidar_sig.metrics import gaussian_blur
+
+    rng = np.random.default_rng(8)
+    img = rng.uniform(0, 1, (120, 90))
+    for sigma in (0.8, 1.5, 3.0):
+        ref = gaussian_filter(img, sigma, truncate=3.5, mode="reflect")
+        assert np.abs(gaussian_blur(img, sigma) - ref).max() < 1e-12

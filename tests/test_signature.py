@@ -117,9 +117,12 @@ def test_write_png(tmp_path):
     xyz = rng.uniform(0, 20, (2000, 3)) * [1, 1, 0.05]
     res = ls.Pipeline(scales=ls.knn(10)).run(ls.PointCloud(xyz, rng.choice([2, 6], 2000)))
     res.write(tmp_path / "s.png")
-    from PIL import Image
-    img = np.asarray(Image.open(tmp_path / "s.png"))
+    import cv2
+
+    from lidar_sig.render import signature_image
+    img = cv2.imread(str(tmp_path / "s.png"), cv2.IMREAD_UNCHANGED)[..., ::-1]  # BGR -> RGB
     assert img.shape == (512, 512, 3)
+    assert np.array_equal(img, signature_image(res.signature))  # PNG is lossless
     with pytest.raises(ls.LidarSigError, match="--overwrite"):
         res.write(tmp_path / "s.png")
 

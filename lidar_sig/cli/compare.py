@@ -4,36 +4,31 @@ import json
 import click
 
 from ..comparison import compare_sources
+from ..metrics import METRICS
 from . import cli
-from .options import columns_option, pipeline_options, render_option
+from ..reporting import COMPARISON_PLOTS
+from .options import (check_report_outputs, columns_option, overwrite_option, pipeline_options, render_option,
+                      report_options, write_report)
 from .report import archive_summary_line, run_summary
-
-# (key, paper name, what it says)
-METRICS = (
-    ("bhattacharyya", "d_BD-Img", "Bhattacharyya distance of Sas colour histograms, 0 = same"),
-    ("ssim", "s_SSIM", "structural similarity of Sg images, 1 = same"),
-    ("emd_info", "d_EMD-Info", "EMD of Egeom histograms (nats), 0 = same"),
-    ("emd_img", "d_EMD-Img", "EMD of Sas colour histograms (RGB in [0, 1]), 0 = same"),
-    ("fv", "delta_FV", "distance of Fisher vectors of saliency positions, 0 = same"),
-    ("kl", "delta_KL", "symmetric KL divergence of class distributions, 0 = same"),
-    ("l1", "L1", "L1 distance of class distributions, 0 = same"),
-)
-
 
 @cli.command()
 @click.argument("a")
 @click.argument("b")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object on stdout.")
+@report_options
 @render_option
+@overwrite_option
 @columns_option
 @pipeline_options
-def compare(a, b, as_json, render, columns, pipeline, method_given, quiet):
+def compare(a, b, as_json, report, plots, render, overwrite, columns, pipeline, method_given, quiet):
     """Compare the signatures of A and B (point-cloud files or signature archives, in any mix).
 
     Both are made the same way: two clouds with the same method; a cloud compared with an
     archive the archive's way; two archives must record the same method.
     """
+    check_report_outputs(report, plots, COMPARISON_PLOTS, overwrite)
     result = compare_sources(a, b, pipeline, render=render, columns=columns, method_given=method_given)
+    written = write_report(result.report(), report, plots, overwrite) if report or plots else []
     for note in result.warnings:
         click.echo(f"lidar-sig: warning: {note}", err=True)
     if as_json:
@@ -44,7 +39,10 @@ def compare(a, b, as_json, render, columns, pipeline, method_given, quiet):
         click.echo(f"{label} {line}")
     click.echo(f"  rendering {result.render}")
     click.echo("")
-    for key, name, what in METRICS:
-        value = result.metrics[key]
+    for m in METRICS:
+        value = result.metrics[m.key]
         shown = "n/a" if value is None else f"{value:.4f}"
-        click.echo(f"  {name:<11} {shown:>8}   {what}")
+        click.echo(f"  {m.name:<11} {shown:>8}   {m.short}, {m.same:g} = same")
+    if not quiet:
+        for line in written:
+            click.echo(line)

@@ -9,6 +9,7 @@ import click
 from ..errors import LidarSigError
 from ..neighbors import WEIGHTS
 from ..pipeline import Pipeline
+from ..progress import settings as progress_settings
 from ..scales import knn
 from ..scales import radii as make_radii
 from ..signature import RENDERINGS
@@ -58,14 +59,18 @@ def pipeline_options(func):
                      help="Class table for the augmented signature: asprs, paper, isprs-vaihingen, "
                           "or a .toml/.json file (see docs/method.md) [default: asprs]."),
         click.option("-q", "--quiet", is_flag=True, help="No progress bars or summaries."),
+        click.option("-v", "--verbose", is_flag=True,
+                     help="Print the parameters and timing of each step on stderr."),
     ]
 
     @functools.wraps(func)
-    def wrapper(quiet, **kwargs):
+    def wrapper(quiet, verbose, **kwargs):
         method = {name: kwargs.pop(name) for name in METHOD_OPTIONS}
         pipeline = make_pipeline(**method, quiet=quiet)
         given = {name for name, value in method.items() if value is not None}
-        return func(pipeline=pipeline, method_given=given, quiet=quiet, **kwargs)
+        # progress bars on a terminal unless --quiet; step timings with --verbose
+        with progress_settings(enabled=False if quiet else None, verbose=verbose):
+            return func(pipeline=pipeline, method_given=given, quiet=quiet, **kwargs)
 
     for opt in reversed(opts):
         wrapper = opt(wrapper)
@@ -111,3 +116,38 @@ columns_option = click.option(
     "--columns", default=None, callback=_columns,
     help="Columns of text point clouds, e.g. x,y,z,-,label ('-' skips one) [default: by count: "
          "3 xyz, 4 xyz+label, 7 ISPRS Vaihingen 3D; or the file's '# x y z ...' header].")
+
+
+def report_options(func):
+    """Decorate a command with ``--report FILE.html`` and ``--plots DIR``."""
+    func = click.option("--plots", default=None, metavar="DIR",
+                        help="Also write every figure of the report as a PNG file in DIR.")(func)
+    return click.option("--report", default=None, metavar="FILE.html",
+                        help="Write an HTML report with the figures (one self-contained file).")(func)
+
+
+def check_report_outputs(report, plots, names, overwrite):
+    """Refuse report and plot outputs that cannot be written, before anything is computed."""
+    from ..io import check_outputs
+    from ..reporting import check_plots_folder, check_report_path
+
+    if report:
+        check_outputs([report], overwrite=overwrite)
+        check_report_path(report, overwrite=overwrite)
+    if plots:
+        check_plots_folder(plots, names, overwrite=overwrite)
+
+
+def write_report(made, report, plots, overwrite):
+    """Write the report made for ``--report`` and ``--plots``, all files or none; lines saying
+    what was written."""
+    from ..io import output_group
+
+    lines = []
+    with output_group():
+        if report:
+            made.save(report, overwrite=overwrite)
+            lines.append(f"wrote {report}")
+        if plots:
+            lines.append(f"wrote {len(made.save_plots(plots, overwrite=overwrite))} plots in {plots}")
+    return lines

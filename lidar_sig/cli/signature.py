@@ -1,4 +1,4 @@
-"""`lidar-sig signature`: the signature of a cloud, as an HDF5 archive or a PNG image."""
+"""`lidar-sig signature`: the signature of a cloud, as an HDF5 archive, PNG images or a report."""
 from pathlib import Path
 
 import click
@@ -6,45 +6,60 @@ import click
 from ..errors import LidarSigError
 from ..io import HDF5_EXTENSIONS, check_outputs, output_group, read
 from ..render import write_signature_png
-from . import cli
+from ..reporting import SIGNATURE_PLOTS
+from ..reporting import report as ls_report
 from ..signature import RENDERINGS
-from .options import columns_option, overwrite_option, pipeline_options, render_option
+from . import cli
+from .options import (check_report_outputs, columns_option, overwrite_option, pipeline_options, render_option,
+                      report_options, write_report)
 from .report import echo_run
 
 
 @cli.command()
 @click.argument("source")
-@click.option("-o", "--output", required=True,
+@click.option("-o", "--output", default=None,
               help="Signature archive (.h5) or image of the augmented semantic signature Sas (.png).")
 @click.option("--png", "png_output", default=None, help="Also write Sas as PNG (with an .h5 output).")
 @click.option("--sg", "sg_output", default=None, help="Also write the geometric signature Sg as PNG.")
 @click.option("--no-points", is_flag=True, help="Leave the per-point datasets out of the archive.")
+@report_options
 @render_option
 @overwrite_option
 @columns_option
 @pipeline_options
-def signature(source, output, png_output, sg_output, no_points, render, overwrite, columns, pipeline,
-              method_given, quiet):
-    """Compute the signature of SOURCE; write it as an archive (.h5) and/or images (.png)."""
-    ext = Path(output).suffix.lower()
-    if ext not in HDF5_EXTENSIONS + (".png",):
+def signature(source, output, png_output, sg_output, no_points, report, plots, render, overwrite, columns,
+              pipeline, method_given, quiet):
+    """Compute the signature of SOURCE; write it as an archive (.h5), images (.png) and/or an
+    HTML report (--report)."""
+    if output is None and not (report or plots):
+        raise LidarSigError("give an output: -o FILE.h5 or FILE.png, and/or --report FILE.html or --plots DIR")
+    ext = Path(output).suffix.lower() if output else None
+    if output and ext not in HDF5_EXTENSIONS + (".png",):
         raise LidarSigError("the signature is written as .h5 (archive) or .png (image)", path=output)
     images = [p for p in (png_output, sg_output) if p]
     for path in images:
         if Path(path).suffix.lower() != ".png":
             raise LidarSigError("signature images are written as .png", path=path)
-    check_outputs([output] + images, overwrite=overwrite)  # all of them, before any work
+    outputs = ([output] if output else []) + images
+    check_outputs(outputs + ([report] if report else []), overwrite=overwrite)  # all of them, before any work
+    check_report_outputs(report, plots, SIGNATURE_PLOTS, overwrite)
     render = render or RENDERINGS[0]
     result = pipeline.run(read(source, columns=columns))
+    written = []
     with output_group():  # all outputs or none
         if ext == ".png":
             write_signature_png(output, result.signature, kind="sas", mode=render, overwrite=overwrite)
-        else:
+        elif output:
             result.write(output, overwrite=overwrite, points=not no_points, render=render)
         if png_output:
             write_signature_png(png_output, result.signature, kind="sas", mode=render, overwrite=overwrite)
         if sg_output:
             write_signature_png(sg_output, result.signature, kind="sg", mode=render, overwrite=overwrite)
+        if report or plots:
+            written = write_report(ls_report(result, render=render), report, plots, overwrite)
     if not quiet:
         echo_run(source, result)
-        click.echo(f"wrote {', '.join([output] + images)}")
+        if outputs:
+            click.echo(f"wrote {', '.join(outputs)}")
+        for line in written:
+            click.echo(line)

@@ -8,6 +8,7 @@ import os
 from pathlib import Path
 
 from ..errors import LidarSigError
+from ..progress import step
 from .atomic import atomic_output, check_output, check_outputs, output_group
 from .hdf5 import HDF5_EXTENSIONS, archive_summary, load_signature, write_archive
 from .las import LAS_EXTENSIONS, check_las_output, read_las, saliency_fields, write_las
@@ -40,12 +41,13 @@ def read(path, *, columns=None):
     if not os.access(path, os.R_OK):
         raise LidarSigError("cannot be read (permission denied)", path=path)
     ext = path.suffix.lower()
-    if ext in LAS_EXTENSIONS:
-        return read_las(path)
-    if ext in TEXT_EXTENSIONS:
-        return read_text(path, columns=columns)
-    if ext in OPEN3D_EXTENSIONS:
-        return read_open3d(path)
+    readers = {**dict.fromkeys(LAS_EXTENSIONS, read_las), **dict.fromkeys(OPEN3D_EXTENSIONS, read_open3d),
+               **dict.fromkeys(TEXT_EXTENSIONS, lambda p: read_text(p, columns=columns))}
+    if ext in readers:
+        with step(f"reading {path.name}", bytes=path.stat().st_size) as s:
+            cloud = readers[ext](path)
+            s.note(points=len(cloud))
+        return cloud
     if ext in HDF5_EXTENSIONS:
         raise LidarSigError("is a signature archive, not a point cloud; use it with `lidar-sig compare` "
                             "or lidar_sig.load_signature", path=path)

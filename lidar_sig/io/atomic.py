@@ -137,7 +137,11 @@ def atomic_output(path, *, overwrite=False):
 @contextlib.contextmanager
 def output_group():
     """Commit every output written inside the block together: each is written to its temporary
-    file, and all are renamed at the end, or none if anything failed or was interrupted."""
+    file, and all are renamed at the end, or none if anything failed or was interrupted. Inside
+    another group, the block's outputs join that group."""
+    if _PENDING.get() is not None:
+        yield
+        return
     pending = []
     token = _PENDING.set(pending)
     try:
