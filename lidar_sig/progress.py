@@ -69,9 +69,14 @@ class _TqdmHandler(logging.Handler):
 
     def emit(self, record):
         try:
-            tqdm.write(self.format(record), file=sys.stderr)
+            say(self.format(record))
         except Exception:  # logging must never break the run
             self.handleError(record)
+
+
+def say(line):
+    """Print ``line`` on stderr above any bar or step line, which stay intact below it."""
+    tqdm.write(line, file=sys.stderr)
 
 
 def progress(iterable, *, total=None, desc="", enabled=None, unit="it"):

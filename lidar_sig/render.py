@@ -171,14 +171,19 @@ def top_view(xyz, saliency, *, max_side=900, points_per_cell=2.5):
     return rgb, cell
 
 
-def top_view_image(xyz, saliency, *, unit="m", display=640):
+def top_view_image(xyz, saliency, *, unit="m", display=640, span=None):
     """:func:`top_view` at about ``display`` px (cells kept square and crisp), with a scale bar
-    and a key: the colour triangle of (Cl, Cs, Cp) and the grey of undefined points."""
+    and a key: the colour triangle of (Cl, Cs, Cp) and the grey of undefined points.
+
+    ``span`` is the ground length (coordinate units) drawn as ``display`` px; by default the
+    cloud's longer side. Two clouds drawn with the same span share one scale."""
     from .signature import Frame
 
     cv2 = _cv2()
     raster, cell = top_view(xyz, saliency)
     factor = display / max(raster.shape[:2])
+    if span is not None:
+        factor = min(factor, display * cell / span)
     interpolation = cv2.INTER_NEAREST if factor >= 1 else cv2.INTER_AREA  # AREA: no aliasing
     size = (max(1, round(raster.shape[1] * factor)), max(1, round(raster.shape[0] * factor)))
     view = cv2.resize(raster, size, interpolation=interpolation)
@@ -190,7 +195,7 @@ def top_view_image(xyz, saliency, *, unit="m", display=640):
     y = key.shape[0] + 16
     cv2.rectangle(panel, (22, y - 10), (36, y + 2), UNDEFINED_GREY, -1)
     cv2.putText(panel, "undefined", (44, y + 1), _FONT, 0.42, _INK, 1, cv2.LINE_AA)
-    bar, label = _scale_bar(metres_per_px, view.shape[1] // 4, unit)
+    bar, label = _scale_bar(metres_per_px, display // 4, unit)  # one bar for views of one span
     y += 34
     cv2.line(panel, (22, y), (22 + bar, y), _INK, 2)
     for x in (22, 22 + bar):

@@ -98,3 +98,20 @@ def test_saliency_imports_neither_matplotlib_nor_opencv(tmp_path):
     assert done.returncode == 0, done.stderr
     assert (tmp_path / "out.laz").exists()
     assert done.stdout.strip().splitlines()[-1] == "[]"
+
+
+def test_a_note_during_a_shown_step_gets_a_line_of_its_own(monkeypatch, capsys):
+    # a note printed while a step's line shows used to be glued to that line
+    import time
+
+    from lidar_sig.cli import _note
+    from lidar_sig.errors import LidarSigWarning
+    from lidar_sig.progress import step
+
+    monkeypatch.setattr("lidar_sig.progress.STEP_DELAY", 0.0)
+    with step("working", enabled=True):
+        time.sleep(0.1)
+        _note("something to know", LidarSigWarning, __file__, 1)
+    err = capsys.readouterr().err
+    lines = [part for line in err.split("\n") for part in line.split("\r")]
+    assert "lidar-sig: note: something to know" in lines  # the whole line, nothing glued to it

@@ -79,3 +79,17 @@ def test_top_view_stays_small_for_a_million_points():
     raster, _ = render.top_view(xyz, sal)
     assert max(raster.shape[:2]) <= 900
     assert len(render.encode_png(render.top_view_image(xyz, sal))) < 3_000_000
+
+
+def test_top_views_drawn_with_one_span_share_one_scale():
+    rng = np.random.default_rng(3)
+    big = rng.uniform(0, 200, (40_000, 3))
+    small = big[(big[:, 0] < 100) & (big[:, 1] < 100)]  # a quarter: half as wide
+    sal = np.full((len(big), 3), 1 / 3)
+    alone = render.top_view_image(small, sal[:len(small)])
+    shared = render.top_view_image(small, sal[:len(small)], span=200.0)
+    full = render.top_view_image(big, sal, span=200.0)
+    key = render.top_view_image(big, sal).shape[1] - 640  # the key panel beside the view
+    assert abs((alone.shape[1] - key) - 640) <= 2  # alone, a cloud fills the width
+    # with the span of the larger cloud, the smaller one is drawn half as wide
+    assert abs((shared.shape[1] - key) / (full.shape[1] - key) - 0.5) < 0.02

@@ -10,11 +10,12 @@ import warnings
 import click
 
 from ..errors import Interrupted, LidarSigError, LidarSigWarning
+from ..progress import say
 
 
 def _note(message, category, filename, lineno, file=None, line=None, _shown=warnings.showwarning):
     if issubclass(category, LidarSigWarning):
-        click.echo(f"lidar-sig: note: {message}", err=True)
+        say(f"lidar-sig: note: {message}")  # above a step line that may be showing
     else:
         _shown(message, category, filename, lineno, file, line)
 

@@ -164,9 +164,10 @@ def comparison_report(comparison):
         pngs["classes.png"] = figures.class_composition(sigs, labels)
         pngs["egeom.png"] = figures.egeom_pdfs(sigs, labels)
         pngs["saliency_by_class.png"] = figures.saliency_pdfs(sigs, labels)
+        span = _shared_span(sides)
         for side, tag in zip(sides, "ab"):
             if side.result is not None:
-                pngs[f"top_view_{tag}.png"] = _top_view(side)
+                pngs[f"top_view_{tag}.png"] = _top_view(side, span)
     with step("checksums of the inputs"):
         provenance = _provenance(sides, ("A", "B"), c.render)
     title = f"lidar_sig comparison: {Path(c.a.name).name} and {Path(c.b.name).name}"
@@ -347,13 +348,23 @@ def _class_table(sides, tags):
     return page.table(header, rows, numeric=numeric)
 
 
-def _top_view(side):
+def _top_view(side, span=None):
     from ..render import encode_png, top_view_image
 
     result = side.result
     unit = "m" if result.cloud.units.horizontal == 1.0 else result.cloud.units.name
     with step("top view", points=len(result.cloud)):
-        return encode_png(top_view_image(result.cloud.xyz, result.saliency.values, unit=unit))
+        return encode_png(top_view_image(result.cloud.xyz, result.saliency.values, unit=unit, span=span))
+
+
+def _shared_span(sides):
+    """The ground length (coordinate units) both top views draw at full width, so that they share
+    one scale and a building looks as large in both; None unless both sides are clouds in the
+    same unit."""
+    clouds = [s.result.cloud for s in sides if s.result is not None]
+    if len(clouds) != 2 or clouds[0].units.horizontal != clouds[1].units.horizontal:
+        return None
+    return max(float(np.ptp(c.xyz[:, :2], axis=0).max()) for c in clouds)
 
 
 def _top_views(sides, tags, pngs, names):

@@ -19,9 +19,16 @@ from robustness.helpers import digests, leftovers
 BIG = DATA / "ahn3_delft" / "ahn3_cropped_1.laz"  # 640k points: the LAZ write takes a while
 
 
+def _interruptible():
+    # a shell's background job starts with SIGINT ignored, and Python keeps an ignored SIGINT
+    # ignored: give the child the disposition of a command typed at a terminal
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def start(*args, cwd=None):
     return subprocess.Popen([sys.executable, "-m", "lidar_sig", *map(str, args)], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, cwd=cwd, stdin=subprocess.DEVNULL)
+                            stderr=subprocess.PIPE, text=True, cwd=cwd, stdin=subprocess.DEVNULL,
+                            preexec_fn=_interruptible)
 
 
 def wait_for_temp(folder, proc, limit=120):
