@@ -109,7 +109,7 @@ def _box_building(xyz, labels, cell, rng):
 def edited_epochs(folder=IGN, *, seed=13):
     """(epoch 1, epoch 2, edits): the two PointClouds and {edit name: (x, y) centre of its 25 m
     cell in epoch 1's coordinates}."""
-    from lidar_sig.changes import read_epoch
+    from lidar_sig.change_map import read_epoch
     from lidar_sig.cloud import PointCloud
 
     rng = np.random.default_rng(seed)

@@ -382,7 +382,7 @@ def changes(a, b, *, cell=CELL, pipeline=None, min_points=MIN_POINTS, score=None
     filled = np.minimum(*(np.bincount(grid.cell_of(c.xyz[:, :2]), minlength=grid.n_cells) for c in clouds))
     if filled.max() < min_points:  # said before the saliency is computed
         raise LidarSigError(f"no cell of {cell:g} m holds {min_points:,} points in both epochs (at most "
-                            f"{filled.max():,}); use a larger cell size or a smaller minimum of points")
+                            f"{filled.max():,}); use a larger cell size (--cell) or a smaller minimum (--min-points)")
     epochs = []
     for cloud, name in zip(clouds, names):
         sal, stats = pipeline.saliency(cloud)
