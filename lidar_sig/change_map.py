@@ -127,7 +127,8 @@ class ChangeMap:
         Points of each class of ``class_table`` per cell, in each epoch.
     grid : Grid
     score : str
-        The metric in ``score`` (a larger value means more change).
+        The metric that ranks the cells (key of :data:`METRIC_KEYS`); the table's ``score`` holds
+        its values, 1 - s_SSIM for ``"ssim"``, so that a larger score always means more change.
     """
 
     table: np.ndarray
@@ -224,7 +225,7 @@ class ChangeMap:
             bands = [self.raster(n) for n in names]
             for k, n in enumerate(names):  # counts and shares say nothing where a cell is empty
                 if n.startswith("undefined"):
-                    bands[k] = np.where(self.raster("points" + n[9:]) > 0, bands[k], np.nan)
+                    bands[k] = np.where(self.raster(n.replace("undefined", "points")) > 0, bands[k], np.nan)
             descriptions = [_band_description(n, self.score) for n in names]
             with step(f"writing {Path(path).name}", bands=len(names)):
                 write_geotiff(path, bands, descriptions, self.grid.transform, self.crs, overwrite=overwrite)
@@ -265,7 +266,8 @@ def _band_description(name, score):
     from .metrics import METRICS
 
     names = {m.key: f"{m.name}: {m.short}" for m in METRICS}
-    text = {"score": f"score: {names[score].split(':')[0]}, the ranking metric",
+    ranking = names[score].split(":")[0]
+    text = {"score": f"score: {'1 - ' if score == 'ssim' else ''}{ranking}, the ranking metric",
             "points_a": "points of epoch A", "points_b": "points of epoch B",
             "undefined_a": "share of A's points with undefined saliency",
             "undefined_b": "share of B's points with undefined saliency"}
@@ -369,6 +371,10 @@ def changes(a, b, *, cell=CELL, pipeline=None, min_points=MIN_POINTS, score=None
     pipeline = pipeline or Pipeline()
     clouds = [read_epoch(x, columns=columns) for x in (a, b)]
     names = [c.path or "(in memory)" for c in clouds]
+    if (clouds[0].crs is None) != (clouds[1].crs is None):
+        k = 0 if clouds[1].crs is None else 1  # the epoch that has one
+        raise LidarSigError(f"{names[1 - k]} has no CRS while {names[k]} is in {_crs_name(clouds[k].crs)}; "
+                            "give both epochs in one CRS")
     if not same_crs(clouds[0].crs, clouds[1].crs):
         raise LidarSigError(f"{names[0]} and {names[1]} are in different CRS ({_crs_name(clouds[0].crs)} / "
                             f"{_crs_name(clouds[1].crs)}); reproject one epoch into the other's CRS first")

@@ -62,6 +62,8 @@ def test_refuses_epochs_in_different_crs_bad_cell_sizes_and_scores():
     a = small_cloud(0)
     with pytest.raises(LidarSigError, match="different CRS"):
         changes(a, small_cloud(1, crs="EPSG:32631"))
+    with pytest.raises(LidarSigError, match="has no CRS while"):
+        changes(a, small_cloud(1, crs=None))
     for cell in (0, -5, float("nan"), "25", True):
         with pytest.raises(LidarSigError, match="cell size"):
             changes(a, a, cell=cell)
@@ -285,3 +287,23 @@ def test_python_api_table_transform_and_ranking():
     assert len(order) == t["valid"].sum() and (np.diff(t["score"][order]) <= 0).all()
     if importlib.util.find_spec("pandas"):
         assert len(cm.to_pandas()) == len(t)
+
+
+def test_an_epoch_given_as_a_folder_of_tiles_is_joined_before_the_saliency(tmp_path):
+    import laspy
+    from edited_epoch import write_las
+
+    las = laspy.read(SAMPLES / "epoch1.laz")
+    xyz = np.column_stack([las.x, las.y, las.z])
+    labels = np.asarray(las.classification).astype(np.int64)
+    west = xyz[:, 0] < np.median(xyz[:, 0])
+    (tmp_path / "tiles").mkdir()
+    for name, part in (("west.laz", west), ("east.laz", ~west)):
+        write_las(PointCloud(xyz[part], labels[part], crs="EPSG:2154"), tmp_path / "tiles" / name)
+    whole = PointCloud(np.round(xyz, 3), labels, crs="EPSG:2154")
+    cm = changes(tmp_path / "tiles", whole, cell=16, min_points=500)
+    valid = cm.table["valid"]
+    assert valid.sum() >= 16
+    # same points, saliency across the tile edge as in the whole cloud: nothing changed anywhere
+    assert np.array_equal(cm.table["points_a"], cm.table["points_b"])
+    assert np.allclose(cm.table["kl"][valid], 0.0) and np.allclose(cm.table["fv"][valid], 0.0, atol=1e-12)
