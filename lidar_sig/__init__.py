@@ -24,7 +24,7 @@ _EXPORTS = {
     "compare": "metrics", "Pipeline": "pipeline", "Result": "pipeline", "Saliency": "saliency",
     "Scales": "scales", "knn": "scales", "radii": "scales", "Frame": "signature", "Signature": "signature",
     "compare_sources": "comparison", "Comparison": "comparison", "resilience": "resilience",
-    "Report": "reporting", "report": "reporting",
+    "Report": "reporting", "report": "reporting", "changes": "change_map", "ChangeMap": "change_map",
 }
 __all__ = sorted(_EXPORTS)
 

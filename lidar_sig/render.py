@@ -32,16 +32,20 @@ def _cv2():
     return cv2
 
 
-def signature_image(signature, kind="sas", mode="smooth"):
+def signature_image(signature, kind="sas", mode="smooth", *, scale=1):
     """(H, W, 3) uint8 picture of Sas or Sg: white outside the triangle, vertices labelled.
 
-    Sg is drawn dark on white (1 - Sg), like Sas.
+    Sg is drawn dark on white (1 - Sg), like Sas. A whole ``scale`` > 1 enlarges the pixels
+    (each a ``scale`` x ``scale`` square) before the triangle and labels are drawn, for small
+    frames.
     """
     sg, sas = signature.render(mode)
     img = sas if kind == "sas" else np.repeat(1.0 - sg[..., None], 3, axis=2)
     rgb = to_uint8(img)
     rgb[~signature.frame.mask()] = 255
-    return draw_triangle(rgb, signature.frame)
+    if scale > 1:
+        rgb = np.ascontiguousarray(np.repeat(np.repeat(rgb, scale, axis=0), scale, axis=1))
+    return draw_triangle(rgb, signature.frame, scale=scale)
 
 
 def draw_triangle(rgb, frame, *, labels=VERTEX_LABELS, scale=1.0):
@@ -124,9 +128,15 @@ def difference_image(a, b, mode="smooth", *, names=("A", "B")):
 
 def diverging(values):
     """RGB uint8 of values in [-1, 1] on the :data:`DIVERGING` ramp (white at 0)."""
-    t = (np.clip(values, -1.0, 1.0) + 1.0) / 2.0 * (len(DIVERGING) - 1)
-    stops = np.arange(len(DIVERGING))
-    out = np.stack([np.interp(t, stops, DIVERGING[:, c]) for c in range(3)], axis=-1)
+    return ramp((np.asarray(values) + 1.0) / 2.0, DIVERGING)
+
+
+def ramp(values, colours):
+    """RGB uint8 of values in [0, 1] (clipped) interpolated linearly along ``colours`` ((K, 3)
+    RGB stops, evenly spaced from 0 to 1)."""
+    t = np.clip(values, 0.0, 1.0) * (len(colours) - 1)
+    stops = np.arange(len(colours))
+    out = np.stack([np.interp(t, stops, colours[:, c]) for c in range(3)], axis=-1)
     return np.rint(out).astype(np.uint8)
 
 

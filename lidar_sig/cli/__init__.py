@@ -44,7 +44,7 @@ def cli():
     """Semantic signatures of airborne LiDAR point clouds, and their comparison."""
 
 
-from . import compare, info, plugins, resilience, saliency, signature  # noqa: E402,F401  (registers the commands)
+from . import changes, compare, info, plugins, resilience, saliency, signature  # noqa: E402,F401  (registers the commands)
 
 
 def main(argv=None):
