@@ -7,8 +7,10 @@ from lidar_sig.classes import class_table
 from lidar_sig.errors import LidarSigError
 from lidar_sig.signature import Signature
 from lidar_sig.tiling.core import saliency_in_tiles
+from lidar_sig.tiling.execute import executor
+from lidar_sig.tiling.run import run_set
 
-from conftest import DATA, airborne_like, need_data
+from conftest import DATA, IGN, IGN_FILES, airborne_like, need_data
 
 # Points tied at the same distance from a query can be listed in another order in a tile's
 # voxel grid than in the whole cloud's: the covariance then sums the same terms in another
@@ -61,3 +63,51 @@ def test_tiles_refuse_a_descriptor_that_needs_the_whole_cloud():
     xyz, labels = airborne_like(500)
     with pytest.raises(LidarSigError, match="t3dvt-get.*tiles"):
         saliency_in_tiles(ls.Pipeline("t3dvt-get", progress=False), ls.PointCloud(xyz, labels), 10.0)
+
+
+@pytest.fixture(scope="module")
+def ign_merged():
+    """The six IGN tiles read one by one, and their merge run as one block."""
+    files = [need_data(f) for f in IGN_FILES]
+    clouds = [ls.read(f) for f in files]
+    merged = ls.PointCloud(np.vstack([c.xyz for c in clouds]), np.concatenate([c.labels for c in clouds]),
+                           crs=clouds[0].crs)
+    return clouds, ls.Pipeline(progress=False).run(merged)
+
+
+@pytest.fixture(scope="module")
+def ign_set(tmp_path_factory, ign_merged):
+    """The IGN folder run as a set of tiles in this process (40 m tiles across the files)."""
+    work = tmp_path_factory.mktemp("ign") / "work"
+    return run_set(ls.Pipeline(progress=False), [IGN], work=work, tile_size=40.0)
+
+
+def test_ign_folder_in_tiles_gives_the_signature_and_saliency_of_the_merge(ign_merged, ign_set):
+    clouds, merged = ign_merged
+    run = ign_set
+    assert run.complete and run.tiling.shape == (4, 3)
+    assert np.array_equal(run.signature.counts, merged.signature.counts)
+    assert np.array_equal(run.signature.egeom_counts, merged.signature.egeom_counts)
+    assert np.array_equal(run.signature.class_totals, merged.signature.class_totals)
+    assert run.signature.metadata["n_duplicates"] == merged.metadata["n_duplicates"]
+    start = 0
+    for source, cloud in zip(run.sources, clouds):
+        single = merged.saliency.values[start:start + len(cloud)]
+        start += len(cloud)
+        assert_same_saliency(run.saliency_of(source), ls.Saliency.from_values(single))
+
+
+def test_a_local_dask_cluster_gives_the_same_results_as_the_local_run(tmp_path, ign_set):
+    distributed = pytest.importorskip("distributed", reason="the dask extra is not installed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as cluster:
+        backend = executor(scheduler=cluster.scheduler_address)
+        try:
+            run = run_set(ls.Pipeline(progress=False), [IGN], work=tmp_path / "work", tile_size=40.0,
+                          backend=backend)
+        finally:
+            backend.close()
+    assert run.complete and "2 workers" in run.execution
+    assert np.array_equal(run.signature.counts, ign_set.signature.counts)
+    for a, b in zip(run.sources, ign_set.sources):
+        assert np.array_equal(run.saliency_of(a).values, ign_set.saliency_of(b).values, equal_nan=True)
