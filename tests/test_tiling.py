@@ -1,4 +1,13 @@
 """Tiled processing with halos: the same results as the single-block run (issue 12)."""
+import hashlib
+import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import h5py
+import laspy
 import numpy as np
 import pytest
 
@@ -111,3 +120,50 @@ def test_a_local_dask_cluster_gives_the_same_results_as_the_local_run(tmp_path, 
     assert np.array_equal(run.signature.counts, ign_set.signature.counts)
     for a, b in zip(run.sources, ign_set.sources):
         assert np.array_equal(run.saliency_of(a).values, ign_set.saliency_of(b).values, equal_nan=True)
+
+
+def lidar_sig_cli(*args):
+    return subprocess.run([sys.executable, "-m", "lidar_sig", *map(str, args)], capture_output=True, text=True,
+                          timeout=600)
+
+
+def test_a_file_cut_off_mid_file_is_named_the_others_written_and_resume_completes_the_set(tmp_path, ign_set):
+    folder = tmp_path / "tiles"
+    folder.mkdir()
+    for f in IGN_FILES:
+        shutil.copyfile(need_data(f), folder / f.name)
+    cut = folder / IGN_FILES[2].name
+    cut.write_bytes(IGN_FILES[2].read_bytes()[:120_000])  # the header is whole, the points stop short
+    out = tmp_path / "out"
+    args = ("saliency", folder, "-o", out, "--workers", "1", "--tile-size", "50")
+    first = lidar_sig_cli(*args)
+    assert first.returncode == 1, first.stderr
+    assert f"missing: {cut.name}" in first.stderr and "--resume" in first.stderr
+    assert "Traceback" not in first.stderr
+    assert sorted(p.name for p in out.glob("*.laz")) == sorted(f.name for f in IGN_FILES if f.name != cut.name)
+    again = lidar_sig_cli(*args, "--resume")  # still cut off: finished tiles are reused
+    assert again.returncode == 1 and "6 reused" in again.stdout, again.stdout
+    shutil.copyfile(IGN_FILES[2], cut)
+    done = lidar_sig_cli(*args, "--resume")
+    assert done.returncode == 0, done.stderr
+    assert not (out / ".lidar-sig-work").exists()
+    for source in ign_set.sources:  # the set's results, now with every file
+        written = laspy.read(out / source.name)
+        expected = ign_set.saliency_of(source).values.astype(np.float32)
+        got = np.column_stack([written["Cl"], written["Cs"], written["Cp"]])
+        assert np.allclose(got, expected, rtol=0, atol=1e-6, equal_nan=True)
+
+
+def test_signature_of_a_folder_records_the_tiling_and_every_file_with_its_sha256(tmp_path, ign_set):
+    out = tmp_path / "set.h5"
+    proc = lidar_sig_cli("signature", IGN, "-o", out, "--workers", "2", "--tile-size", "40")
+    assert proc.returncode == 0, proc.stderr
+    assert "12 tiles of 40 m" in proc.stdout and "points/s" in proc.stdout
+    sig = ls.load_signature(out)
+    assert np.array_equal(sig.counts, ign_set.signature.counts)
+    with h5py.File(out) as f:
+        sources = json.loads(f.attrs["sources"])
+        tiling = json.loads(f.attrs["tiling"])
+    assert [Path(s["path"]).name for s in sources] == [f.name for f in IGN_FILES]
+    assert all(s["sha256"] == hashlib.sha256(Path(s["path"]).read_bytes()).hexdigest() for s in sources)
+    assert tiling["tiles"] == [4, 3] and tiling["tile_size_m"] == 40.0

@@ -52,10 +52,13 @@ class Plan:
     cells: Cells
     files: dict
     classes: object
+    staged: str = ""
 
     def key(self):
-        return json.dumps([self.ctx.key(), self.pipeline.method(), self.classes.name, self.pipeline.frame.size,
-                           self.tiling.size], default=str)
+        """Changes whenever a tile's result would: the set's files as staged (path, size, time,
+        points), its context, the method and the tiling."""
+        return json.dumps([self.staged, self.ctx.key(), self.pipeline.method(), self.classes.name,
+                           self.pipeline.frame.size, self.tiling.size], default=str)
 
     def load(self, bounds):
         """(xyz centred metres, ids, labels) of the staged points within plan-view ``bounds``."""
@@ -244,8 +247,9 @@ def run_set(pipeline, inputs, *, work, tile_size=None, backend=None, resume=Fals
     tiling = Tiling(ctx.lo, ctx.hi, float(tile_size))
     labelled = any(r["labelled"] for r in records.values())
     pipe = _quiet(pipeline)
+    staged_key = json.dumps(sorted([r["path"], r["identity"], r["n"], part] for (_, part), r in records.items()))
     plan = Plan(str(work), pipe, ctx, tiling, cells, cell_files(work, records),
-                pipeline.classes if labelled else UNLABELED)
+                pipeline.classes if labelled else UNLABELED, staged_key)
     tiles = [ij for ij in tiling.tiles() if _occupied(plan, ij)]
     if pipeline.weights == "area":
         cap = _cached_cap(work, plan, resume)
@@ -262,7 +266,7 @@ def run_set(pipeline, inputs, *, work, tile_size=None, backend=None, resume=Fals
             cap = area_cap(np.concatenate(dist))
             (work / "area_cap.json").write_text(json.dumps({"key": plan.key(), "cap": cap}))
         ctx = SetContext(ctx.centre, ctx.factors, ctx.lo, ctx.hi, ctx.scales, cap, ctx.density)
-        plan = Plan(plan.work, plan.pipeline, ctx, plan.tiling, plan.cells, plan.files, plan.classes)
+        plan = Plan(plan.work, plan.pipeline, ctx, plan.tiling, plan.cells, plan.files, plan.classes, plan.staged)
     run.ctx, run.tiling, run.plan = ctx, tiling, plan
 
     # 3. tiles
