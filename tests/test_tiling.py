@@ -13,7 +13,7 @@ import pytest
 
 import lidar_sig as ls
 from lidar_sig.classes import class_table
-from lidar_sig.errors import LidarSigError
+from lidar_sig.errors import LidarSigError, LidarSigWarning
 from lidar_sig.signature import Signature
 from lidar_sig.tiling.core import saliency_in_tiles
 from lidar_sig.tiling.execute import executor
@@ -167,3 +167,20 @@ def test_signature_of_a_folder_records_the_tiling_and_every_file_with_its_sha256
     assert [Path(s["path"]).name for s in sources] == [f.name for f in IGN_FILES]
     assert all(s["sha256"] == hashlib.sha256(Path(s["path"]).read_bytes()).hexdigest() for s in sources)
     assert tiling["tiles"] == [4, 3] and tiling["tile_size_m"] == 40.0
+
+
+@pytest.mark.parametrize("name", ["isprs_filtertest/samp11-utm.laz", "copc/test_data_77050_627755.copc.laz"])
+def test_output_streamed_in_chunks_is_the_same_file_as_written_whole(tmp_path, name):
+    from lidar_sig.io.las import write_las, write_las_chunks
+
+    src = need_data(DATA / name)
+    cloud = ls.read(src)
+    pipe = ls.Pipeline(strategy="optimal", progress=False)
+    sal, _ = pipe.saliency(cloud)
+    with pytest.warns(LidarSigWarning):  # LAS 1.2 upgraded, COPC index dropped: said either way
+        write_las(tmp_path / "whole.laz", cloud, sal, scale_kind="knn", scale_values=pipe.scales.values)
+    with pytest.warns(LidarSigWarning):
+        write_las_chunks(tmp_path / "chunks.laz", src,
+                         lambda a, b: ls.Saliency.from_values(sal.values[a:b], sal.optimal_scale[a:b]),
+                         scale_kind="knn", scale_values=pipe.scales.values, chunk_points=10_000)
+    assert (tmp_path / "whole.laz").read_bytes() == (tmp_path / "chunks.laz").read_bytes()

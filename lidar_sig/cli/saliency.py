@@ -46,8 +46,6 @@ def saliency(sources, output, overwrite, columns, tiling, resume, work_dir, pipe
 
 
 def _saliency_of_set(sources, output, overwrite, tiling, resume, work_dir, pipeline, quiet):
-    from ..io import write_cloud
-    from ..io.las import read_las
     from ..tiling.sources import expand, scan
 
     outdir = Path(output)
@@ -69,16 +67,12 @@ def _saliency_of_set(sources, output, overwrite, tiling, resume, work_dir, pipel
     run = run_tiles(pipeline, sources, tiling, work, resume=resume, quiet=quiet)
     written, not_written = [], []
     for source in run.sources:
-        if source.path in run.failed_sources:
+        if source.path in run.failed_sources or run.plan is None:
             continue
-        sal = run.saliency_of(source) if run.plan is not None else None
-        if sal is None:
+        if run.write_points(source, outputs[source.path], overwrite=overwrite or resume):
+            written.append(str(outputs[source.path]))
+        else:
             not_written.append(f"{outputs[source.path]} (a tile holding some of its points is missing)")
-            continue
-        cloud = read_las(source.path)
-        write_cloud(outputs[source.path], cloud, sal, scale_kind=pipeline.scales.kind,
-                    scale_values=pipeline.scales.values, overwrite=overwrite or resume)
-        written.append(str(outputs[source.path]))
     if not quiet:
         for path in written:
             click.echo(f"wrote {path}")

@@ -36,6 +36,8 @@ from .core import (SetContext, Tiling, _positions, area_cap, check_tileable, con
 from .sources import (Cells, cell_files, expand, load_cells, scan, source_of, index_of, stage_part, staged,
                       tile_side_for)
 
+#: Per-point results of one input file on disk: (Cl, Cs, Cp) and the chosen scale index.
+POINT_VALUES = np.dtype([("values", "f8", 3), ("chosen", "i8")])
 #: Default points per processing tile (with its halo about a quarter more): what one worker
 #: holds at once, about 0.5 GiB at the pipeline's 0.21 GiB per million points.
 TILE_POINTS = 2_000_000
@@ -158,11 +160,14 @@ class SetRun:
         """Every source file with its SHA-256 (those that could be read)."""
         return [{"path": s.path, "sha256": self.sha256[s.path]} for s in self.sources if s.path in self.sha256]
 
-    def saliency_of(self, source):
-        """Saliency of one input file's points, in its point order, from the tile results; None
-        when a tile holding some of them failed."""
-        values = np.full((source.n_points, 3), np.nan)
-        chosen = None
+    def values_file(self, source):
+        """A file of ``source``'s per-point (Cl, Cs, Cp) and chosen scale index (records of
+        POINT_VALUES, in its point order), gathered from the tile results one tile at a time;
+        None when a tile holding some of its points failed."""
+        path = Path(self.plan.work) / "points" / f"s{source.id}.bin"
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with open(path, "wb") as fh:
+            fh.truncate(source.n_points * POINT_VALUES.itemsize)
         found = 0
         for ij, stats in self.tile_stats.items():
             if source.id not in stats["sources"]:
@@ -170,14 +175,43 @@ class SetRun:
             with np.load(result_path(self.plan.work, ij)) as r:
                 mine = source_of(r["ids"]) == source.id
                 at = index_of(r["ids"][mine])
-                values[at] = r["values"][mine]
-                if len(r["chosen"]):
-                    chosen = np.full(source.n_points, -1, np.int64) if chosen is None else chosen
-                    chosen[at] = r["chosen"][mine]
+                # mapped per tile and closed again, so that resident memory stays one tile's
+                out = np.memmap(path, POINT_VALUES, "r+", shape=(source.n_points,))
+                out["values"][at] = r["values"][mine]
+                out["chosen"][at] = r["chosen"][mine] if len(r["chosen"]) else -1
+                out.flush()
+                del out
                 found += int(mine.sum())
-        if found != source.n_points:
+        return path if found == source.n_points else None
+
+    def saliency_chunks(self, path, has_chosen):
+        """``(start, stop) -> Saliency`` of points [start, stop) of a :meth:`values_file`."""
+        def chunk(start, stop):
+            rec = np.fromfile(path, POINT_VALUES, count=stop - start, offset=start * POINT_VALUES.itemsize)
+            return Saliency.from_values(rec["values"], rec["chosen"] if has_chosen else None)
+        return chunk
+
+    def saliency_of(self, source):
+        """Saliency of one input file's points, in its point order (in memory); None when a
+        tile holding some of them failed."""
+        path = self.values_file(source)
+        if path is None:
             return None
-        return Saliency.from_values(values, chosen)
+        return self.saliency_chunks(path, self.plan.pipeline.strategy.name == "optimal")(0, source.n_points)
+
+    def write_points(self, source, output, *, overwrite=False):
+        """Write ``source`` with its per-point saliency to the LAS/LAZ ``output``, streamed in
+        chunks; False (nothing written) when a tile holding some of its points failed."""
+        from ..io.las import write_las_chunks
+
+        path = self.values_file(source)
+        if path is None:
+            return False
+        pipe = self.plan.pipeline
+        write_las_chunks(output, source.path, self.saliency_chunks(path, pipe.strategy.name == "optimal"),
+                         scale_kind=pipe.scales.kind, scale_values=pipe.scales.values, overwrite=overwrite)
+        path.unlink()
+        return True
 
 
 def run_set(pipeline, inputs, *, work, tile_size=None, backend=None, resume=False, progress_enabled=None):
