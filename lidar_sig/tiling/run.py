@@ -36,6 +36,8 @@ from .core import (SetContext, Tiling, _positions, area_cap, check_tileable, con
 from .sources import (Cells, cell_files, expand, load_cells, scan, source_of, index_of, stage_part, staged,
                       tile_side_for)
 
+#: Staging cells per tile side.
+CELLS_PER_TILE = 4
 #: Per-point results of one input file on disk: (Cl, Cs, Cp) and the chosen scale index.
 POINT_VALUES = np.dtype([("values", "f8", 3), ("chosen", "i8")])
 #: Default points per processing tile (with its halo about a quarter more): what one worker
@@ -243,7 +245,7 @@ def run_set(pipeline, inputs, *, work, tile_size=None, backend=None, resume=Fals
     if tile_size is None:  # from the headers' density: about TILE_POINTS per tile
         area = max(float(np.prod((hi[:2] - lo[:2]) * np.asarray(factors[:2]))), 1e-12)
         tile_size = tile_side_for(TILE_POINTS, sum(s.n_points for s in good) / area)
-    cells = Cells(tuple(lo[:2].tolist()), float(tile_size) / factors[0])
+    cells = Cells(tuple(lo[:2].tolist()), float(tile_size) / factors[0] / CELLS_PER_TILE)
 
     # 1. staging
     records = {}

@@ -117,7 +117,8 @@ def scan(files):
 
 @dataclass(frozen=True)
 class Cells:
-    """The staging grid: square cells of ``side`` file units from ``origin`` (x, y)."""
+    """The staging grid: square cells of ``side`` file units from ``origin`` (x, y); a quarter
+    of the tile side, so that a tile and its halo read little beyond themselves."""
 
     origin: tuple
     side: float
@@ -234,11 +235,14 @@ def cell_files(work, records):
 def load_cells(files, cells, raw_bounds):
     """The staged points (structured RECORD array) within the raw box, from ``files``."""
     x0, y0, x1, y1 = raw_bounds
+    eps = 1e-9 * cells.side  # round-off of the conversion to file units; the caller cuts exactly
     parts = []
     for key in cells.covering(raw_bounds):
         for f in files.get(key, ()):
             rec = np.fromfile(f, RECORD)
-            parts.append(rec)
+            inside = ((rec["x"] >= x0 - eps) & (rec["x"] <= x1 + eps) & (rec["y"] >= y0 - eps)
+                      & (rec["y"] <= y1 + eps))
+            parts.append(rec[inside])  # one cell file at a time in memory, then its share
     if not parts:
         return np.empty(0, RECORD)
     return np.concatenate(parts)
