@@ -1,11 +1,10 @@
 """Printing and exit status of tiled runs over a set of files (shared by the commands)."""
-import shutil
 from pathlib import Path
 
 import click
 
 from ..tiling.execute import executor
-from ..tiling.run import run_set
+from ..tiling.run import remove_work, run_set
 from ..tiling.sources import LAS_SUFFIXES
 
 
@@ -41,7 +40,7 @@ def run_tiles(pipeline, sources, tiling, work, *, resume=False, quiet=False):
 def finish(run, work, written, not_written=()):
     """Exit status 1 naming what is missing, or 0 after removing the work folder."""
     if run.complete and not not_written:
-        shutil.rmtree(work, ignore_errors=True)
+        remove_work(work)
         return
     for line in run.missing:
         click.echo(f"lidar-sig: missing: {line}", err=True)

@@ -187,9 +187,10 @@ def block_saliency(pipeline, xyz, query, edge, scales, area_cap):
     metres) at the set's resolved ``scales``, and whether each is certainly that of the whole
     set (``edge``: each point's distance to the block's edge, metres).
 
-    Returns ``(location, values, chosen, ok, n_capped)``: ``location`` (M,) the distinct
-    location of every block point; ``values`` (L, 3), ``chosen`` (L,) or None and ``ok`` (L,)
-    per location (meaningful where queried).
+    Returns ``(location, values, chosen, ok, capped)``: ``location`` (M,) the distinct
+    location of every block point; ``values`` (L, 3), ``chosen`` (L,) or None, ``ok`` (L,) and
+    ``capped`` (L,: the spherical neighbourhood was cut at max_neighbors) per location
+    (meaningful where queried).
     """
     support, inverse = unique_points(xyz)
     location = np.arange(len(xyz)) if inverse is None else inverse
@@ -202,14 +203,16 @@ def block_saliency(pipeline, xyz, query, edge, scales, area_cap):
     index = NeighborIndex(support, pipeline.scales.kind, scales, max_neighbors=pipeline.max_neighbors,
                           min_neighbors=pipeline.min_neighbors, weights=pipeline.weights, area_cap=area_cap)
     edge_sorted = edge_loc[index.order]
-    if pipeline.weights == "area":  # sqrt(weight) is the capped second-neighbour distance
+    if pipeline.weights == "area" and m < 3:  # no second neighbour inside: only a whole set is sure
+        weight_ok = np.isinf(edge_sorted)
+    elif pipeline.weights == "area":  # sqrt(weight) is the capped second-neighbour distance
         weight_ok = np.sqrt(index.weights) * (1.0 + MARGIN) < edge_sorted
     else:
         weight_ok = np.ones(m, bool)
     values = np.full((m, 3), np.nan)
     chosen = None
     ok = np.zeros(m, bool)
-    n_capped = 0
+    capped = np.zeros(m, bool)
     rows = index.rows_of(np.flatnonzero(queried))
     for part in index.blocks(rows):
         batch = index.query(part)
@@ -220,7 +223,7 @@ def block_saliency(pipeline, xyz, query, edge, scales, area_cap):
             if chosen is None:
                 chosen = np.full(m, -1, np.int64)
             chosen[loc] = pick
-        n_capped += int(batch.capped.sum())
+        capped[loc] = batch.capped
         n = batch.n
         if pipeline.scales.kind == "knn":
             reach = np.sqrt(batch.d2[np.arange(len(part)), np.maximum(n, 1) - 1] * (1.0 + TIE))
@@ -232,7 +235,7 @@ def block_saliency(pipeline, xyz, query, edge, scales, area_cap):
         used = np.arange(batch.idx.shape[1])[None, :] < n[:, None]
         neighbours_ok = np.all(~used | weight_ok[np.where(used, batch.idx, 0)], axis=1)
         ok[loc] = enough & inside & neighbours_ok
-    return location, values, chosen, ok, n_capped
+    return location, values, chosen, ok, capped
 
 
 def tile_saliency(pipeline, load, tiling, ij, ctx, *, halo=None):
@@ -250,21 +253,26 @@ def tile_saliency(pipeline, load, tiling, ij, ctx, *, halo=None):
     out_ids = ids[core]
     values = np.full((len(out_ids), 3), np.nan)
     chosen = None
+    capped = np.zeros(len(out_ids), bool)
+    if not len(out_ids):
+        return TileResult(out_ids, values, None, {"n_points": 0, "n_locations": 0, "n_capped": 0,
+                                                  "n_recomputed": 0, "halo": width})
+    core_location = None  # distinct location of each core point, from the first block
     todo = np.ones(len(out_ids), bool)  # core points (in out_ids order) still to settle
-    n_recomputed = n_capped = 0
-    n_locations = None
+    n_recomputed = 0
     while True:
         halo_ = Halo(box, width, ctx.lo, ctx.hi)
         want = np.isin(ids, out_ids[todo])
-        location, vals, pick, ok, capped = block_saliency(pipeline, xyz, want, halo_.edge_distance(xyz),
-                                                          ctx.scales, ctx.area_cap)
-        if n_locations is None:
-            n_locations = len(np.unique(location[core]))
-            n_capped = capped
+        location, vals, pick, ok, cut = block_saliency(pipeline, xyz, want, halo_.edge_distance(xyz),
+                                                       ctx.scales, ctx.area_cap)
         # map the block's wanted points back to positions in out_ids
         pos = _positions(out_ids, ids[want])
         loc = location[want]
+        if core_location is None:
+            core_location = np.empty(len(out_ids), np.int64)
+            core_location[pos] = loc
         values[pos] = vals[loc]
+        capped[pos] = cut[loc]
         if pick is not None:
             if chosen is None:
                 chosen = np.full(len(out_ids), -1, np.int64)
@@ -277,8 +285,8 @@ def tile_saliency(pipeline, load, tiling, ij, ctx, *, halo=None):
         n_recomputed += int(todo.sum())
         width *= 2.0
         xyz, ids = load(Halo(box, width, ctx.lo, ctx.hi).bounds)
-    stats = {"n_points": len(out_ids), "n_locations": n_locations, "n_capped": n_capped,
-             "n_recomputed": n_recomputed, "halo": width}
+    stats = {"n_points": len(out_ids), "n_locations": len(np.unique(core_location)),
+             "n_capped": len(np.unique(core_location[capped])), "n_recomputed": n_recomputed, "halo": width}
     return TileResult(out_ids, values, chosen, stats)
 
 
@@ -296,11 +304,12 @@ def tile_second_distances(load, tiling, ij, ctx, *, halo=None):
         core_loc = np.unique(location[core])
         if not len(core_loc):
             return np.empty(0)
-        index = NeighborIndex(support, "knn", np.array([3]), min_neighbors=2)
-        d = index.second_distances(index.rows_of(core_loc))
-        edge = halo_.edge_distance(support[core_loc])
-        if halo_.whole or np.all(d * (1.0 + MARGIN) < edge):
-            return d
+        if halo_.whole or len(support) >= 3:  # fewer: the second neighbour is outside
+            index = NeighborIndex(support, "knn", np.array([min(3, len(support))]), min_neighbors=1)
+            d = index.second_distances(index.rows_of(core_loc))
+            edge = halo_.edge_distance(support[core_loc])
+            if halo_.whole or np.all(d * (1.0 + MARGIN) < edge):
+                return d
         width *= 2.0
 
 

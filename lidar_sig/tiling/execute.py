@@ -26,6 +26,7 @@ class InProcess:
     """Run tasks one after the other in this process (``--workers 1``)."""
 
     description = "1 process"
+    workers = 1
 
     def run(self, fn, items):
         for item in items:
@@ -45,7 +46,7 @@ class LocalProcesses:
     kernels' thread pools do not survive a fork)."""
 
     def __init__(self, workers):
-        self.workers = int(workers)
+        self.workers = int(workers)  # how many tasks run at once
         self.description = f"{self.workers} local processes"
         threads = max(1, (os.cpu_count() or 1) // self.workers)
         self.pool = cf.ProcessPoolExecutor(self.workers, mp_context=multiprocessing.get_context("spawn"),
@@ -80,6 +81,7 @@ class DaskCluster:
             raise LidarSigError(f"cannot reach the Dask scheduler at {address} ({exc}); check the address "
                                 "and that the scheduler runs") from None
         n = len(self.client.scheduler_info().get("workers", {}))
+        self.workers = max(1, n)
         self.description = f"Dask scheduler {address} ({n} workers)"
 
     def run(self, fn, items):

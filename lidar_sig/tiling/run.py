@@ -83,9 +83,9 @@ def result_path(work, ij):
     return Path(work) / "tiles" / f"{tile_name(*ij)}.npz"
 
 
-def stage_task(work, source, part, cells):
+def stage_task(work, source, part, start, stop, cells):
     """Stage one part of one file (a task)."""
-    return stage_part(work, source, part, cells)
+    return stage_part(work, source, part, start, stop, cells)
 
 
 def second_task(plan, ij):
@@ -227,10 +227,7 @@ def run_set(pipeline, inputs, *, work, tile_size=None, backend=None, resume=Fals
     check_tileable(pipeline)
     start = time.perf_counter()
     backend = backend or InProcess()
-    work = Path(work).resolve()
-    if work.exists() and not resume:
-        shutil.rmtree(work)
-    work.mkdir(parents=True, exist_ok=True)
+    work = prepare_work(work, resume)
     sources = scan(expand(inputs))
     run = SetRun(sources, execution=backend.description)
     for s in sources:
@@ -242,22 +239,24 @@ def run_set(pipeline, inputs, *, work, tile_size=None, backend=None, resume=Fals
     factors = good[0].factors
     lo = np.min([s.lo for s in good], axis=0)
     hi = np.max([s.hi for s in good], axis=0)
-    if tile_size is None:  # from the headers' density: about TILE_POINTS per tile
+    if tile_size is None:  # from the headers: about TILE_POINTS per tile, 2 tiles per worker at least
         area = max(float(np.prod((hi[:2] - lo[:2]) * np.asarray(factors[:2]))), 1e-12)
-        tile_size = tile_side_for(TILE_POINTS, sum(s.n_points for s in good) / area)
+        n_points = sum(s.n_points for s in good)
+        tile_size = min(tile_side_for(TILE_POINTS, n_points / area),
+                        tile_side_for(n_points / (2 * backend.workers), n_points / area))
     cells = Cells(tuple(lo[:2].tolist()), float(tile_size) / factors[0] / CELLS_PER_TILE)
 
     # 1. staging
     records = {}
     todo = []
     for s in good:
-        for part in range(len(s.parts())):
-            info = staged(work, s, part) if resume else None
+        for part, (first, stop) in enumerate(s.parts(backend.workers)):
+            info = staged(work, s, part, first, stop) if resume else None
             if info is None:
-                todo.append((str(work), s, part, cells))
+                todo.append((str(work), s, part, first, stop, cells))
             else:
                 records[(s.id, part)] = info
-    for (_, s, part, _), info, err in progress(backend.run(stage_task, todo), total=len(todo),
+    for (_, s, part, *_), info, err in progress(backend.run(stage_task, todo), total=len(todo),
                                                desc="reading", enabled=progress_enabled, unit="part"):
         if err is None:
             records[(s.id, part)] = info
@@ -322,6 +321,30 @@ def run_set(pipeline, inputs, *, work, tile_size=None, backend=None, resume=Fals
         run.signature = _sum_signatures(run, labelled)
     run.seconds = time.perf_counter() - start
     return run
+
+
+#: File that marks a folder as a work folder of ours (only such a folder is ever removed).
+WORK_MARK = "LIDAR_SIG_WORK"
+
+
+def prepare_work(work, resume):
+    """The work folder, made (or emptied, without ``resume``); refuses a folder that holds
+    anything but an earlier run's work."""
+    work = Path(work).resolve()
+    if work.exists() and any(work.iterdir()) and not (work / WORK_MARK).is_file():
+        raise LidarSigError("is not empty and not a lidar_sig work folder; give a new or empty folder as "
+                            "--work-dir", path=work)
+    if work.exists() and not resume:
+        shutil.rmtree(work)
+    work.mkdir(parents=True, exist_ok=True)
+    (work / WORK_MARK).write_text("scratch files of a tiled lidar_sig run; safe to delete\n")
+    return work
+
+
+def remove_work(work):
+    """Remove a work folder of ours (after a complete run)."""
+    if (Path(work) / WORK_MARK).is_file():
+        shutil.rmtree(work, ignore_errors=True)
 
 
 def _sum_signatures(run, labelled):

@@ -79,10 +79,11 @@ class Source:
     def name(self):
         return Path(self.path).name
 
-    def parts(self):
-        """(start, stop) point ranges staged as separate units of work."""
+    def parts(self, workers=1):
+        """(start, stop) point ranges staged as separate units of work: at most PART_POINTS
+        points, and a file split among ``workers`` (not below CHUNK_POINTS a part)."""
         n = self.n_points
-        step = PART_POINTS
+        step = max(CHUNK_POINTS, min(PART_POINTS, math.ceil(n / max(1, workers))))
         return [(s, min(n, s + step)) for s in range(0, n, step)]
 
 
@@ -151,25 +152,26 @@ def file_identity(path):
     return [st.st_size, st.st_mtime_ns]
 
 
-def staged(work, source, part):
+def staged(work, source, part, start, stop):
     """The record of a part staged from the file as it is now, or None."""
     rec = part_record(work, source.id, part)
     if not rec.is_file():
         return None
     info = json.loads(rec.read_text())
-    if info.get("identity") != file_identity(source.path) or info.get("path") != source.path:
+    if (info.get("identity") != file_identity(source.path) or info.get("path") != source.path
+            or info.get("range") != [start, stop]):
         return None
     return info
 
 
-def stage_part(work, source, part, cells):
-    """Read points [start, stop) of ``source`` in chunks and append each to its cell's file;
-    return the part's record. Raises LidarSigError naming the file when it cannot be read."""
+def stage_part(work, source, part, start, stop, cells):
+    """Read points [start, stop) of ``source`` (its part number ``part``) in chunks and append
+    each to its cell's file; return the part's record. Raises LidarSigError naming the file
+    when it cannot be read."""
     import laspy
 
     from ..io.las import _reason
 
-    start, stop = source.parts()[part]
     out = part_dir(work, source.id, part)
     shutil.rmtree(out, ignore_errors=True)  # an interrupted earlier attempt
     out.mkdir(parents=True)
@@ -211,7 +213,8 @@ def stage_part(work, source, part, cells):
     if n != stop - start:
         raise LidarSigError(f"holds {start + n:,} points but its header says {source.n_points:,}; the file is "
                             "truncated", path=source.path)
-    info = {"path": source.path, "identity": file_identity(source.path), "n": n, "lo": lo.tolist(),
+    info = {"path": source.path, "identity": file_identity(source.path), "range": [start, stop], "n": n,
+            "lo": lo.tolist(),
             "hi": hi.tolist(), "labelled": labelled, "cells": sorted(occupied)}
     if part == 0:
         from ..io.hdf5 import sha256_of
