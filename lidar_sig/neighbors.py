@@ -219,7 +219,7 @@ class NeighborIndex:
 
     def second_distances(self, rows=None):
         """Distance from each point (sorted order; ``rows`` only, if given) to its second-nearest
-        other point, in coordinate units; the whole cloud's when it has fewer than 3 points."""
+        other point, in coordinate units (in a cloud of fewer than 3 points, to its farthest)."""
         n = len(self.xyz)
         k = min(3, n)  # the point itself and two others
         rows = np.arange(n) if rows is None else np.asarray(rows, dtype=np.int64)

@@ -19,7 +19,7 @@ from lidar_sig.tiling.core import saliency_in_tiles
 from lidar_sig.tiling.execute import executor
 from lidar_sig.tiling.run import run_set
 
-from conftest import DATA, IGN, IGN_FILES, airborne_like, need_data
+from conftest import DATA, IGN, IGN_FILES, SAMPLES, airborne_like, need_data
 
 # Points tied at the same distance from a query can be listed in another order in a tile's
 # voxel grid than in the whole cloud's: the covariance then sums the same terms in another
@@ -184,3 +184,27 @@ def test_output_streamed_in_chunks_is_the_same_file_as_written_whole(tmp_path, n
                          lambda a, b: ls.Saliency.from_values(sal.values[a:b], sal.optimal_scale[a:b]),
                          scale_kind="knn", scale_values=pipe.scales.values, chunk_points=10_000)
     assert (tmp_path / "whole.laz").read_bytes() == (tmp_path / "chunks.laz").read_bytes()
+
+
+def test_compare_takes_a_folder_as_one_epoch(tmp_path):
+    epoch = tmp_path / "epoch1"
+    epoch.mkdir()
+    (epoch / "epoch1.laz").symlink_to(SAMPLES / "epoch1.laz")
+    proc = lidar_sig_cli("compare", epoch, SAMPLES / "epoch1.laz", "--workers", "1", "--json")
+    assert proc.returncode == 0, proc.stderr
+    metrics = json.loads(proc.stdout)
+    assert metrics["ssim"] == pytest.approx(1.0) and metrics["l1"] == 0 and metrics["bhattacharyya"] == 0
+
+
+@pytest.mark.parametrize("args, name", [
+    (("saliency", SAMPLES, "-o", "out.laz"), "out.laz"),               # a set writes into a folder
+    (("saliency", SAMPLES / "epoch1.laz", SAMPLES / "missing", "-o", "out"), "missing"),  # no such input
+    (("signature", SAMPLES / "epoch1.laz", SAMPLES / "epoch1.laz", "-o", "x.h5"), "given twice"),
+    (("saliency", SAMPLES / "epoch1.laz", "-o", "out", "--workers", "0"), "--workers"),
+])
+def test_a_set_refuses_bad_arguments_in_one_line_before_any_work(tmp_path, args, name):
+    proc = subprocess.run([sys.executable, "-m", "lidar_sig", *map(str, args)], capture_output=True, text=True,
+                          cwd=tmp_path, timeout=120)
+    assert proc.returncode == 2, proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1 and name in proc.stderr and "Traceback" not in proc.stderr
+    assert list(tmp_path.iterdir()) == []

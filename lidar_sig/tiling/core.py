@@ -258,10 +258,15 @@ def tile_saliency(pipeline, load, tiling, ij, ctx, *, halo=None):
         return TileResult(out_ids, values, None, {"n_points": 0, "n_locations": 0, "n_capped": 0,
                                                   "n_recomputed": 0, "halo": width})
     core_location = None  # distinct location of each core point, from the first block
-    todo = np.ones(len(out_ids), bool)  # core points (in out_ids order) still to settle
     n_recomputed = 0
-    while True:
+    widest = width
+    # blocks still to compute: (box, halo width, positions in out_ids); the tile first
+    pending = [(box, width, np.arange(len(out_ids)))]
+    while pending:
+        box, width, todo = pending.pop()
         halo_ = Halo(box, width, ctx.lo, ctx.hi)
+        if core_location is not None:  # the tile's own block is loaded already
+            xyz, ids = load(halo_.bounds)
         want = np.isin(ids, out_ids[todo])
         location, vals, pick, ok, cut = block_saliency(pipeline, xyz, want, halo_.edge_distance(xyz),
                                                        ctx.scales, ctx.area_cap)
@@ -277,39 +282,65 @@ def tile_saliency(pipeline, load, tiling, ij, ctx, *, halo=None):
             if chosen is None:
                 chosen = np.full(len(out_ids), -1, np.int64)
             chosen[pos] = pick[loc]
-        settled = ok[loc] | halo_.whole
-        todo[:] = False
-        todo[pos[~settled]] = True
-        if not todo.any():
-            break
-        n_recomputed += int(todo.sum())
-        width *= 2.0
-        xyz, ids = load(Halo(box, width, ctx.lo, ctx.hi).bounds)
+        failed = ~(ok[loc] | halo_.whole)
+        if failed.any():
+            n_recomputed += int(failed.sum())
+            widest = max(widest, 2.0 * width)
+            pending += _regroup(xyz[want][failed], pos[failed], 2.0 * width)
     stats = {"n_points": len(out_ids), "n_locations": len(np.unique(core_location)),
-             "n_capped": len(np.unique(core_location[capped])), "n_recomputed": n_recomputed, "halo": width}
+             "n_capped": len(np.unique(core_location[capped])), "n_recomputed": n_recomputed, "halo": widest}
     return TileResult(out_ids, values, chosen, stats)
+
+
+def _regroup(xyz, positions, width):
+    """Blocks for points to recompute with halo ``width``: points near each other share one
+    (plan-view cells of 8 halo widths), so that a few scattered failures do not each reload
+    a tile-sized block. Returns [(box, width, positions)]."""
+    cell = np.floor(xyz[:, :2] / (8.0 * width)).astype(np.int64)
+    _, group = np.unique(cell, axis=0, return_inverse=True)
+    out = []
+    for g in range(group.max() + 1):
+        mine = group.ravel() == g
+        lo, hi = xyz[mine, :2].min(axis=0), xyz[mine, :2].max(axis=0)
+        out.append(((*lo.tolist(), *hi.tolist()), width, positions[mine]))
+    return out
 
 
 def tile_second_distances(load, tiling, ij, ctx, *, halo=None):
     """Second-neighbour distance (metres) of each distinct location among tile ``ij``'s core
     points, checked against the halo like the saliency (for the set's area-weight cap)."""
     box = tiling.box(*ij)
-    width = 3.0 * math.sqrt(3.0 / (math.pi * ctx.density)) if halo is None else float(halo)
+    # ten times the mean spacing: a second neighbour farther than that is rare (isolated points)
+    width = 10.0 * math.sqrt(1.0 / (math.pi * ctx.density)) if halo is None else float(halo)
+    out = None  # distances by core location, in the order of the first block's core locations
+    want_ids = None
     while True:
         halo_ = Halo(box, width, ctx.lo, ctx.hi)
-        xyz, _ = load(halo_.bounds)
-        core = np.all(tiling.index(xyz) == np.asarray(ij), axis=1)
+        xyz, ids = load(halo_.bounds)
+        if want_ids is None:
+            core = np.all(tiling.index(xyz) == np.asarray(ij), axis=1)
+            support, inverse = unique_points(xyz[core])  # one id per core location
+            first = np.unique(inverse, return_index=True)[1] if inverse is not None else np.arange(len(support))
+            want_ids = ids[core][first]
+            if not len(want_ids):
+                return np.empty(0)
+            out = np.full(len(want_ids), np.nan)
+            todo = np.ones(len(want_ids), bool)
         support, inverse = unique_points(xyz)
         location = np.arange(len(xyz)) if inverse is None else inverse
-        core_loc = np.unique(location[core])
-        if not len(core_loc):
-            return np.empty(0)
+        at = _positions(ids, want_ids[todo])
+        loc = location[at]
         if halo_.whole or len(support) >= 3:  # fewer: the second neighbour is outside
             index = NeighborIndex(support, "knn", np.array([min(3, len(support))]), min_neighbors=1)
-            d = index.second_distances(index.rows_of(core_loc))
-            edge = halo_.edge_distance(support[core_loc])
-            if halo_.whole or np.all(d * (1.0 + MARGIN) < edge):
-                return d
+            d = index.second_distances(index.rows_of(loc))
+            good = halo_.whole | (d * (1.0 + MARGIN) < halo_.edge_distance(support[loc]))
+            pos = np.flatnonzero(todo)
+            out[pos[good]] = d[good]
+            todo[pos[good]] = False
+        if not todo.any():
+            return out
+        failing = xyz[_positions(ids, want_ids[todo])]
+        box = (*failing[:, :2].min(axis=0).tolist(), *failing[:, :2].max(axis=0).tolist())
         width *= 2.0
 
 

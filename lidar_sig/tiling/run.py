@@ -227,8 +227,8 @@ def run_set(pipeline, inputs, *, work, tile_size=None, backend=None, resume=Fals
     check_tileable(pipeline)
     start = time.perf_counter()
     backend = backend or InProcess()
+    sources = scan(expand(inputs))  # bad inputs are refused before anything is written
     work = prepare_work(work, resume)
-    sources = scan(expand(inputs))
     run = SetRun(sources, execution=backend.description)
     for s in sources:
         if s.error:
