@@ -208,3 +208,16 @@ def test_a_set_refuses_bad_arguments_in_one_line_before_any_work(tmp_path, args,
     assert proc.returncode == 2, proc.stderr
     assert len(proc.stderr.strip().splitlines()) == 1 and name in proc.stderr and "Traceback" not in proc.stderr
     assert list(tmp_path.iterdir()) == []
+
+
+def test_one_file_read_in_parts_and_chunks_gives_the_single_block_result(tmp_path, monkeypatch):
+    from lidar_sig.tiling import sources
+
+    monkeypatch.setattr(sources, "PART_POINTS", 10_000)  # 5 parts, each read from its own offset
+    monkeypatch.setattr(sources, "CHUNK_POINTS", 3_000)
+    pipe = ls.Pipeline(strategy="optimal", progress=False)
+    run = run_set(pipe, [SAMPLES / "epoch1.laz"], work=tmp_path / "work", tile_size=25.0)
+    single = pipe.run(SAMPLES / "epoch1.laz")
+    assert len(run.sources[0].parts()) == 5
+    assert np.array_equal(run.signature.counts, single.signature.counts)
+    assert_same_saliency(run.saliency_of(run.sources[0]), single.saliency)

@@ -318,7 +318,7 @@ def run_set(pipeline, inputs, *, work, tile_size=None, backend=None, resume=Fals
 
     # 4. reduce
     if run.complete:
-        run.signature = _sum_signatures(run, labelled)
+        run.signature = _sum_signatures(run)
     run.seconds = time.perf_counter() - start
     return run
 
@@ -347,7 +347,7 @@ def remove_work(work):
         shutil.rmtree(work, ignore_errors=True)
 
 
-def _sum_signatures(run, labelled):
+def _sum_signatures(run):
     plan = run.plan
     counts = None
     egeom = totals = None
