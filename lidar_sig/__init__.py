@@ -25,6 +25,8 @@ _EXPORTS = {
     "Scales": "scales", "knn": "scales", "radii": "scales", "Frame": "signature", "Signature": "signature",
     "compare_sources": "comparison", "Comparison": "comparison", "resilience": "resilience",
     "Report": "reporting", "report": "reporting", "changes": "change_map", "ChangeMap": "change_map",
+    "run_set": "tiling.run", "SetRun": "tiling.run", "executor": "tiling.execute",
+    "saliency_in_tiles": "tiling.core",
 }
 __all__ = sorted(_EXPORTS)
 

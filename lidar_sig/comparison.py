@@ -80,7 +80,7 @@ class Comparison:
         return comparison_report(self)
 
 
-def compare_sources(a, b, pipeline=None, *, render=None, columns=None, method_given=()):
+def compare_sources(a, b, pipeline=None, *, render=None, columns=None, method_given=(), tiling=None):
     """Compare two point clouds or signature archives, in any mix (SPEC 6).
 
     Parameters
@@ -95,6 +95,9 @@ def compare_sources(a, b, pipeline=None, *, render=None, columns=None, method_gi
         archives' own when they agree, else "smooth".
     columns : tuple, optional
         Column names of text clouds.
+    tiling : dict, optional
+        ``tile_size``, ``workers``, ``scheduler`` for a folder of LAS/LAZ tiles given as a or b
+        (an epoch): it is processed as one set in tiles (:mod:`lidar_sig.tiling`).
     """
     from .pipeline import Pipeline
 
@@ -103,7 +106,8 @@ def compare_sources(a, b, pipeline=None, *, render=None, columns=None, method_gi
     loaded = [_load(x, columns) for x in (a, b)]
     sigs = [x for x in loaded if isinstance(x, Signature)]
     clouds = [x for x in loaded if isinstance(x, PointCloud)]
-    labelled = [bool(x.classes.names) for x in sigs] + [c.labels is not None for c in clouds]
+    labelled = ([bool(x.classes.names) for x in sigs] + [c.labels is not None for c in clouds]
+                + [True for x in loaded if isinstance(x, Path)])  # a set's labels are known once run
     warnings = []
     if any(labelled) and not all(labelled):
         warnings.append("semantic metrics (kl, l1) need class labels in both clouds; comparing geometry only")
@@ -120,6 +124,8 @@ def compare_sources(a, b, pipeline=None, *, render=None, columns=None, method_gi
     for name, x in zip(names, loaded):
         if isinstance(x, Signature):
             sides.append(Side(name, x))
+        elif isinstance(x, Path):  # a folder of tiles: one epoch
+            sides.append(Side(name, _signature_of_set(x, pipeline, tiling or {})))
         else:
             result = pipeline.run(x)
             sides.append(Side(name, result.signature, result))
@@ -149,6 +155,8 @@ def _load(x, columns):
     if isinstance(x, (PointCloud, Signature)):
         return x
     if isinstance(x, (str, Path)):
+        if Path(x).is_dir():
+            return Path(x)
         if Path(x).suffix.lower() in HDF5_EXTENSIONS:
             return load_signature(x)
         return read(x, columns=columns)
@@ -227,3 +235,25 @@ def _radii_warnings(sides):
     return [f"normalized radii resolve to different metric radii ({ra:.4g} m in A, {rb:.4g} m in B: "
             f"{abs(ra / rb - 1):.0%} apart) because the clouds' bounding boxes differ; for the same "
             "neighbourhoods leave out --units normalized"]
+
+
+def _signature_of_set(folder, pipeline, tiling):
+    """The signature of a folder of LAS/LAZ tiles processed as one set (scratch files in a
+    temporary folder); refuses an incomplete set."""
+    import tempfile
+
+    from .tiling.execute import executor
+    from .tiling.run import run_set
+
+    backend = executor(tiling.get("workers"), tiling.get("scheduler"))
+    try:
+        with tempfile.TemporaryDirectory(prefix="lidar-sig-") as tmp:
+            run = run_set(pipeline, [folder], work=Path(tmp) / "work", tile_size=tiling.get("tile_size"),
+                          backend=backend)
+    finally:
+        backend.close()
+    if not run.complete:
+        raise LidarSigError("the set is incomplete, its signature would lack points: " + "; ".join(run.missing),
+                            path=folder)
+    run.signature.metadata["tiling"] = run.tiling_record()
+    return run.signature

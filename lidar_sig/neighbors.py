@@ -111,9 +111,14 @@ class NeighborIndex:
         A scale holding fewer neighbours (x_i included) gets count 0: undefined saliency.
     weights : {"none", "area"}
         How neighbours count (module docstring); "none" by default.
+    area_cap : float, optional
+        Cap of the second-neighbour distance behind area weights, in coordinate units; by
+        default ``AREA_CAP`` times this cloud's median. A tile of a larger set passes the set's
+        cap, so that its weights are those of the whole set.
     """
 
-    def __init__(self, xyz, kind, scales, *, max_neighbors=512, min_neighbors=3, weights="none"):
+    def __init__(self, xyz, kind, scales, *, max_neighbors=512, min_neighbors=3, weights="none",
+                 area_cap=None):
         xyz = np.asarray(xyz, dtype=np.float64)
         self.kind = kind
         self.scales = np.asarray(scales)
@@ -140,7 +145,7 @@ class NeighborIndex:
         self.order = self.grid.order
         self._tree = None
         self._buffers = None
-        self.weights = self.area_weights() if weights == "area" else np.empty(0)
+        self.weights = self.area_weights(area_cap) if weights == "area" else np.empty(0)
 
     def rows_of(self, ids):
         """Sorted-order rows of input point indices ``ids``."""
@@ -152,10 +157,14 @@ class NeighborIndex:
         """Query points per block so that one block's neighbour lists fit in _BLOCK_BYTES."""
         return max(1024, _BLOCK_BYTES // (16 * self.width))
 
-    def blocks(self):
-        """Consecutive blocks of query rows (sorted order) covering the cloud."""
-        n, step = len(self.xyz), self.block_size()
-        return [np.arange(s, min(n, s + step)) for s in range(0, n, step)]
+    def blocks(self, rows=None):
+        """Consecutive blocks of query rows (sorted order) covering the cloud, or ``rows``."""
+        step = self.block_size()
+        if rows is None:
+            n = len(self.xyz)
+            return [np.arange(s, min(n, s + step)) for s in range(0, n, step)]
+        rows = np.sort(np.asarray(rows, dtype=np.int64))  # sorted rows keep voxel locality
+        return [rows[s:s + step] for s in range(0, len(rows), step)]
 
     def query(self, rows):
         """Neighbourhoods of the sorted-order points ``rows`` at every scale.
@@ -196,26 +205,38 @@ class NeighborIndex:
         return NeighborhoodBatch(self.xyz, rows, self.order[rows], idx, d2, n, counts,
                                  np.ascontiguousarray(sigma), capped, self.weights)
 
-    def area_weights(self):
+    def area_weights(self, cap=None):
         """(N,) weight of each point as a neighbour, sorted order: the squared distance to its
-        second-nearest other point, capped at (AREA_CAP x its median)^2 (module docstring).
+        second-nearest other point, capped at ``cap`` (default AREA_CAP x its median), squared
+        (module docstring).
 
         Exact duplicate points give zero distances; the pipeline merges them beforehand.
         """
+        d_second = self.second_distances()
+        if cap is None:
+            cap = AREA_CAP * float(np.median(d_second))
+        return np.minimum(d_second, cap) ** 2
+
+    def second_distances(self, rows=None):
+        """Distance from each point (sorted order; ``rows`` only, if given) to its second-nearest
+        other point, in coordinate units (in a cloud of fewer than 3 points, to its farthest)."""
         n = len(self.xyz)
         k = min(3, n)  # the point itself and two others
-        d_second = np.zeros(n)
-        for rows in self.blocks():
-            b = len(rows)
+        rows = np.arange(n) if rows is None else np.asarray(rows, dtype=np.int64)
+        d_second = np.zeros(len(rows))
+        step = self.block_size()
+        for start in range(0, len(rows), step):
+            part = slice(start, start + step)
+            block = rows[part]
+            b = len(block)
             d2, idx = np.empty((b, k)), np.empty((b, k), np.int64)
             found, done = np.zeros(b, np.int64), np.zeros(b, np.bool_)
             counts, total = np.zeros((b, 1), np.int64), np.zeros(b, np.int64)
-            self.grid.search(rows, d2, idx, found, counts, total, done, ks=np.array([k]), s_max=_KNN_SHELLS)
+            self.grid.search(block, d2, idx, found, counts, total, done, ks=np.array([k]), s_max=_KNN_SHELLS)
             if not done.all():
-                self._complete(rows, d2, idx, found, counts, total, done, k, kind="knn")
-            d_second[rows] = np.sqrt(d2[:, k - 1])
-        cap = AREA_CAP * float(np.median(d_second))
-        return np.minimum(d_second, cap) ** 2
+                self._complete(block, d2, idx, found, counts, total, done, k, kind="knn")
+            d_second[part] = np.sqrt(d2[:, k - 1])
+        return d_second
 
     def _kdtree(self):
         if self._tree is None:

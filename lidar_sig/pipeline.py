@@ -169,6 +169,12 @@ class Pipeline:
             raise LidarSigError(f"holds {where}, fewer than the largest scale needs ({what}); use a "
                                 "larger cloud or smaller scales", path=cloud.path)
 
+    def describe(self, batch):
+        """(B, 3) saliency of a NeighborhoodBatch, and the chosen scale index per point (or None)."""
+        per_scale = self.descriptor.saliency(batch)
+        combined, pick = self.strategy.combine(per_scale)
+        return self.descriptor.refine(batch, combined), pick
+
     def saliency(self, cloud):
         """Per-point Saliency of ``cloud`` and run statistics (undefined, capped and duplicate
         counts, scales in metres)."""
@@ -195,9 +201,7 @@ class Pipeline:
                 t0 = time.perf_counter()
                 batch = index.query(rows)
                 t1 = time.perf_counter()
-                per_scale = self.descriptor.saliency(batch)
-                combined, pick = self.strategy.combine(per_scale)
-                combined = self.descriptor.refine(batch, combined)
+                combined, pick = self.describe(batch)
                 describing += time.perf_counter() - t1
                 searching += t1 - t0
                 values[batch.ids] = combined

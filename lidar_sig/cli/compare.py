@@ -8,7 +8,7 @@ from ..metrics import METRICS
 from . import cli
 from ..reporting import COMPARISON_PLOTS
 from .options import (check_report_outputs, columns_option, overwrite_option, pipeline_options, render_option,
-                      report_options, write_report)
+                      report_options, tiling_options, write_report)
 from .report import archive_summary_line, run_summary
 
 @cli.command()
@@ -19,15 +19,18 @@ from .report import archive_summary_line, run_summary
 @render_option
 @overwrite_option
 @columns_option
+@tiling_options
 @pipeline_options
-def compare(a, b, as_json, report, plots, render, overwrite, columns, pipeline, method_given, quiet):
-    """Compare the signatures of A and B (point-cloud files or signature archives, in any mix).
+def compare(a, b, as_json, report, plots, render, overwrite, columns, tiling, pipeline, method_given, quiet):
+    """Compare the signatures of A and B (point-cloud files, signature archives or folders of
+    LAS/LAZ tiles, each folder one epoch processed in tiles; in any mix).
 
     Both are made the same way: two clouds with the same method; a cloud compared with an
     archive the archive's way; two archives must record the same method.
     """
     check_report_outputs(report, plots, COMPARISON_PLOTS, overwrite)
-    result = compare_sources(a, b, pipeline, render=render, columns=columns, method_given=method_given)
+    result = compare_sources(a, b, pipeline, render=render, columns=columns, method_given=method_given,
+                             tiling=tiling)
     written = write_report(result.report(), report, plots, overwrite) if report or plots else []
     for note in result.warnings:
         click.echo(f"lidar-sig: warning: {note}", err=True)

@@ -151,3 +151,36 @@ def write_report(made, report, plots, overwrite):
         if plots:
             lines.append(f"wrote {len(made.save_plots(plots, overwrite=overwrite))} plots in {plots}")
     return lines
+
+
+def tiling_options(func):
+    """Decorate a command with the options of tiled runs over a set of files: ``--tile-size``,
+    ``--workers``, ``--scheduler`` (``tiling`` receives them as a dict)."""
+    opts = [
+        click.option("--tile-size", type=float, default=None, metavar="METRES",
+                     help="Side of the square processing tiles of a set, in metres [default: about 2 million "
+                          "points per tile, from the files' density]."),
+        click.option("--workers", type=click.IntRange(1, 1024), default=None,
+                     help="Local worker processes for a set of tiles [default: all cores]."),
+        click.option("--scheduler", default=None, metavar="ADDRESS",
+                     help="Run the tiles on this dask.distributed scheduler (e.g. tcp://host:8786) instead "
+                          "of local processes; needs the dask extra."),
+    ]
+
+    @functools.wraps(func)
+    def wrapper(tile_size, workers, scheduler, **kwargs):
+        return func(tiling={"tile_size": tile_size, "workers": workers, "scheduler": scheduler}, **kwargs)
+
+    for opt in reversed(opts):
+        wrapper = opt(wrapper)
+    return wrapper
+
+
+def resume_options(func):
+    """``--resume`` and ``--work-dir`` for commands that write a set's results."""
+    func = click.option("--work-dir", default=None, metavar="DIR",
+                        help="Scratch folder of a tiled run (staged points, finished tiles); every worker "
+                             "must see it at this path [default: beside the output].")(func)
+    return click.option("--resume", is_flag=True,
+                        help="Reuse what an earlier tiled run of the same files and method finished "
+                             "(kept in its work folder after a failure).")(func)

@@ -26,7 +26,8 @@ def archive_summary_line(side):
     """One line for an archive input of compare."""
     m = side.signature.metadata
     scales = _scales_text(m) if "resolved_scales" in m and "scale_kind" in m else m.get("scales", "?")
-    return (f"{side.name}: archive of {side.signature.n_points:,} points, {m.get('descriptor', '?')} "
+    what = "set of tiles" if "tiling" in m else "archive"
+    return (f"{side.name}: {what} of {side.signature.n_points:,} points, {m.get('descriptor', '?')} "
             f"{m.get('strategy', '?')}, {scales}, {m.get('weights', 'none')} weights")
 
 

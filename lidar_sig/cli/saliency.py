@@ -7,19 +7,31 @@ import click
 from ..errors import LidarSigError
 from ..io import CLOUD_EXTENSIONS, check_cloud_output, check_output, read
 from . import cli
-from .options import columns_option, overwrite_option, pipeline_options
+from .options import columns_option, overwrite_option, pipeline_options, resume_options, tiling_options
 from .report import echo_run
+from .tiles import finish, is_set, output_name, run_tiles
 
 
 @cli.command()
-@click.argument("source")
+@click.argument("sources", nargs=-1, required=True)
 @click.option("-o", "--output", required=True,
-              help="Output point cloud: LAS/LAZ (extra dimensions), PLY/PCD (attributes) or text (columns).")
+              help="Output point cloud: LAS/LAZ (extra dimensions), PLY/PCD (attributes) or text (columns); "
+                   "for a set of tiles, a folder that gets one LAS/LAZ per input file.")
 @overwrite_option
 @columns_option
+@tiling_options
+@resume_options
 @pipeline_options
-def saliency(source, output, overwrite, columns, pipeline, method_given, quiet):
-    """Write SOURCE with per-point Cl, Cs, Cp, Egeom, GeomClass (and OptimalScale)."""
+def saliency(sources, output, overwrite, columns, tiling, resume, work_dir, pipeline, method_given, quiet):
+    """Write SOURCES with per-point Cl, Cs, Cp, Egeom, GeomClass (and OptimalScale).
+
+    One file is processed as one block. Several files, folders of LAS/LAZ tiles, or any of
+    --tile-size, --workers, --scheduler make a set processed in tiles with halos (the same
+    results as one block); OUTPUT is then a folder.
+    """
+    if is_set(sources, tiling, resume):
+        return _saliency_of_set(sources, output, overwrite, tiling, resume, work_dir, pipeline, quiet)
+    source = sources[0]
     if Path(output).suffix.lower() not in CLOUD_EXTENSIONS:
         raise LidarSigError(f"output must be a point cloud: {', '.join(CLOUD_EXTENSIONS)}", path=output)
     check_output(output, overwrite=overwrite)
@@ -31,3 +43,37 @@ def saliency(source, output, overwrite, columns, pipeline, method_given, quiet):
     if not quiet:
         echo_run(source, result)
         click.echo(f"wrote {output} in {time.perf_counter() - start:.1f} s")
+
+
+def _saliency_of_set(sources, output, overwrite, tiling, resume, work_dir, pipeline, quiet):
+    from ..tiling.sources import expand, scan
+
+    outdir = Path(output)
+    if outdir.suffix.lower() in CLOUD_EXTENSIONS or (outdir.exists() and not outdir.is_dir()):
+        raise LidarSigError("a set of tiles writes one file per input: give a folder as -o", path=output)
+    outputs = {s.path: output_name(outdir, s) for s in scan(expand(sources))}
+    if not outdir.parent.is_dir():
+        raise LidarSigError("the output folder's parent does not exist; create it first", path=output)
+    made = not outdir.exists()
+    outdir.mkdir(exist_ok=True)
+    try:
+        for path in outputs.values():  # before the work; --resume rewrites what it must
+            check_output(path, overwrite=overwrite or resume)
+    except LidarSigError:
+        if made:
+            outdir.rmdir()
+        raise
+    work = Path(work_dir) if work_dir else outdir / ".lidar-sig-work"
+    run = run_tiles(pipeline, sources, tiling, work, resume=resume, quiet=quiet)
+    written, not_written = [], []
+    for source in run.sources:
+        if source.path in run.failed_sources or run.plan is None:
+            continue
+        if run.write_points(source, outputs[source.path], overwrite=overwrite or resume):
+            written.append(str(outputs[source.path]))
+        else:
+            not_written.append(f"{outputs[source.path]} (a tile holding some of its points is missing)")
+    if not quiet:
+        for path in written:
+            click.echo(f"wrote {path}")
+    finish(run, work, written, not_written)

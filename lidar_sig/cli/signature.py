@@ -11,12 +11,13 @@ from ..reporting import report as ls_report
 from ..signature import RENDERINGS
 from . import cli
 from .options import (check_report_outputs, columns_option, overwrite_option, pipeline_options, render_option,
-                      report_options, write_report)
+                      report_options, resume_options, tiling_options, write_report)
 from .report import echo_run
+from .tiles import finish, is_set, run_tiles
 
 
 @cli.command()
-@click.argument("source")
+@click.argument("sources", nargs=-1, required=True)
 @click.option("-o", "--output", default=None,
               help="Signature archive (.h5) or image of the augmented semantic signature Sas (.png).")
 @click.option("--png", "png_output", default=None, help="Also write Sas as PNG (with an .h5 output).")
@@ -26,11 +27,23 @@ from .report import echo_run
 @render_option
 @overwrite_option
 @columns_option
+@tiling_options
+@resume_options
 @pipeline_options
-def signature(source, output, png_output, sg_output, no_points, report, plots, render, overwrite, columns,
-              pipeline, method_given, quiet):
-    """Compute the signature of SOURCE; write it as an archive (.h5), images (.png) and/or an
-    HTML report (--report)."""
+def signature(sources, output, png_output, sg_output, no_points, report, plots, render, overwrite, columns,
+              tiling, resume, work_dir, pipeline, method_given, quiet):
+    """Compute the signature of SOURCES; write it as an archive (.h5), images (.png) and/or an
+    HTML report (--report).
+
+    One file is processed as one block. Several files, folders of LAS/LAZ tiles, or any of
+    --tile-size, --workers, --scheduler make a set processed in tiles with halos: its
+    signature is the sum of the tiles' (the same as one block), and the archive records the
+    tiling and every file with its SHA-256 (no per-point datasets).
+    """
+    tiled = is_set(sources, tiling, resume)
+    if tiled and (report or plots):
+        raise LidarSigError("--report and --plots are made from one cloud; for a set of tiles write the "
+                            "archive (-o set.h5) and compare it")
     if output is None and not (report or plots):
         raise LidarSigError("give an output: -o FILE.h5 or FILE.png, and/or --report FILE.html or --plots DIR")
     ext = Path(output).suffix.lower() if output else None
@@ -44,6 +57,10 @@ def signature(source, output, png_output, sg_output, no_points, report, plots, r
     check_outputs(outputs + ([report] if report else []), overwrite=overwrite)  # all of them, before any work
     check_report_outputs(report, plots, SIGNATURE_PLOTS, overwrite)
     render = render or RENDERINGS[0]
+    if tiled:
+        return _signature_of_set(sources, output, ext, png_output, sg_output, render, overwrite, tiling, resume,
+                                 work_dir, pipeline, quiet)
+    source = sources[0]
     result = pipeline.run(read(source, columns=columns))
     written = []
     with output_group():  # all outputs or none
@@ -63,3 +80,29 @@ def signature(source, output, png_output, sg_output, no_points, report, plots, r
             click.echo(f"wrote {', '.join(outputs)}")
         for line in written:
             click.echo(line)
+
+
+def _signature_of_set(sources, output, ext, png_output, sg_output, render, overwrite, tiling, resume, work_dir,
+                      pipeline, quiet):
+    from ..io import write_archive
+
+    first = output or png_output or sg_output
+    work = Path(work_dir) if work_dir else Path(first).with_name(Path(first).name + ".work")
+    run = run_tiles(pipeline, sources, tiling, work, resume=resume, quiet=quiet)
+    written = []
+    if run.complete:
+        sig = run.signature
+        with output_group():  # all outputs or none
+            if ext == ".png":
+                write_signature_png(output, sig, kind="sas", mode=render, overwrite=overwrite)
+            elif output:
+                write_archive(output, sig, sources=run.source_records(), render=render, overwrite=overwrite,
+                              tiling=run.tiling_record())
+            if png_output:
+                write_signature_png(png_output, sig, kind="sas", mode=render, overwrite=overwrite)
+            if sg_output:
+                write_signature_png(sg_output, sig, kind="sg", mode=render, overwrite=overwrite)
+        written = [p for p in (output, png_output, sg_output) if p]
+        if not quiet:
+            click.echo(f"wrote {', '.join(written)}")
+    finish(run, work, written, [] if run.complete else ["the set's signature (it would lack the points above)"])

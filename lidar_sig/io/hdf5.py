@@ -45,18 +45,20 @@ def _dataset(group, name, data, description, units=None, compress=True):
 
 
 def write_archive(path, signature, *, saliency=None, labels=None, sources=(), render="smooth",
-                  overwrite=False):
+                  overwrite=False, tiling=None):
     """Write ``signature`` (and, if given, per-point ``saliency`` and ``labels``) to ``path``.
 
-    ``sources`` are the point-cloud files it was made from; their SHA-256 is recorded. The
-    stored Sg and Sas images are rendered as ``render``; the counts keep every rendering.
+    ``sources`` are the point-cloud files it was made from (paths, or ``{"path", "sha256"}``
+    records already hashed); their SHA-256 is recorded. ``tiling`` (a dict) records how a set
+    of tiles was processed (attribute ``tiling``, JSON; absent for one block). The stored Sg
+    and Sas images are rendered as ``render``; the counts keep every rendering.
     """
     import h5py
 
     from .. import __version__
 
     meta = dict(signature.metadata)
-    source_list = [{"path": str(p), "sha256": sha256_of(p)} for p in sources]
+    source_list = [dict(p) if isinstance(p, dict) else {"path": str(p), "sha256": sha256_of(p)} for p in sources]
     # The archive is built in memory and its bytes written by Python: a full disk or a signal
     # then stops our write, not one inside the HDF5 library (which may crash on a full disk).
     buffer = io.BytesIO()
@@ -66,6 +68,8 @@ def write_archive(path, signature, *, saliency=None, labels=None, sources=(), re
             f.attrs["format_version"] = FORMAT_VERSION
             f.attrs["lidar_sig_version"] = __version__
             f.attrs["sources"] = json.dumps(source_list)
+            if tiling is not None:
+                f.attrs["tiling"] = json.dumps(tiling)
             f.attrs["method"] = json.dumps({k: meta[k] for k in METHOD_KEYS if k in meta})
             f.attrs["render"] = render
             for key in _TEXT_ATTRS:
@@ -293,4 +297,11 @@ def archive_summary(path):
         lines += [f"  source {src['path']} sha256 {src['sha256']}" for src in sources]
     except (ValueError, TypeError, KeyError):
         lines.append("  sources: unreadable (the record is not the JSON list lidar_sig writes)")
+    if "tiling" in attrs:
+        try:
+            t = json.loads(attrs["tiling"])
+            lines.append(f"  tiling: {t['tiles'][0]} x {t['tiles'][1]} tiles of {t['tile_size_m']:.4g} m, "
+                         f"{t['n_recomputed']:,} points recomputed with a wider halo")
+        except (ValueError, TypeError, KeyError, IndexError):
+            lines.append("  tiling: unreadable (the record is not the JSON lidar_sig writes)")
     return lines

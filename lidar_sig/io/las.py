@@ -8,6 +8,7 @@ added; those of an earlier run are replaced, a user's own dimension of the same 
 """
 from __future__ import annotations
 
+import contextlib
 import copy
 import datetime
 import warnings
@@ -303,6 +304,20 @@ def write_las(path, cloud, saliency, *, scale_kind=None, scale_values=None, over
     a :class:`LidarSigWarning` once the file is written.
     """
     check_las_output(cloud, path)
+    las, notes = with_saliency(cloud, saliency, scale_kind, scale_values)
+    with _las_writer(path, las.header, overwrite) as writer:
+        writer.write_points(las.points)
+        if las.evlrs:
+            writer.write_evlrs(las.evlrs)
+        # the writer rewrites its header, VLRs included, when it closes
+        set_extra_bytes_ranges(writer.header, las.points)
+    for text in notes:
+        warnings.warn(text, LidarSigWarning, stacklevel=4)  # the caller of Result.write
+
+
+def with_saliency(cloud, saliency, scale_kind=None, scale_values=None):
+    """The LAS 1.4 LasData written for ``cloud`` (see :func:`to_lasdata`) with the saliency
+    extra dimensions set, and the notes on what changed."""
     las, notes = to_lasdata(cloud)
     previous = lidar_sig_dims(las)
     if previous:  # a re-run replaces instead of duplicating
@@ -321,22 +336,81 @@ def write_las(path, cloud, saliency, *, scale_kind=None, scale_values=None, over
     las.add_extra_dims(params)
     for name, values in fields.items():
         las[names[name]] = values
+    return las, notes
+
+
+@contextlib.contextmanager
+def _las_writer(path, header, overwrite):
     compress = str(path).lower().endswith(".laz")
     with atomic_output(path, overwrite=overwrite) as tmp, open(tmp, "wb") as raw:
         fh = _KeepsWriteErrors(raw)
         try:
-            with laspy.LasWriter(fh, las.header, do_compress=compress, closefd=False) as writer:
-                writer.write_points(las.points)
-                if las.evlrs:
-                    writer.write_evlrs(las.evlrs)
-                # the writer rewrites its header, VLRs included, when it closes
-                set_extra_bytes_ranges(writer.header, las.points)
+            with laspy.LasWriter(fh, header, do_compress=compress, closefd=False) as writer:
+                yield writer
         except Exception:
             if fh.error is not None:  # lazrs reports a failed write as an error of its own
                 raise fh.error from None
             raise
+
+
+def write_las_chunks(path, source, saliency_chunks, *, scale_kind=None, scale_values=None, overwrite=False,
+                     chunk_points=500_000):
+    """Write the LAS/LAZ file ``source`` with saliency extra dimensions to ``path``, as
+    :func:`write_las` does, chunk by chunk: ``saliency_chunks(start, stop)`` gives the Saliency
+    of points [start, stop). Memory is bounded by the chunk, whatever the file's size."""
+    notes = []
+    ranges = {}
+    with laspy.open(source) as reader:
+        crs, units = las_units(reader.header, path=source)
+        header, evlrs = reader.header, reader.header.evlrs
+        writer_cm = writer = None
+        start = 0
+        try:
+            for chunk in reader.chunk_iterator(chunk_points):
+                stop = start + len(chunk)
+                part = laspy.LasData(header=copy.deepcopy(header), points=chunk)
+                cloud = PointCloud(np.column_stack([np.asarray(chunk.x), np.asarray(chunk.y), np.asarray(chunk.z)]),
+                                   source=part, path=str(source), crs=crs, units=units)
+                las, notes = with_saliency(cloud, saliency_chunks(start, stop), scale_kind, scale_values)
+                if writer is None:
+                    writer_cm = _las_writer(path, las.header, overwrite)
+                    writer = writer_cm.__enter__()
+                writer.write_points(las.points)
+                _extend_ranges(ranges, las.header, las.points)
+                start = stop
+            if writer is None:
+                raise LidarSigError("the file holds no points; give a file with points", path=source)
+            if evlrs:
+                writer.write_evlrs([v for v in evlrs if v.user_id != "copc"])
+            set_extra_bytes_ranges(writer.header, None, ranges)
+        except BaseException as exc:
+            if writer_cm is not None:
+                writer_cm.__exit__(type(exc), exc, exc.__traceback__)
+            raise
+        writer_cm.__exit__(None, None, None)
     for text in notes:
-        warnings.warn(text, LidarSigWarning, stacklevel=4)  # the caller of Result.write
+        warnings.warn(text, LidarSigWarning, stacklevel=2)
+
+
+def _extend_ranges(ranges, header, points):
+    # each extra dimension's (min, max) over the chunks so far, as set_extra_bytes_ranges keeps them
+    for vlr in header.vlrs.get("ExtraBytesVlr"):
+        for record in vlr.extra_bytes_structs:
+            name = record.format_name()
+            if name not in points.array.dtype.names:
+                continue
+            raw = np.asarray(points.array[name]).reshape(len(points), -1)
+            keep = ~np.isnan(raw) if raw.dtype.kind == "f" else np.ones(raw.shape, bool)
+            no_data = record.no_data
+            if no_data is not None:
+                for i in range(raw.shape[1]):
+                    if not np.isnan(no_data[i]):
+                        keep[:, i] &= raw[:, i] != no_data[i]
+            for i in range(raw.shape[1]):
+                values = raw[keep[:, i], i]
+                if len(values):
+                    lo, hi = ranges.get((name, i), (values.min(), values.max()))
+                    ranges[(name, i)] = (min(lo, values.min()), max(hi, values.max()))
 
 
 class _KeepsWriteErrors:
@@ -358,25 +432,24 @@ class _KeepsWriteErrors:
         return getattr(self._fh, name)
 
 
-def set_extra_bytes_ranges(header, points):
+def set_extra_bytes_ranges(header, points, ranges=None):
     """Store in each extra-bytes record the true min and max of the dimension's values that
     are not its no-data value (NaN never counts); a dimension without such values gets none.
+    ``ranges`` ({(name, element): (min, max)}, from a file written in chunks) replaces
+    ``points``.
 
     laspy (2.7) records the first point's value instead for one-element dimensions.
     """
+    if ranges is None:
+        ranges = {}
+        _extend_ranges(ranges, header, points)
     for vlr in header.vlrs.get("ExtraBytesVlr"):
         for record in vlr.extra_bytes_structs:
             if record.data_type == 0 or not (record.min_is_relevant() or record.max_is_relevant()):
                 continue
-            raw = np.asarray(points.array[record.format_name()]).reshape(len(points), -1)
             low, high = record._raw_min(), record._raw_max()  # writable views of the record
-            no_data = record.no_data
             for i in range(record.num_elements()):
-                values = raw[:, i]
-                keep = ~np.isnan(values) if values.dtype.kind == "f" else np.ones(len(values), bool)
-                if no_data is not None and not np.isnan(no_data[i]):
-                    keep &= values != no_data[i]
-                if not keep.any():
+                if (record.format_name(), i) not in ranges:
                     record.options &= ~(record.MIN_BIT_MASK | record.MAX_BIT_MASK)
                     break
-                low[i], high[i] = values[keep].min(), values[keep].max()
+                low[i], high[i] = ranges[(record.format_name(), i)]

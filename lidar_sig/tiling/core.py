@@ -1,0 +1,411 @@
+"""Tiles with halos: each tile's core points get exactly the saliency of the whole-set run.
+
+A set of points is cut in plan view into square processing tiles. A tile is computed on its
+core points plus a halo: the points within a margin of the tile. What a point's saliency
+depends on must lie inside that block, and is checked per point rather than trusted:
+
+- its neighbourhood: every point within its largest scale (a radius, or the distance to its
+  k-th neighbour, ties included) must be in the block, so that distance must be shorter than
+  the point's distance to the halo's edge;
+- its neighbours' area weights (:mod:`lidar_sig.neighbors`): each neighbour's distance to its
+  second-nearest other point (capped) must be shorter than that neighbour's distance to the
+  edge.
+
+A core point that fails either test is recomputed with a halo twice as wide, until it passes
+or the block holds the whole set. Sides of the halo beyond the set's extent are not edges.
+What depends on the whole set is decided once and shared by every tile (:class:`SetContext`):
+the centre the coordinates are taken from, the scales in metres (normalized radii follow the
+set's extent), and the area-weight cap (from the median second-neighbour distance of all
+distinct locations). Exact duplicate points share their x, y and so their tile, and are merged
+there as in the single-block run.
+
+The voxel grid of a block differs from the whole set's, so points tied at exactly the same
+distance from a query can be listed in another order: a covariance then sums the same terms
+in another order, and the last bits can differ (about 1e-16 relative). Everything else is the
+same computation on the same numbers.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import LidarSigError
+from ..neighbors import AREA_CAP, TIE, NeighborIndex, unique_points
+from ..plugins.base import Descriptor
+
+#: Relative margin kept between a needed distance and the halo's edge (round-off of the tests).
+MARGIN = 1e-9
+
+
+@dataclass(frozen=True)
+class SetContext:
+    """What every tile of a set shares so that its results equal the single-block run's.
+
+    Attributes
+    ----------
+    centre : (3,) tuple
+        Bounding-box centre of the set, in the files' coordinate units; coordinates are taken
+        from it exactly as :meth:`PointCloud.metric_xyz` does for one cloud.
+    factors : (3,) tuple
+        Metres per coordinate unit.
+    lo, hi : (2,) tuples
+        Plan-view extent of the set in those centred metric coordinates (metres).
+    scales : tuple
+        Resolved scales: k values, or radii in metres.
+    area_cap : float or None
+        Cap of the second-neighbour distance of area weights, metres; None without area weights.
+    density : float
+        Points per square metre of the set (sizes the first halo).
+    """
+
+    centre: tuple
+    factors: tuple
+    lo: tuple
+    hi: tuple
+    scales: tuple
+    area_cap: float | None = None
+    density: float = 1.0
+
+    def metric(self, xyz):
+        """(N, 3) coordinates in the files' units -> centred metres (as for one cloud)."""
+        return (np.asarray(xyz, dtype=np.float64) - np.asarray(self.centre)) * np.asarray(self.factors)
+
+    def key(self):
+        """Text that changes whenever a tile's results would: for resuming safely."""
+        return repr((self.centre, self.factors, self.lo, self.hi, self.scales, self.area_cap))
+
+
+@dataclass(frozen=True)
+class Tiling:
+    """Square processing tiles of side ``size`` metres over the plan-view extent ``lo``-``hi``
+    (centred metric coordinates); tile (i, j) spans x in [lo_x + i size, lo_x + (i+1) size)."""
+
+    lo: tuple
+    hi: tuple
+    size: float
+
+    def __post_init__(self):
+        if not (math.isfinite(self.size) and self.size > 0):
+            raise LidarSigError(f"the tile size must be a positive number of metres, got {self.size!r}")
+
+    @property
+    def shape(self):
+        """Tiles along x and y."""
+        return tuple(max(1, math.ceil((h - l) / self.size)) for l, h in zip(self.lo, self.hi))
+
+    def index(self, xy):
+        """(N, 2) int tile index (i, j) of plan-view points ``xy`` (metres, centred)."""
+        ij = np.floor((np.asarray(xy)[:, :2] - np.asarray(self.lo)) / self.size).astype(np.int64)
+        return np.clip(ij, 0, np.asarray(self.shape) - 1)
+
+    def box(self, i, j):
+        """(x0, y0, x1, y1) of tile (i, j), metres; the last row and column reach the extent."""
+        nx, ny = self.shape
+        x0, y0 = self.lo[0] + i * self.size, self.lo[1] + j * self.size
+        x1 = self.hi[0] if i == nx - 1 else x0 + self.size
+        y1 = self.hi[1] if j == ny - 1 else y0 + self.size
+        return (x0, y0, x1, y1)
+
+    def tiles(self):
+        """Every (i, j), row by row."""
+        nx, ny = self.shape
+        return [(i, j) for j in range(ny) for i in range(nx)]
+
+
+def tile_name(i, j):
+    """Name of processing tile (i, j) in messages and file names."""
+    return f"tile_{i}_{j}"
+
+
+@dataclass(frozen=True)
+class Halo:
+    """A tile's box grown by ``width`` metres; sides beyond the set's extent are open."""
+
+    box: tuple
+    width: float
+    lo: tuple
+    hi: tuple
+
+    @property
+    def bounds(self):
+        """(x0, y0, x1, y1) of the block to load, metres."""
+        x0, y0, x1, y1 = self.box
+        w = self.width
+        return (x0 - w, y0 - w, x1 + w, y1 + w)
+
+    @property
+    def whole(self):
+        """True when the block holds the whole set."""
+        x0, y0, x1, y1 = self.bounds
+        return x0 < self.lo[0] and y0 < self.lo[1] and x1 > self.hi[0] and y1 > self.hi[1]
+
+    def edge_distance(self, xyz):
+        """(N,) plan-view distance from each point to the nearest edge of the block (inf where
+        no side is an edge). Any point outside the block is at least this far in 3D."""
+        x0, y0, x1, y1 = self.bounds
+        x, y = xyz[:, 0], xyz[:, 1]
+        d = np.full(len(xyz), np.inf)
+        for closed, gap in ((x0 >= self.lo[0], x - x0), (y0 >= self.lo[1], y - y0),
+                            (x1 <= self.hi[0], x1 - x), (y1 <= self.hi[1], y1 - y)):
+            if closed:
+                d = np.minimum(d, gap)
+        return d
+
+
+@dataclass
+class TileResult:
+    """Saliency of a tile's core points: ``ids`` (the loader's point identifiers), ``values``
+    (N, 3), ``chosen`` (N,) scale index or None, and counts for the run statistics."""
+
+    ids: np.ndarray
+    values: np.ndarray
+    chosen: np.ndarray | None
+    stats: dict = field(default_factory=dict)
+
+
+def check_tileable(pipeline):
+    """Refuse descriptors that need a pass over the whole cloud before the blocks."""
+    if type(pipeline.descriptor).prepare is not Descriptor.prepare:
+        raise LidarSigError(f"the {pipeline.descriptor.name} descriptor needs the whole cloud at once "
+                            "(its prepare step) and cannot run in tiles; process each file alone")
+
+
+def first_halo(pipeline, ctx):
+    """A halo width (metres) that usually suffices: the largest radius, or twice the expected
+    k-th neighbour distance at the set's density, plus the area-weight cap."""
+    if pipeline.scales.kind == "knn":
+        reach = 2.0 * math.sqrt(max(ctx.scales) / (math.pi * ctx.density))
+    else:
+        reach = max(ctx.scales) * (1.0 + MARGIN) * math.sqrt(1.0 + TIE)
+    return reach + (ctx.area_cap or 0.0)
+
+
+def block_saliency(pipeline, xyz, query, edge, scales, area_cap):
+    """Saliency of the block points ``query`` (bool mask) computed on the block ``xyz`` (centred
+    metres) at the set's resolved ``scales``, and whether each is certainly that of the whole
+    set (``edge``: each point's distance to the block's edge, metres).
+
+    Returns ``(location, values, chosen, ok, capped)``: ``location`` (M,) the distinct
+    location of every block point; ``values`` (L, 3), ``chosen`` (L,) or None, ``ok`` (L,) and
+    ``capped`` (L,: the spherical neighbourhood was cut at max_neighbors) per location
+    (meaningful where queried).
+    """
+    support, inverse = unique_points(xyz)
+    location = np.arange(len(xyz)) if inverse is None else inverse
+    m = len(support)
+    edge_loc = np.empty(m)
+    edge_loc[location] = edge
+    queried = np.zeros(m, bool)
+    queried[location[query]] = True
+    scales = np.asarray(scales)
+    index = NeighborIndex(support, pipeline.scales.kind, scales, max_neighbors=pipeline.max_neighbors,
+                          min_neighbors=pipeline.min_neighbors, weights=pipeline.weights, area_cap=area_cap)
+    edge_sorted = edge_loc[index.order]
+    if pipeline.weights == "area" and m < 3:  # no second neighbour inside: only a whole set is sure
+        weight_ok = np.isinf(edge_sorted)
+    elif pipeline.weights == "area":  # sqrt(weight) is the capped second-neighbour distance
+        weight_ok = np.sqrt(index.weights) * (1.0 + MARGIN) < edge_sorted
+    else:
+        weight_ok = np.ones(m, bool)
+    values = np.full((m, 3), np.nan)
+    chosen = None
+    ok = np.zeros(m, bool)
+    capped = np.zeros(m, bool)
+    rows = index.rows_of(np.flatnonzero(queried))
+    for part in index.blocks(rows):
+        batch = index.query(part)
+        combined, pick = pipeline.describe(batch)
+        loc = batch.ids
+        values[loc] = combined
+        if pick is not None:
+            if chosen is None:
+                chosen = np.full(m, -1, np.int64)
+            chosen[loc] = pick
+        capped[loc] = batch.capped
+        n = batch.n
+        if pipeline.scales.kind == "knn":
+            reach = np.sqrt(batch.d2[np.arange(len(part)), np.maximum(n, 1) - 1] * (1.0 + TIE))
+            enough = (n >= max(scales)) | np.isinf(edge_sorted[part])
+        else:
+            reach = np.full(len(part), float(max(scales)) * math.sqrt(1.0 + TIE))
+            enough = True
+        inside = reach * (1.0 + MARGIN) < edge_sorted[part]
+        used = np.arange(batch.idx.shape[1])[None, :] < n[:, None]
+        neighbours_ok = np.all(~used | weight_ok[np.where(used, batch.idx, 0)], axis=1)
+        ok[loc] = enough & inside & neighbours_ok
+    return location, values, chosen, ok, capped
+
+
+def tile_saliency(pipeline, load, tiling, ij, ctx, *, halo=None):
+    """Saliency of the core points of processing tile ``ij`` (see the module docstring).
+
+    ``load(bounds) -> (xyz, ids)`` returns the set's points within plan-view bounds (x0, y0,
+    x1, y1) in centred metres, with identifiers; core points are those ``tiling`` puts in
+    ``ij``. Returns a :class:`TileResult` in the order of the first load.
+    """
+    check_tileable(pipeline)
+    box = tiling.box(*ij)
+    width = first_halo(pipeline, ctx) if halo is None else float(halo)
+    xyz, ids = load(Halo(box, width, ctx.lo, ctx.hi).bounds)
+    core = np.all(tiling.index(xyz) == np.asarray(ij), axis=1)
+    out_ids = ids[core]
+    values = np.full((len(out_ids), 3), np.nan)
+    chosen = None
+    capped = np.zeros(len(out_ids), bool)
+    if not len(out_ids):
+        return TileResult(out_ids, values, None, {"n_points": 0, "n_locations": 0, "n_capped": 0,
+                                                  "n_recomputed": 0, "halo": width})
+    core_location = None  # distinct location of each core point, from the first block
+    n_recomputed = 0
+    widest = width
+    # blocks still to compute: (box, halo width, positions in out_ids); the tile first
+    pending = [(box, width, np.arange(len(out_ids)))]
+    while pending:
+        box, width, todo = pending.pop()
+        halo_ = Halo(box, width, ctx.lo, ctx.hi)
+        if core_location is not None:  # the tile's own block is loaded already
+            xyz, ids = load(halo_.bounds)
+        want = np.isin(ids, out_ids[todo])
+        location, vals, pick, ok, cut = block_saliency(pipeline, xyz, want, halo_.edge_distance(xyz),
+                                                       ctx.scales, ctx.area_cap)
+        # map the block's wanted points back to positions in out_ids
+        pos = _positions(out_ids, ids[want])
+        loc = location[want]
+        if core_location is None:
+            core_location = np.empty(len(out_ids), np.int64)
+            core_location[pos] = loc
+        values[pos] = vals[loc]
+        capped[pos] = cut[loc]
+        if pick is not None:
+            if chosen is None:
+                chosen = np.full(len(out_ids), -1, np.int64)
+            chosen[pos] = pick[loc]
+        failed = ~(ok[loc] | halo_.whole)
+        if failed.any():
+            n_recomputed += int(failed.sum())
+            widest = max(widest, 2.0 * width)
+            pending += _regroup(xyz[want][failed], pos[failed], 2.0 * width)
+    stats = {"n_points": len(out_ids), "n_locations": len(np.unique(core_location)),
+             "n_capped": len(np.unique(core_location[capped])), "n_recomputed": n_recomputed, "halo": widest}
+    return TileResult(out_ids, values, chosen, stats)
+
+
+def _regroup(xyz, positions, width):
+    """Blocks for points to recompute with halo ``width``: points near each other share one
+    (plan-view cells of 8 halo widths), so that a few scattered failures do not each reload
+    a tile-sized block. Returns [(box, width, positions)]."""
+    cell = np.floor(xyz[:, :2] / (8.0 * width)).astype(np.int64)
+    _, group = np.unique(cell, axis=0, return_inverse=True)
+    out = []
+    for g in range(group.max() + 1):
+        mine = group.ravel() == g
+        lo, hi = xyz[mine, :2].min(axis=0), xyz[mine, :2].max(axis=0)
+        out.append(((*lo.tolist(), *hi.tolist()), width, positions[mine]))
+    return out
+
+
+def tile_second_distances(load, tiling, ij, ctx, *, halo=None):
+    """Second-neighbour distance (metres) of each distinct location among tile ``ij``'s core
+    points, checked against the halo like the saliency (for the set's area-weight cap)."""
+    box = tiling.box(*ij)
+    # ten times the mean spacing: a second neighbour farther than that is rare (isolated points)
+    width = 10.0 * math.sqrt(1.0 / (math.pi * ctx.density)) if halo is None else float(halo)
+    out = None  # distances by core location, in the order of the first block's core locations
+    want_ids = None
+    while True:
+        halo_ = Halo(box, width, ctx.lo, ctx.hi)
+        xyz, ids = load(halo_.bounds)
+        if want_ids is None:
+            core = np.all(tiling.index(xyz) == np.asarray(ij), axis=1)
+            support, inverse = unique_points(xyz[core])  # one id per core location
+            first = np.unique(inverse, return_index=True)[1] if inverse is not None else np.arange(len(support))
+            want_ids = ids[core][first]
+            if not len(want_ids):
+                return np.empty(0)
+            out = np.full(len(want_ids), np.nan)
+            todo = np.ones(len(want_ids), bool)
+        support, inverse = unique_points(xyz)
+        location = np.arange(len(xyz)) if inverse is None else inverse
+        at = _positions(ids, want_ids[todo])
+        loc = location[at]
+        if halo_.whole or len(support) >= 3:  # fewer: the second neighbour is outside
+            index = NeighborIndex(support, "knn", np.array([min(3, len(support))]), min_neighbors=1)
+            d = index.second_distances(index.rows_of(loc))
+            good = halo_.whole | (d * (1.0 + MARGIN) < halo_.edge_distance(support[loc]))
+            pos = np.flatnonzero(todo)
+            out[pos[good]] = d[good]
+            todo[pos[good]] = False
+        if not todo.any():
+            return out
+        failing = xyz[_positions(ids, want_ids[todo])]
+        box = (*failing[:, :2].min(axis=0).tolist(), *failing[:, :2].max(axis=0).tolist())
+        width *= 2.0
+
+
+def area_cap(second_distances):
+    """The set's area-weight cap (metres) from every distinct location's second-neighbour
+    distance: AREA_CAP times their median, as :meth:`NeighborIndex.area_weights` does."""
+    return AREA_CAP * float(np.median(second_distances))
+
+
+def _positions(sorted_source, wanted):
+    """Positions in ``sorted_source`` (any order, unique) of the identifiers ``wanted``."""
+    order = np.argsort(sorted_source, kind="stable")
+    at = np.searchsorted(sorted_source[order], wanted)
+    return order[at]
+
+
+def context_of(xyz_raw_lo, xyz_raw_hi, factors, pipeline, n_points, *, area_cap_value=None):
+    """The SetContext of a set with raw bounding box ``xyz_raw_lo``-``xyz_raw_hi`` (file units)."""
+    lo = np.asarray(xyz_raw_lo, dtype=np.float64)
+    hi = np.asarray(xyz_raw_hi, dtype=np.float64)
+    centre = (lo + hi) / 2.0  # as PointCloud.metric_xyz
+    f = np.asarray(factors, dtype=np.float64)
+    mlo, mhi = (lo - centre) * f, (hi - centre) * f
+    scales = _resolve(pipeline, mlo, mhi)
+    area = max((mhi[0] - mlo[0]) * (mhi[1] - mlo[1]), 1e-12)
+    return SetContext(tuple(centre.tolist()), tuple(f.tolist()), tuple(mlo[:2].tolist()),
+                      tuple(mhi[:2].tolist()), tuple(scales), area_cap_value, max(n_points / area, 1e-9))
+
+
+def _resolve(pipeline, mlo, mhi):
+    # Scales.resolve needs points only for their bounding box: give it the two corners.
+    return pipeline.scales.resolve(np.stack([mlo, mhi])).tolist()
+
+
+def saliency_in_tiles(pipeline, cloud, tile_size, *, halo=None):
+    """Per-point Saliency of an in-memory ``cloud`` computed tile by tile (``tile_size`` metres):
+    the same as ``pipeline.saliency(cloud)``, one tile's block in memory at a time besides the
+    cloud. Returns ``(saliency, stats)`` with the summed tile statistics, ``n_recomputed``
+    among them (core points recomputed with a wider halo)."""
+    from ..saliency import Saliency
+
+    check_tileable(pipeline)
+    xyz = cloud.metric_xyz()
+    ctx = context_of(cloud.xyz.min(axis=0), cloud.xyz.max(axis=0), cloud.units.factors, pipeline, len(cloud))
+    tiling = Tiling(ctx.lo, ctx.hi, float(tile_size))
+    ids = np.arange(len(xyz))
+
+    def load(bounds):
+        x0, y0, x1, y1 = bounds
+        inside = (xyz[:, 0] >= x0) & (xyz[:, 0] <= x1) & (xyz[:, 1] >= y0) & (xyz[:, 1] <= y1)
+        return xyz[inside], ids[inside]
+
+    if pipeline.weights == "area":
+        d = np.concatenate([tile_second_distances(load, tiling, ij, ctx) for ij in tiling.tiles()])
+        ctx = SetContext(ctx.centre, ctx.factors, ctx.lo, ctx.hi, ctx.scales, area_cap(d), ctx.density)
+    values = np.full((len(xyz), 3), np.nan)
+    chosen = None
+    totals = {}
+    for ij in tiling.tiles():
+        r = tile_saliency(pipeline, load, tiling, ij, ctx, halo=halo)
+        values[r.ids] = r.values
+        if r.chosen is not None:
+            chosen = np.full(len(xyz), -1, np.int64) if chosen is None else chosen
+            chosen[r.ids] = r.chosen
+        for k in ("n_points", "n_locations", "n_capped", "n_recomputed"):
+            totals[k] = totals.get(k, 0) + int(r.stats[k])
+    totals["n_tiles"] = len(tiling.tiles())
+    return Saliency.from_values(values, chosen), totals

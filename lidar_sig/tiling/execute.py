@@ -1,0 +1,114 @@
+"""Where tiles run: in this process, on local worker processes, or on a dask.distributed cluster.
+
+Every backend takes the same task functions and arguments and yields ``(item, result, error)``
+as tasks finish, so a failed task is reported and the others go on. Tasks exchange only small
+values (paths, statistics): points and results travel through the work folder, which every
+worker must see at the same path (see docs/scale-out.md).
+"""
+from __future__ import annotations
+
+import concurrent.futures as cf
+import multiprocessing
+import os
+
+from ..errors import LidarSigError
+
+
+def _init_worker(threads):
+    # Each process gets its share of the cores for the compiled kernels (numba threads), so
+    # that N workers do not start N x cores threads.
+    import numba
+
+    numba.set_num_threads(max(1, min(threads, numba.config.NUMBA_NUM_THREADS)))
+
+
+class InProcess:
+    """Run tasks one after the other in this process (``--workers 1``)."""
+
+    description = "1 process"
+    workers = 1
+
+    def run(self, fn, items):
+        for item in items:
+            try:
+                yield item, fn(*item), None
+            except LidarSigError as exc:
+                yield item, None, exc
+            except Exception as exc:  # a tile's failure must not lose the others
+                yield item, None, exc
+
+    def close(self):
+        pass
+
+
+class LocalProcesses:
+    """Run tasks on ``workers`` local processes (started fresh, not forked: the compiled
+    kernels' thread pools do not survive a fork)."""
+
+    def __init__(self, workers):
+        self.workers = int(workers)  # how many tasks run at once
+        self.description = f"{self.workers} local processes"
+        threads = max(1, (os.cpu_count() or 1) // self.workers)
+        self.pool = cf.ProcessPoolExecutor(self.workers, mp_context=multiprocessing.get_context("spawn"),
+                                           initializer=_init_worker, initargs=(threads,))
+
+    def run(self, fn, items):
+        futures = {self.pool.submit(fn, *item): item for item in items}
+        for fut in cf.as_completed(futures):
+            try:
+                yield futures[fut], fut.result(), None
+            except cf.process.BrokenProcessPool as exc:
+                raise LidarSigError(f"a worker process died ({exc}); too little memory? use a smaller "
+                                    "--tile-size or fewer --workers, then --resume") from None
+            except Exception as exc:
+                yield futures[fut], None, exc
+
+    def close(self):
+        self.pool.shutdown(cancel_futures=True)
+
+
+class DaskCluster:
+    """Run tasks on the dask.distributed scheduler at ``address`` (``tcp://host:8786``)."""
+
+    def __init__(self, address):
+        try:
+            from distributed import Client
+        except ImportError:
+            raise LidarSigError("--scheduler needs dask.distributed: pip install 'lidar_sig[dask]'") from None
+        try:
+            self.client = Client(address, timeout="20s")
+        except (OSError, TimeoutError, ValueError) as exc:
+            raise LidarSigError(f"cannot reach the Dask scheduler at {address} ({exc}); check the address "
+                                "and that the scheduler runs") from None
+        n = len(self.client.scheduler_info().get("workers", {}))
+        self.workers = max(1, n)
+        self.description = f"Dask scheduler {address} ({n} workers)"
+
+    def run(self, fn, items):
+        from distributed import as_completed
+
+        futures = {}
+        for item in items:
+            futures[self.client.submit(fn, *item, pure=False)] = item
+        for fut in as_completed(list(futures)):
+            item = futures[fut]
+            if fut.status == "error":
+                yield item, None, fut.exception()
+            else:
+                yield item, fut.result(), None
+            fut.release()
+
+    def close(self):
+        self.client.close()
+
+
+def executor(workers=None, scheduler=None):
+    """The backend for ``--workers N`` (default: all cores) or ``--scheduler ADDRESS``."""
+    if scheduler:
+        if workers:
+            raise LidarSigError("give --workers or --scheduler, not both (the cluster has its own workers)")
+        return DaskCluster(scheduler)
+    n = workers or os.cpu_count() or 1
+    if n < 1:
+        raise LidarSigError(f"--workers must be at least 1, got {workers}")
+    return InProcess() if n == 1 else LocalProcesses(n)

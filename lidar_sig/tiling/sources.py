@@ -1,0 +1,266 @@
+"""The files of a set and their staging: every point read once, in chunks, and filed by cell.
+
+A set is one or more LAS/LAZ files (folders stand for the files in them). Each file is read in
+parts of at most ``PART_POINTS`` points, each part with ``laspy.open(...).chunk_iterator``, so
+a file of any size is never held whole. Every point is appended to the staging file of its
+plan-view cell (a square of the tile size, in the files' coordinate units) in a work folder;
+a processing tile then loads the few cells its block touches. A point's identifier packs its
+file (``source``) and its index in the file: ``source << ID_BITS | index``.
+
+A part is staged completely or not at all: its cell files are written in a folder of their
+own, and the part's record (points, bounds, labels, the file's size and time) is written last.
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+import shutil
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import LidarSigError
+
+LAS_SUFFIXES = (".las", ".laz")
+#: Bits of a point identifier that hold its index in its file (files up to 10^12 points).
+ID_BITS = 40
+#: Points of one staging part (a unit of work: one file's range of points).
+PART_POINTS = 4_000_000
+#: Points per chunk read by laspy (bounds the memory of staging).
+CHUNK_POINTS = 500_000
+#: One staged point: raw coordinates (file units), class code, identifier.
+RECORD = np.dtype([("x", "f8"), ("y", "f8"), ("z", "f8"), ("label", "i8"), ("id", "i8")])
+
+
+def expand(inputs):
+    """The LAS/LAZ files of ``inputs`` (files and folders; a folder's files sorted by name)."""
+    files = []
+    for given in inputs:
+        p = Path(given)
+        if p.is_dir():
+            found = sorted(q for q in p.iterdir() if q.is_file() and q.suffix.lower() in LAS_SUFFIXES)
+            if not found:
+                raise LidarSigError("the folder holds no .las or .laz file; give a folder of LAS/LAZ tiles",
+                                    path=p)
+            files += found
+        elif p.is_file():
+            if p.suffix.lower() not in LAS_SUFFIXES:
+                raise LidarSigError("a set of tiles is read from LAS/LAZ files only; convert it, or give "
+                                    "it alone", path=p)
+            files.append(p)
+        else:
+            raise LidarSigError("no such file or folder; check the path", path=p)
+    seen = {}
+    for f in files:
+        key = f.resolve()
+        if key in seen:
+            raise LidarSigError(f"is given twice (also as {seen[key]}); give each file once", path=f)
+        seen[key] = f
+    return [f.resolve() for f in files]
+
+
+@dataclass(frozen=True)
+class Source:
+    """One file of the set as its header describes it (``error`` set when it cannot be read)."""
+
+    id: int
+    path: str
+    n_points: int = 0
+    lo: tuple = ()
+    hi: tuple = ()
+    factors: tuple = ()
+    crs: str | None = None
+    units: str = ""
+    error: str | None = None
+
+    @property
+    def name(self):
+        return Path(self.path).name
+
+    def parts(self, workers=1):
+        """(start, stop) point ranges staged as separate units of work: at most PART_POINTS
+        points, and a file split among ``workers`` (not below CHUNK_POINTS a part)."""
+        n = self.n_points
+        step = max(CHUNK_POINTS, min(PART_POINTS, math.ceil(n / max(1, workers))))
+        return [(s, min(n, s + step)) for s in range(0, n, step)]
+
+
+def scan(files):
+    """A :class:`Source` per file from its header; files whose header cannot be read get the
+    reason in ``error``. Refuses a set whose readable files use different units."""
+    import laspy
+
+    from ..crs import las_units
+    from ..io.las import _reason
+
+    sources = []
+    for i, f in enumerate(files):
+        try:
+            with laspy.open(f) as reader:
+                h = reader.header
+                crs, units = las_units(h, path=f)
+                sources.append(Source(i, str(f), int(h.point_count), tuple(map(float, h.mins)),
+                                      tuple(map(float, h.maxs)), tuple(units.factors), crs,
+                                      units.describe()))
+        except LidarSigError:
+            raise
+        except Exception as exc:  # laspy raises many kinds on a damaged header
+            sources.append(Source(i, str(f), error=f"cannot be read as LAS/LAZ ({_reason(exc)})"))
+    good = [s for s in sources if s.error is None]
+    for s in good:
+        if s.factors != good[0].factors:
+            raise LidarSigError(f"uses other coordinate units ({s.factors} metres per unit) than "
+                                f"{good[0].name} ({good[0].factors}); give a set in one CRS", path=s.path)
+    return sources
+
+
+@dataclass(frozen=True)
+class Cells:
+    """The staging grid: square cells of ``side`` file units from ``origin`` (x, y); a quarter
+    of the tile side, so that a tile and its halo read little beyond themselves."""
+
+    origin: tuple
+    side: float
+
+    def of(self, x, y):
+        """(N,) cell i and j of raw coordinates."""
+        return (np.floor((x - self.origin[0]) / self.side).astype(np.int64),
+                np.floor((y - self.origin[1]) / self.side).astype(np.int64))
+
+    def covering(self, raw_bounds):
+        """Every (i, j) whose cell meets the raw box (x0, y0, x1, y1)."""
+        x0, y0, x1, y1 = raw_bounds
+        eps = 1e-9 * self.side  # round-off of the conversion to file units
+        i0, j0 = self.of(np.array([x0 - eps]), np.array([y0 - eps]))
+        i1, j1 = self.of(np.array([x1 + eps]), np.array([y1 + eps]))
+        return [(i, j) for i in range(int(i0[0]), int(i1[0]) + 1) for j in range(int(j0[0]), int(j1[0]) + 1)]
+
+
+def part_dir(work, source_id, part):
+    return Path(work) / "stage" / f"s{source_id}p{part}"
+
+
+def part_record(work, source_id, part):
+    return Path(work) / "stage" / f"s{source_id}p{part}.json"
+
+
+def file_identity(path):
+    """(size in bytes, modification time in ns): a file replaced since staging differs."""
+    st = os.stat(path)
+    return [st.st_size, st.st_mtime_ns]
+
+
+def staged(work, source, part, start, stop):
+    """The record of a part staged from the file as it is now, or None."""
+    rec = part_record(work, source.id, part)
+    if not rec.is_file():
+        return None
+    info = json.loads(rec.read_text())
+    if (info.get("identity") != file_identity(source.path) or info.get("path") != source.path
+            or info.get("range") != [start, stop]):
+        return None
+    return info
+
+
+def stage_part(work, source, part, start, stop, cells):
+    """Read points [start, stop) of ``source`` (its part number ``part``) in chunks and append
+    each to its cell's file; return the part's record. Raises LidarSigError naming the file
+    when it cannot be read."""
+    import laspy
+
+    from ..io.las import _reason
+
+    out = part_dir(work, source.id, part)
+    shutil.rmtree(out, ignore_errors=True)  # an interrupted earlier attempt
+    out.mkdir(parents=True)
+    lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+    n = 0
+    labelled = False
+    occupied = set()
+    try:
+        with laspy.open(source.path) as reader:
+            if start:
+                reader.seek(start)
+            for chunk in reader.chunk_iterator(min(CHUNK_POINTS, stop - start)):
+                take = min(len(chunk), stop - start - n)
+                if take <= 0:
+                    break
+                xyz = np.column_stack([np.asarray(chunk.x)[:take], np.asarray(chunk.y)[:take],
+                                       np.asarray(chunk.z)[:take]])
+                rec = np.empty(take, RECORD)
+                rec["x"], rec["y"], rec["z"] = xyz[:, 0], xyz[:, 1], xyz[:, 2]
+                rec["label"] = np.asarray(chunk.classification)[:take]
+                rec["id"] = (np.int64(source.id) << ID_BITS) | np.arange(start + n, start + n + take)
+                labelled |= bool(rec["label"].any())
+                lo, hi = np.minimum(lo, xyz.min(axis=0)), np.maximum(hi, xyz.max(axis=0))
+                ci, cj = cells.of(rec["x"], rec["y"])
+                order = np.lexsort((cj, ci))
+                ci, cj, rec = ci[order], cj[order], rec[order]
+                breaks = np.flatnonzero((np.diff(ci) != 0) | (np.diff(cj) != 0)) + 1
+                for s, e in zip(np.r_[0, breaks], np.r_[breaks, take]):
+                    key = (int(ci[s]), int(cj[s]))
+                    occupied.add(key)
+                    with open(out / f"c{key[0]}_{key[1]}.bin", "ab") as fh:
+                        rec[s:e].tofile(fh)
+                n += take
+    except LidarSigError:
+        raise
+    except Exception as exc:  # laspy and lazrs raise many kinds on damaged input
+        raise LidarSigError(f"cannot be read as LAS/LAZ after {start + n:,} points ({_reason(exc)}); check "
+                            "that the file is complete", path=source.path) from None
+    if n != stop - start:
+        raise LidarSigError(f"holds {start + n:,} points but its header says {source.n_points:,}; the file is "
+                            "truncated", path=source.path)
+    info = {"path": source.path, "identity": file_identity(source.path), "range": [start, stop], "n": n,
+            "lo": lo.tolist(),
+            "hi": hi.tolist(), "labelled": labelled, "cells": sorted(occupied)}
+    if part == 0:
+        from ..io.hdf5 import sha256_of
+
+        info["sha256"] = sha256_of(source.path)
+    tmp = part_record(work, source.id, part).with_suffix(".tmp")
+    tmp.write_text(json.dumps(info))
+    os.replace(tmp, part_record(work, source.id, part))  # the part exists only once complete
+    return info
+
+
+def cell_files(work, records):
+    """{(i, j): [staging files]} over the staged parts ``records`` ({(source, part): record})."""
+    files = {}
+    for (sid, part), info in records.items():
+        for i, j in info["cells"]:
+            files.setdefault((i, j), []).append(str(part_dir(work, sid, part) / f"c{i}_{j}.bin"))
+    return files
+
+
+def load_cells(files, cells, raw_bounds):
+    """The staged points (structured RECORD array) within the raw box, from ``files``."""
+    x0, y0, x1, y1 = raw_bounds
+    eps = 1e-9 * cells.side  # round-off of the conversion to file units; the caller cuts exactly
+    parts = []
+    for key in cells.covering(raw_bounds):
+        for f in files.get(key, ()):
+            rec = np.fromfile(f, RECORD)
+            inside = ((rec["x"] >= x0 - eps) & (rec["x"] <= x1 + eps) & (rec["y"] >= y0 - eps)
+                      & (rec["y"] <= y1 + eps))
+            parts.append(rec[inside])  # one cell file at a time in memory, then its share
+    if not parts:
+        return np.empty(0, RECORD)
+    return np.concatenate(parts)
+
+
+def source_of(ids):
+    """File number of point identifiers."""
+    return np.asarray(ids) >> ID_BITS
+
+
+def index_of(ids):
+    """Index in its file of point identifiers."""
+    return np.asarray(ids) & ((1 << ID_BITS) - 1)
+
+
+def tile_side_for(points_per_tile, density):
+    """Tile side (metres) holding about ``points_per_tile`` points at ``density`` per m²."""
+    return math.sqrt(points_per_tile / max(density, 1e-12))

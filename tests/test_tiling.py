@@ -1,0 +1,223 @@
+"""Tiled processing with halos: the same results as the single-block run (issue 12)."""
+import hashlib
+import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import h5py
+import laspy
+import numpy as np
+import pytest
+
+import lidar_sig as ls
+from lidar_sig.classes import class_table
+from lidar_sig.errors import LidarSigError, LidarSigWarning
+from lidar_sig.signature import Signature
+from lidar_sig.tiling.core import saliency_in_tiles
+from lidar_sig.tiling.execute import executor
+from lidar_sig.tiling.run import run_set
+
+from conftest import DATA, IGN, IGN_FILES, SAMPLES, airborne_like, need_data
+
+# Points tied at the same distance from a query can be listed in another order in a tile's
+# voxel grid than in the whole cloud's: the covariance then sums the same terms in another
+# order and the last bits can differ. Everything else is the same computation.
+ROUND_OFF = 1e-12
+
+
+def assert_same_saliency(tiled, single):
+    assert np.array_equal(np.isnan(tiled.values), np.isnan(single.values))
+    ok = ~np.isnan(single.values)
+    assert np.max(np.abs(tiled.values[ok] - single.values[ok]), initial=0.0) <= ROUND_OFF
+    if single.optimal_scale is None:
+        assert tiled.optimal_scale is None
+    else:
+        assert np.array_equal(tiled.optimal_scale, single.optimal_scale)
+
+
+def counts_of(sal, labels):
+    table = class_table("asprs")
+    return Signature.from_saliency(sal.values, table.index(labels), classes=table).counts
+
+
+@pytest.mark.parametrize("strategy", ["multiscale", "optimal"])
+def test_ahn3_cut_4x4_gives_the_single_block_saliency_and_signature(strategy):
+    cloud = ls.read(need_data(DATA / "ahn3_delft" / "ahn3_cropped_1.laz"))
+    pipe = ls.Pipeline(strategy=strategy, progress=False)
+    single, _ = pipe.saliency(cloud)
+    side = float(np.max(np.ptp(cloud.xyz[:, :2], axis=0))) / 4
+    tiled, stats = saliency_in_tiles(pipe, cloud, side)
+    assert stats["n_tiles"] == 16 and stats["n_points"] == len(cloud)
+    assert_same_saliency(tiled, single)
+    assert np.array_equal(counts_of(tiled, cloud.labels), counts_of(single, cloud.labels))
+
+
+@pytest.mark.parametrize("scales,weights", [(ls.knn(8, 16), "area"),
+                                            (ls.radii(0.03, 0.05, units="normalized"), "area"),
+                                            (ls.radii(2.0, 3.0), "none")])
+def test_a_halo_too_narrow_is_widened_point_by_point_never_wrong(scales, weights):
+    xyz, labels = airborne_like(3000, seed=3)
+    xyz = np.vstack([xyz, xyz[:50]])  # exact duplicates, merged into one location
+    cloud = ls.PointCloud(xyz + [500_000.0, 6_000_000.0, 0.0], np.concatenate([labels, labels[:50]]))
+    pipe = ls.Pipeline(scales=scales, weights=weights, progress=False)
+    single, _ = pipe.saliency(cloud)
+    tiled, stats = saliency_in_tiles(pipe, cloud, 7.0, halo=0.2)
+    assert stats["n_recomputed"] > 0  # the 0.2 m halo cannot hold the neighbourhoods
+    assert_same_saliency(tiled, single)
+
+
+def test_tiles_refuse_a_descriptor_that_needs_the_whole_cloud():
+    xyz, labels = airborne_like(500)
+    with pytest.raises(LidarSigError, match="t3dvt-get.*tiles"):
+        saliency_in_tiles(ls.Pipeline("t3dvt-get", progress=False), ls.PointCloud(xyz, labels), 10.0)
+
+
+@pytest.fixture(scope="module")
+def ign_merged():
+    """The six IGN tiles read one by one, and their merge run as one block."""
+    files = [need_data(f) for f in IGN_FILES]
+    clouds = [ls.read(f) for f in files]
+    merged = ls.PointCloud(np.vstack([c.xyz for c in clouds]), np.concatenate([c.labels for c in clouds]),
+                           crs=clouds[0].crs)
+    return clouds, ls.Pipeline(progress=False).run(merged)
+
+
+@pytest.fixture(scope="module")
+def ign_set(tmp_path_factory, ign_merged):
+    """The IGN folder run as a set of tiles in this process (40 m tiles across the files)."""
+    work = tmp_path_factory.mktemp("ign") / "work"
+    return run_set(ls.Pipeline(progress=False), [IGN], work=work, tile_size=40.0)
+
+
+def test_ign_folder_in_tiles_gives_the_signature_and_saliency_of_the_merge(ign_merged, ign_set):
+    clouds, merged = ign_merged
+    run = ign_set
+    assert run.complete and run.tiling.shape == (4, 3)
+    assert np.array_equal(run.signature.counts, merged.signature.counts)
+    assert np.array_equal(run.signature.egeom_counts, merged.signature.egeom_counts)
+    assert np.array_equal(run.signature.class_totals, merged.signature.class_totals)
+    assert run.signature.metadata["n_duplicates"] == merged.metadata["n_duplicates"]
+    start = 0
+    for source, cloud in zip(run.sources, clouds):
+        single = merged.saliency.values[start:start + len(cloud)]
+        start += len(cloud)
+        assert_same_saliency(run.saliency_of(source), ls.Saliency.from_values(single))
+
+
+def test_a_local_dask_cluster_gives_the_same_results_as_the_local_run(tmp_path, ign_set):
+    distributed = pytest.importorskip("distributed", reason="the dask extra is not installed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as cluster:
+        backend = executor(scheduler=cluster.scheduler_address)
+        try:
+            run = run_set(ls.Pipeline(progress=False), [IGN], work=tmp_path / "work", tile_size=40.0,
+                          backend=backend)
+        finally:
+            backend.close()
+    assert run.complete and "2 workers" in run.execution
+    assert np.array_equal(run.signature.counts, ign_set.signature.counts)
+    for a, b in zip(run.sources, ign_set.sources):
+        assert np.array_equal(run.saliency_of(a).values, ign_set.saliency_of(b).values, equal_nan=True)
+
+
+def lidar_sig_cli(*args):
+    return subprocess.run([sys.executable, "-m", "lidar_sig", *map(str, args)], capture_output=True, text=True,
+                          timeout=600)
+
+
+def test_a_file_cut_off_mid_file_is_named_the_others_written_and_resume_completes_the_set(tmp_path, ign_set):
+    folder = tmp_path / "tiles"
+    folder.mkdir()
+    for f in IGN_FILES:
+        shutil.copyfile(need_data(f), folder / f.name)
+    cut = folder / IGN_FILES[2].name
+    cut.write_bytes(IGN_FILES[2].read_bytes()[:120_000])  # the header is whole, the points stop short
+    out = tmp_path / "out"
+    args = ("saliency", folder, "-o", out, "--workers", "1", "--tile-size", "50")
+    first = lidar_sig_cli(*args)
+    assert first.returncode == 1, first.stderr
+    assert f"missing: {cut.name}" in first.stderr and "--resume" in first.stderr
+    assert "Traceback" not in first.stderr
+    assert sorted(p.name for p in out.glob("*.laz")) == sorted(f.name for f in IGN_FILES if f.name != cut.name)
+    again = lidar_sig_cli(*args, "--resume")  # still cut off: finished tiles are reused
+    assert again.returncode == 1 and "6 reused" in again.stdout, again.stdout
+    shutil.copyfile(IGN_FILES[2], cut)
+    done = lidar_sig_cli(*args, "--resume")
+    assert done.returncode == 0, done.stderr
+    assert not (out / ".lidar-sig-work").exists()
+    for source in ign_set.sources:  # the set's results, now with every file
+        written = laspy.read(out / source.name)
+        expected = ign_set.saliency_of(source).values.astype(np.float32)
+        got = np.column_stack([written["Cl"], written["Cs"], written["Cp"]])
+        assert np.allclose(got, expected, rtol=0, atol=1e-6, equal_nan=True)
+
+
+def test_signature_of_a_folder_records_the_tiling_and_every_file_with_its_sha256(tmp_path, ign_set):
+    out = tmp_path / "set.h5"
+    proc = lidar_sig_cli("signature", IGN, "-o", out, "--workers", "2", "--tile-size", "40")
+    assert proc.returncode == 0, proc.stderr
+    assert "12 tiles of 40 m" in proc.stdout and "points/s" in proc.stdout
+    sig = ls.load_signature(out)
+    assert np.array_equal(sig.counts, ign_set.signature.counts)
+    with h5py.File(out) as f:
+        sources = json.loads(f.attrs["sources"])
+        tiling = json.loads(f.attrs["tiling"])
+    assert [Path(s["path"]).name for s in sources] == [f.name for f in IGN_FILES]
+    assert all(s["sha256"] == hashlib.sha256(Path(s["path"]).read_bytes()).hexdigest() for s in sources)
+    assert tiling["tiles"] == [4, 3] and tiling["tile_size_m"] == 40.0
+
+
+@pytest.mark.parametrize("name", ["isprs_filtertest/samp11-utm.laz", "copc/test_data_77050_627755.copc.laz"])
+def test_output_streamed_in_chunks_is_the_same_file_as_written_whole(tmp_path, name):
+    from lidar_sig.io.las import write_las, write_las_chunks
+
+    src = need_data(DATA / name)
+    cloud = ls.read(src)
+    pipe = ls.Pipeline(strategy="optimal", progress=False)
+    sal, _ = pipe.saliency(cloud)
+    with pytest.warns(LidarSigWarning):  # LAS 1.2 upgraded, COPC index dropped: said either way
+        write_las(tmp_path / "whole.laz", cloud, sal, scale_kind="knn", scale_values=pipe.scales.values)
+    with pytest.warns(LidarSigWarning):
+        write_las_chunks(tmp_path / "chunks.laz", src,
+                         lambda a, b: ls.Saliency.from_values(sal.values[a:b], sal.optimal_scale[a:b]),
+                         scale_kind="knn", scale_values=pipe.scales.values, chunk_points=10_000)
+    assert (tmp_path / "whole.laz").read_bytes() == (tmp_path / "chunks.laz").read_bytes()
+
+
+def test_compare_takes_a_folder_as_one_epoch(tmp_path):
+    epoch = tmp_path / "epoch1"
+    epoch.mkdir()
+    (epoch / "epoch1.laz").symlink_to(SAMPLES / "epoch1.laz")
+    proc = lidar_sig_cli("compare", epoch, SAMPLES / "epoch1.laz", "--workers", "1", "--json")
+    assert proc.returncode == 0, proc.stderr
+    metrics = json.loads(proc.stdout)
+    assert metrics["ssim"] == pytest.approx(1.0) and metrics["l1"] == 0 and metrics["bhattacharyya"] == 0
+
+
+@pytest.mark.parametrize("args, name", [
+    (("saliency", SAMPLES, "-o", "out.laz"), "out.laz"),               # a set writes into a folder
+    (("saliency", SAMPLES / "epoch1.laz", SAMPLES / "missing", "-o", "out"), "missing"),  # no such input
+    (("signature", SAMPLES / "epoch1.laz", SAMPLES / "epoch1.laz", "-o", "x.h5"), "given twice"),
+    (("saliency", SAMPLES / "epoch1.laz", "-o", "out", "--workers", "0"), "--workers"),
+])
+def test_a_set_refuses_bad_arguments_in_one_line_before_any_work(tmp_path, args, name):
+    proc = subprocess.run([sys.executable, "-m", "lidar_sig", *map(str, args)], capture_output=True, text=True,
+                          cwd=tmp_path, timeout=120)
+    assert proc.returncode == 2, proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1 and name in proc.stderr and "Traceback" not in proc.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_one_file_read_in_parts_and_chunks_gives_the_single_block_result(tmp_path, monkeypatch):
+    from lidar_sig.tiling import sources
+
+    monkeypatch.setattr(sources, "PART_POINTS", 10_000)  # 5 parts, each read from its own offset
+    monkeypatch.setattr(sources, "CHUNK_POINTS", 3_000)
+    pipe = ls.Pipeline(strategy="optimal", progress=False)
+    run = run_set(pipe, [SAMPLES / "epoch1.laz"], work=tmp_path / "work", tile_size=25.0)
+    single = pipe.run(SAMPLES / "epoch1.laz")
+    assert len(run.sources[0].parts()) == 5
+    assert np.array_equal(run.signature.counts, single.signature.counts)
+    assert_same_saliency(run.saliency_of(run.sources[0]), single.saliency)
