@@ -20,7 +20,14 @@ def main(argv=None):
         print(f"lidar-sig: interrupted ({signal.Signals(signum).name}) while starting; nothing was written",
               file=sys.stderr)
         return 128 + signum
-    return cli_main(argv)
+    try:
+        return cli_main(argv)
+    finally:
+        # The command has ended and said so: a signal from now on ends the process as the
+        # system would, instead of raising in interpreter shutdown or an exit handler (a
+        # traceback, or "Exception ignored", after the outputs were already complete).
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+        signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
 if __name__ == "__main__":

@@ -114,3 +114,19 @@ def test_signal_while_starting_is_one_line(tmp_path, signum):
     proc.send_signal(signum)
     assert_interrupted(proc, signum)
     assert not os.listdir(tmp_path)
+
+
+@pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGINT])
+def test_signal_after_the_command_ended_ends_the_process_quietly(signum):
+    # a signal between the end of the command (its outputs complete, its lines printed) and the
+    # end of the interpreter used to raise at the top level: a traceback after a finished run
+    code = ("import os, signal, sys, time\n"
+            "from lidar_sig.__main__ import main\n"
+            "status = main(['plugins'])\n"
+            f"os.kill(os.getpid(), {int(signum)})\n"
+            "time.sleep(5)\n"
+            "sys.exit(status)\n")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
+                          stdin=subprocess.DEVNULL, preexec_fn=_interruptible)
+    assert proc.returncode == -signum, (proc.returncode, proc.stderr)
+    assert proc.stderr == "" and "c3dcm" in proc.stdout
