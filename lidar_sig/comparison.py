@@ -97,13 +97,15 @@ def compare_sources(a, b, pipeline=None, *, render=None, columns=None, method_gi
         Column names of text clouds.
     tiling : dict, optional
         ``tile_size``, ``workers``, ``scheduler`` for a folder of LAS/LAZ tiles given as a or b
-        (an epoch): it is processed as one set in tiles (:mod:`lidar_sig.tiling`).
+        (an epoch): it is processed as one set in tiles (:mod:`lidar_sig.tiling`). When any of
+        them is set, a LAS/LAZ file is processed in tiles too.
     """
     from .pipeline import Pipeline
 
     pipeline = pipeline or Pipeline()
     names = [_name(x) for x in (a, b)]
-    loaded = [_load(x, columns) for x in (a, b)]
+    as_set = any(v is not None for v in (tiling or {}).values())
+    loaded = [_load(x, columns, as_set) for x in (a, b)]
     sigs = [x for x in loaded if isinstance(x, Signature)]
     clouds = [x for x in loaded if isinstance(x, PointCloud)]
     labelled = ([bool(x.classes.names) for x in sigs] + [c.labels is not None for c in clouds]
@@ -149,14 +151,15 @@ def _name(x):
     return getattr(x, "path", None) or (x.metadata.get("source") if isinstance(x, Signature) else None) or "(in memory)"
 
 
-def _load(x, columns):
+def _load(x, columns, as_set=False):
     from .io import HDF5_EXTENSIONS, load_signature, read
+    from .tiling.sources import LAS_SUFFIXES
 
     if isinstance(x, (PointCloud, Signature)):
         return x
     if isinstance(x, (str, Path)):
-        if Path(x).is_dir():
-            return Path(x)
+        if Path(x).is_dir() or (as_set and Path(x).suffix.lower() in LAS_SUFFIXES):
+            return Path(x)  # processed as a set of tiles
         if Path(x).suffix.lower() in HDF5_EXTENSIONS:
             return load_signature(x)
         return read(x, columns=columns)
@@ -238,8 +241,8 @@ def _radii_warnings(sides):
 
 
 def _signature_of_set(folder, pipeline, tiling):
-    """The signature of a folder of LAS/LAZ tiles processed as one set (scratch files in a
-    temporary folder); refuses an incomplete set."""
+    """The signature of a folder of LAS/LAZ tiles (or one LAS/LAZ file) processed as one set,
+    with scratch files in a temporary folder (``TMPDIR``); refuses an incomplete set."""
     import tempfile
 
     from .tiling.execute import executor

@@ -133,3 +133,13 @@ def _geokeys(header):
     if not vlrs:
         return {}
     return {k.id: k.value_offset for k in vlrs[0].geo_keys if k.tiff_tag_location == 0}
+
+
+def same_crs(a, b):
+    """Whether two CRS (WKT or any text pyproj reads, or None) are the same; two unknown CRS
+    are the same (both taken as metres)."""
+    if a is None or b is None:
+        return a is None and b is None
+    import pyproj
+
+    return pyproj.CRS.from_user_input(a) == pyproj.CRS.from_user_input(b)

@@ -209,6 +209,31 @@ def test_extra_bytes_records_hold_the_data_range_and_no_data(ext, tmp_path):
     assert (records["GeomClass"].min[0], records["GeomClass"].max[0]) == (geom[geom > 0].min(), geom.max())
 
 
+def test_a_users_extra_bytes_record_flagging_one_bound_gets_its_true_range(tmp_path):
+    # a record with its max alone flagged has no min to write (it used to raise a TypeError)
+    xyz, labels = airborne_like(600)
+    las = laspy.LasData(laspy.LasHeader(point_format=6, version="1.4"))
+    las.header.offsets, las.header.scales = xyz.min(axis=0), [0.001] * 3
+    las.x, las.y, las.z = xyz.T
+    las.add_extra_dim(laspy.ExtraBytesParams(name="height", type=np.float32, description="my height"))
+    height = np.linspace(9.0, 5.0, len(xyz)).astype(np.float32)
+    las["height"] = height
+    las.header.vlrs.get("ExtraBytesVlr")[0].extra_bytes_structs[0].options = 4  # max only
+    las.write(tmp_path / "user.las")
+    header = laspy.read(tmp_path / "user.las").header
+    from lidar_sig.io.las import set_extra_bytes_ranges
+
+    set_extra_bytes_ranges(header, laspy.read(tmp_path / "user.las").points)
+    record = header.vlrs.get("ExtraBytesVlr")[0].extra_bytes_structs[0]
+    assert record.min is None and record.max[0] == 9.0
+    ls.Pipeline(scales=ls.knn(10)).run(tmp_path / "user.las").write(tmp_path / "out.las")
+    out = laspy.read(tmp_path / "out.las")
+    records = {r.format_name(): r for r in out.header.vlrs.get("ExtraBytesVlr")[0].extra_bytes_structs}
+    np.testing.assert_array_equal(np.asarray(out["height"]), height)
+    assert (records["height"].min[0], records["height"].max[0]) == (5.0, 9.0)
+    assert records["Cl"].min[0] == np.nanmin(np.asarray(out["Cl"]))
+
+
 def test_header_names_lidar_sig_and_today(tmp_path):
     path = need_data(IGN / "test_data_77060_627760_LA93_IGN69.laz")
     cloud = ls.read(path)

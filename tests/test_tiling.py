@@ -221,3 +221,107 @@ def test_one_file_read_in_parts_and_chunks_gives_the_single_block_result(tmp_pat
     assert len(run.sources[0].parts()) == 5
     assert np.array_equal(run.signature.counts, single.signature.counts)
     assert_same_saliency(run.saliency_of(run.sources[0]), single.saliency)
+
+
+def test_resume_on_another_tile_size_restages_and_loses_no_point(tmp_path):
+    # staged parts are filed by a grid that follows the tile size: one staged on another grid
+    # must be read again, not looked up under the new grid's cell names
+    pipe = ls.Pipeline(progress=False)
+    work = tmp_path / "work"
+    first = run_set(pipe, [SAMPLES / "epoch1.laz"], work=work, tile_size=30.0)
+    again = run_set(pipe, [SAMPLES / "epoch1.laz"], work=work, tile_size=17.0, resume=True)
+    single = pipe.run(SAMPLES / "epoch1.laz")
+    for run in (first, again):
+        assert run.complete and np.array_equal(run.signature.counts, single.signature.counts)
+    assert_same_saliency(again.saliency_of(again.sources[0]), single.saliency)
+
+
+def _copies(folder, *sources):
+    folder.mkdir()
+    for s in sources:
+        shutil.copyfile(s, folder / Path(s).name)
+    return folder
+
+
+def test_a_work_folder_that_is_or_holds_an_output_is_refused_before_any_work(tmp_path):
+    tiles = _copies(tmp_path / "tiles", SAMPLES / "epoch1.laz", SAMPLES / "epoch2.laz")
+    before = {p.name: p.read_bytes() for p in tiles.iterdir()}
+    proc = lidar_sig_cli("saliency", tiles, "-o", tmp_path / "out", "--work-dir", tmp_path / "out", "--workers", "1")
+    assert proc.returncode == 2 and "--work-dir" in proc.stderr and len(proc.stderr.strip().splitlines()) == 1, \
+        proc.stderr
+    assert not (tmp_path / "out").exists()
+    (tmp_path / "d").mkdir()
+    proc = lidar_sig_cli("signature", tiles, "-o", tmp_path / "d" / "set.h5", "--work-dir", tmp_path / "d",
+                         "--workers", "1")
+    assert proc.returncode == 2 and "--work-dir" in proc.stderr, proc.stderr
+    assert list((tmp_path / "d").iterdir()) == []
+    assert {p.name: p.read_bytes() for p in tiles.iterdir()} == before
+
+
+def test_a_set_never_writes_over_its_inputs_nor_two_outputs_on_one_file(tmp_path):
+    tiles = _copies(tmp_path / "tiles", SAMPLES / "epoch1.laz")
+    other = _copies(tmp_path / "other", SAMPLES / "epoch1.laz")
+    before = (tiles / "epoch1.laz").read_bytes()
+    proc = lidar_sig_cli("saliency", tiles, "-o", tiles, "--overwrite", "--workers", "1")
+    assert proc.returncode == 2 and "over its input" in proc.stderr, proc.stderr
+    assert (tiles / "epoch1.laz").read_bytes() == before and sorted(p.name for p in tiles.iterdir()) == ["epoch1.laz"]
+    proc = lidar_sig_cli("saliency", tiles, other, "-o", tmp_path / "out", "--workers", "1")
+    assert proc.returncode == 2 and "same file name" in proc.stderr, proc.stderr
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("size", ["0", "-5", "nan", "inf"])
+def test_a_bad_tile_size_is_one_line_before_any_work(tmp_path, size):
+    proc = lidar_sig_cli("signature", SAMPLES / "epoch1.laz", "-o", tmp_path / "s.h5", "--tile-size", size,
+                         "--workers", "1")
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+    assert "tile" in proc.stderr and "Traceback" not in proc.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_set_refuses_an_empty_file_and_files_in_another_crs(tmp_path):
+    from robustness.helpers import write_las
+
+    tiles = _copies(tmp_path / "tiles", SAMPLES / "epoch1.laz")
+    empty = laspy.LasData(laspy.LasHeader(point_format=6, version="1.4"))
+    empty.write(tiles / "empty.las")
+    proc = lidar_sig_cli("signature", tiles, "-o", tmp_path / "s.h5", "--workers", "1")
+    assert proc.returncode == 2 and "empty.las" in proc.stderr and "no points" in proc.stderr, proc.stderr
+    (tiles / "empty.las").unlink()
+    xyz = ls.read(SAMPLES / "epoch1.laz").xyz[:2000]
+    write_las(tiles / "nocrs.las", xyz)  # the same points, without the CRS of the others
+    proc = lidar_sig_cli("signature", tiles, "-o", tmp_path / "s.h5", "--workers", "1")
+    assert proc.returncode == 2 and "nocrs.las" in proc.stderr and "CRS" in proc.stderr, proc.stderr
+    assert not (tmp_path / "s.h5").exists()
+
+
+def test_compare_with_a_tiling_option_processes_a_file_in_tiles(tmp_path):
+    proc = lidar_sig_cli("compare", SAMPLES / "epoch1.laz", SAMPLES / "epoch1.laz", "--tile-size", "30",
+                         "--workers", "1")
+    assert proc.returncode == 0, proc.stderr
+    assert "set of tiles" in proc.stdout, proc.stdout
+    assert " 0.0000 " in proc.stdout and "s_SSIM        1.0000" in proc.stdout
+
+
+def test_a_signal_during_a_streamed_write_stops_it_at_the_next_chunk(tmp_path):
+    import os
+    import signal
+
+    from lidar_sig.errors import Interrupted
+    from lidar_sig.io.las import write_las_chunks
+
+    src = SAMPLES / "epoch1.laz"
+    sal = ls.Pipeline(progress=False).saliency(ls.read(src))[0]
+    asked = []
+
+    def chunks(a, b):
+        asked.append(a)
+        if len(asked) == 2:
+            os.kill(os.getpid(), signal.SIGINT)  # held while the file is written
+        return ls.Saliency.from_values(sal.values[a:b])
+
+    with pytest.raises(Interrupted):
+        write_las_chunks(tmp_path / "o.laz", src, chunks, scale_kind="knn", scale_values=(20, 30, 40),
+                         chunk_points=5_000)
+    assert len(asked) == 2  # not the 9 chunks of the file
+    assert list(tmp_path.iterdir()) == []

@@ -157,7 +157,7 @@ def tiling_options(func):
     """Decorate a command with the options of tiled runs over a set of files: ``--tile-size``,
     ``--workers``, ``--scheduler`` (``tiling`` receives them as a dict)."""
     opts = [
-        click.option("--tile-size", type=float, default=None, metavar="METRES",
+        click.option("--tile-size", type=click.FloatRange(0, min_open=True), default=None, metavar="METRES",
                      help="Side of the square processing tiles of a set, in metres [default: about 2 million "
                           "points per tile, from the files' density]."),
         click.option("--workers", type=click.IntRange(1, 1024), default=None,
@@ -180,7 +180,8 @@ def resume_options(func):
     """``--resume`` and ``--work-dir`` for commands that write a set's results."""
     func = click.option("--work-dir", default=None, metavar="DIR",
                         help="Scratch folder of a tiled run (staged points, finished tiles); every worker "
-                             "must see it at this path [default: beside the output].")(func)
+                             "must see it at this path [default: OUT/.lidar-sig-work for saliency, "
+                             "OUT.work for signature].")(func)
     return click.option("--resume", is_flag=True,
                         help="Reuse what an earlier tiled run of the same files and method finished "
                              "(kept in its work folder after a failure).")(func)

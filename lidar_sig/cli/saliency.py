@@ -52,19 +52,29 @@ def _saliency_of_set(sources, output, overwrite, tiling, resume, work_dir, pipel
     if outdir.suffix.lower() in CLOUD_EXTENSIONS or (outdir.exists() and not outdir.is_dir()):
         raise LidarSigError("a set of tiles writes one file per input: give a folder as -o", path=output)
     outputs = {s.path: output_name(outdir, s) for s in scan(expand(sources))}
+    inputs = {Path(p).resolve(): p for p in outputs}
+    seen = {}
+    for src, path in outputs.items():
+        if Path(path).resolve() in inputs:  # an input is never replaced
+            raise LidarSigError(f"would be written over its input {src}; give another output folder", path=path)
+        if path in seen:
+            raise LidarSigError(f"would be written for both {seen[path]} and {src} (same file name); give "
+                                "them in separate runs", path=path)
+        seen[path] = src
     if not outdir.parent.is_dir():
         raise LidarSigError("the output folder's parent does not exist; create it first", path=output)
     made = not outdir.exists()
     outdir.mkdir(exist_ok=True)
+    work = Path(work_dir) if work_dir else outdir / ".lidar-sig-work"
     try:
         for path in outputs.values():  # before the work; --resume rewrites what it must
             check_output(path, overwrite=overwrite or resume)
+        run = run_tiles(pipeline, sources, tiling, work, outputs=list(outputs.values()), resume=resume,
+                        quiet=quiet)
     except LidarSigError:
-        if made:
+        if made and not any(outdir.iterdir()):
             outdir.rmdir()
         raise
-    work = Path(work_dir) if work_dir else outdir / ".lidar-sig-work"
-    run = run_tiles(pipeline, sources, tiling, work, resume=resume, quiet=quiet)
     written, not_written = [], []
     for source in run.sources:
         if source.path in run.failed_sources or run.plan is None:

@@ -88,7 +88,8 @@ def _signature_of_set(sources, output, ext, png_output, sg_output, render, overw
 
     first = output or png_output or sg_output
     work = Path(work_dir) if work_dir else Path(first).with_name(Path(first).name + ".work")
-    run = run_tiles(pipeline, sources, tiling, work, resume=resume, quiet=quiet)
+    run = run_tiles(pipeline, sources, tiling, work, outputs=[p for p in (output, png_output, sg_output) if p],
+                    resume=resume, quiet=quiet)
     written = []
     if run.complete:
         sig = run.signature

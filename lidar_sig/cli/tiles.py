@@ -15,12 +15,12 @@ def is_set(sources, tiling, resume=False):
             or any(v is not None for v in tiling.values()))
 
 
-def run_tiles(pipeline, sources, tiling, work, *, resume=False, quiet=False):
+def run_tiles(pipeline, sources, tiling, work, *, outputs=(), resume=False, quiet=False):
     """Run ``sources`` as a set with the command's tiling options; print the summary line."""
     backend = executor(tiling["workers"], tiling["scheduler"])
     try:
         run = run_set(pipeline, sources, work=work, tile_size=tiling["tile_size"], backend=backend,
-                      resume=resume)
+                      resume=resume, outputs=outputs)
     finally:
         backend.close()
     if not quiet and run.tiling is not None:

@@ -6,7 +6,8 @@
 - SIGINT and SIGTERM are held while an output is written and acted on once the writer is done:
   the temporary file is then removed, the output left as it was, and :class:`Interrupted`
   raised. (Signals raised inside a C library's callbacks would otherwise be lost or leave
-  half a file.)
+  half a file.) A writer that works in chunks calls :func:`stop_if_interrupted` between them,
+  so that a long streamed write still ends soon after Ctrl-C or SIGTERM.
 - Errors of the file system (no space left, read-only or immutable folder, permission) become a
   :class:`LidarSigError` naming the output and the fix.
 - Several outputs of one command can be committed together (:func:`output_group`): all
@@ -32,6 +33,8 @@ from ..errors import Interrupted, LidarSigError
 _HOST = socket.gethostname().replace(".", "-")[:32] or "host"
 # Outputs written inside an output_group, waiting to be renamed: [(tmp, path, overwrite)]
 _PENDING = contextvars.ContextVar("lidar_sig_pending_outputs", default=None)
+# Signals received while held by the innermost deferred_signals block (None outside one)
+_RECEIVED = contextvars.ContextVar("lidar_sig_received_signals", default=None)
 _REASONS = {
     errno.ENOSPC: "no space left on the device; free some space or write elsewhere",
     errno.EDQUOT: "the disk quota is exceeded; free some space or write elsewhere",
@@ -189,11 +192,21 @@ def deferred_signals():
     received = []
     previous = {s: signal.signal(s, lambda signum, frame: received.append(signum))
                 for s in (signal.SIGINT, signal.SIGTERM)}
+    token = _RECEIVED.set(received)
     try:
         yield
     finally:
+        _RECEIVED.reset(token)
         for s, handler in previous.items():
             signal.signal(s, handler)
+    if received:
+        raise Interrupted(received[0])
+
+
+def stop_if_interrupted():
+    """Raise :class:`Interrupted` if a signal came while held (a point between two chunks of a
+    write where stopping leaves nothing behind: the temporary file is removed)."""
+    received = _RECEIVED.get()
     if received:
         raise Interrupted(received[0])
 

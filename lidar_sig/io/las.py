@@ -19,7 +19,7 @@ import numpy as np
 from ..cloud import PointCloud
 from ..crs import las_crs, las_units
 from ..errors import LidarSigError, LidarSigWarning
-from .atomic import atomic_output
+from .atomic import atomic_output, stop_if_interrupted
 
 LAS_EXTENSIONS = (".las", ".laz")
 
@@ -378,6 +378,7 @@ def write_las_chunks(path, source, saliency_chunks, *, scale_kind=None, scale_va
                 writer.write_points(las.points)
                 _extend_ranges(ranges, las.header, las.points)
                 start = stop
+                stop_if_interrupted()  # a long streamed write ends soon after Ctrl-C or SIGTERM
             if writer is None:
                 raise LidarSigError("the file holds no points; give a file with points", path=source)
             if evlrs:
@@ -433,12 +434,13 @@ class _KeepsWriteErrors:
 
 
 def set_extra_bytes_ranges(header, points, ranges=None):
-    """Store in each extra-bytes record the true min and max of the dimension's values that
-    are not its no-data value (NaN never counts); a dimension without such values gets none.
-    ``ranges`` ({(name, element): (min, max)}, from a file written in chunks) replaces
-    ``points``.
+    """Store in each extra-bytes record that flags a min or a max the true min and max of the
+    dimension's values that are not its no-data value (NaN never counts); a dimension without
+    such values gets none. ``ranges`` ({(name, element): (min, max)}, from a file written in
+    chunks) replaces ``points``.
 
-    laspy (2.7) records the first point's value instead for one-element dimensions.
+    laspy (2.7) rebuilds every record when dimensions are added, flags both and stores the first
+    point's value: a user's dimensions get their true range too.
     """
     if ranges is None:
         ranges = {}
@@ -447,9 +449,13 @@ def set_extra_bytes_ranges(header, points, ranges=None):
         for record in vlr.extra_bytes_structs:
             if record.data_type == 0 or not (record.min_is_relevant() or record.max_is_relevant()):
                 continue
-            low, high = record._raw_min(), record._raw_max()  # writable views of the record
+            low, high = record._raw_min(), record._raw_max()  # writable views, None where not flagged
             for i in range(record.num_elements()):
                 if (record.format_name(), i) not in ranges:
                     record.options &= ~(record.MIN_BIT_MASK | record.MAX_BIT_MASK)
                     break
-                low[i], high[i] = ranges[(record.format_name(), i)]
+                lo_i, hi_i = ranges[(record.format_name(), i)]
+                if low is not None:
+                    low[i] = lo_i
+                if high is not None:
+                    high[i] = hi_i

@@ -94,6 +94,9 @@ class DaskCluster:
             item = futures[fut]
             if fut.status == "error":
                 yield item, None, fut.exception()
+            elif fut.status == "cancelled":  # the scheduler or the worker holding it was lost
+                raise LidarSigError("the Dask cluster lost the run's tasks (scheduler or workers gone); "
+                                    "check the cluster, then run the same command with --resume")
             else:
                 yield item, fut.result(), None
             fut.release()

@@ -17,6 +17,7 @@ made: :attr:`SetRun.missing` says what is missing.
 from __future__ import annotations
 
 import json
+import math
 import os
 import shutil
 import time
@@ -104,10 +105,17 @@ def tile_task(plan, ij):
                 return {**json.loads(str(done["stats"])), "resumed": True}
     t0 = time.perf_counter()
     r = tile_saliency(plan.pipeline, plan.load_points, plan.tiling, ij, plan.ctx)
-    _, ids, labels = plan.load(plan.tiling.box(*ij))
-    at = _positions(r.ids, ids[np.isin(ids, r.ids)])
+    # the core points' class codes, from the tile's box widened by round-off (core points are
+    # decided by a floor of the same coordinates, which can put a point an ulp outside the box)
+    x0, y0, x1, y1 = plan.tiling.box(*ij)
+    eps = 1e-6 * max(plan.tiling.size, 1.0)
+    _, ids, labels = plan.load((x0 - eps, y0 - eps, x1 + eps, y1 + eps))
+    mine = np.isin(ids, r.ids)
+    if int(mine.sum()) != len(r.ids):
+        raise RuntimeError(f"{tile_name(*ij)}: {len(r.ids) - int(mine.sum())} core points not found again "
+                           "for their class codes")
     codes = np.empty(len(r.ids), np.int64)
-    codes[at] = labels[np.isin(ids, r.ids)]
+    codes[_positions(r.ids, ids[mine])] = labels[mine]
     sig = Signature.from_saliency(r.values, plan.classes.index(codes), classes=plan.classes,
                                   frame=plan.pipeline.frame)
     flat = sig.counts.ravel()
@@ -216,19 +224,25 @@ class SetRun:
         return True
 
 
-def run_set(pipeline, inputs, *, work, tile_size=None, backend=None, resume=False, progress_enabled=None):
+def run_set(pipeline, inputs, *, work, tile_size=None, backend=None, resume=False, progress_enabled=None,
+            outputs=()):
     """Process the LAS/LAZ files and folders ``inputs`` as one set, in tiles of ``tile_size``
     metres (default: about TILE_POINTS points each), on ``backend``
     (:func:`lidar_sig.tiling.execute.executor`; default this process), with scratch files in
-    ``work``. With ``resume``, staged files and finished tiles of an earlier run of the same set
-    and method are reused. Returns a :class:`SetRun`."""
+    ``work``, a folder that must not hold an input or one of the ``outputs`` (it is removed
+    after a complete run). With ``resume``, staged files and finished tiles of an earlier run of
+    the same set, grid and method are reused. Returns a :class:`SetRun`."""
     from .execute import InProcess
 
     check_tileable(pipeline)
+    if tile_size is not None and not (isinstance(tile_size, (int, float)) and math.isfinite(tile_size)
+                                      and tile_size > 0):
+        raise LidarSigError(f"the tile size must be a positive number of metres, got {tile_size!r}")
     start = time.perf_counter()
     backend = backend or InProcess()
-    sources = scan(expand(inputs))  # bad inputs are refused before anything is written
-    work = prepare_work(work, resume)
+    files = expand(inputs)
+    sources = scan(files)  # bad inputs are refused before anything is written
+    work = prepare_work(work, resume, keep=[*files, *outputs])
     run = SetRun(sources, execution=backend.description)
     for s in sources:
         if s.error:
@@ -251,7 +265,7 @@ def run_set(pipeline, inputs, *, work, tile_size=None, backend=None, resume=Fals
     todo = []
     for s in good:
         for part, (first, stop) in enumerate(s.parts(backend.workers)):
-            info = staged(work, s, part, first, stop) if resume else None
+            info = staged(work, s, part, first, stop, cells) if resume else None
             if info is None:
                 todo.append((str(work), s, part, first, stop, cells))
             else:
@@ -327,10 +341,16 @@ def run_set(pipeline, inputs, *, work, tile_size=None, backend=None, resume=Fals
 WORK_MARK = "LIDAR_SIG_WORK"
 
 
-def prepare_work(work, resume):
+def prepare_work(work, resume, keep=()):
     """The work folder, made (or emptied, without ``resume``); refuses a folder that holds
-    anything but an earlier run's work."""
+    anything but an earlier run's work, or that is or holds one of the paths ``keep`` (inputs and
+    outputs: the folder is removed after a complete run)."""
     work = Path(work).resolve()
+    for p in keep:
+        p = Path(p).resolve()
+        if p == work or work in p.parents:
+            raise LidarSigError(f"would hold {p}, but the work folder is removed after the run; give "
+                                "--work-dir a folder of its own", path=work)
     if work.exists() and any(work.iterdir()) and not (work / WORK_MARK).is_file():
         raise LidarSigError("is not empty and not a lidar_sig work folder; give a new or empty folder as "
                             "--work-dir", path=work)

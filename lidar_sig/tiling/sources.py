@@ -89,10 +89,11 @@ class Source:
 
 def scan(files):
     """A :class:`Source` per file from its header; files whose header cannot be read get the
-    reason in ``error``. Refuses a set whose readable files use different units."""
+    reason in ``error``. Refuses a set whose readable files are in different CRS, and a file
+    without points (its header's bounds would stretch the set's extent to meaningless values)."""
     import laspy
 
-    from ..crs import las_units
+    from ..crs import las_units, same_crs
     from ..io.las import _reason
 
     sources = []
@@ -101,6 +102,8 @@ def scan(files):
             with laspy.open(f) as reader:
                 h = reader.header
                 crs, units = las_units(h, path=f)
+                if int(h.point_count) == 0:
+                    raise LidarSigError("holds no points; leave it out of the set", path=f)
                 sources.append(Source(i, str(f), int(h.point_count), tuple(map(float, h.mins)),
                                       tuple(map(float, h.maxs)), tuple(units.factors), crs,
                                       units.describe()))
@@ -113,6 +116,9 @@ def scan(files):
         if s.factors != good[0].factors:
             raise LidarSigError(f"uses other coordinate units ({s.factors} metres per unit) than "
                                 f"{good[0].name} ({good[0].factors}); give a set in one CRS", path=s.path)
+        if not same_crs(s.crs, good[0].crs):
+            raise LidarSigError(f"is in another CRS than {good[0].name} ({'none' if s.crs is None else 'it differs'})"
+                                "; give a set in one CRS", path=s.path)
     return sources
 
 
@@ -123,6 +129,10 @@ class Cells:
 
     origin: tuple
     side: float
+
+    def record(self):
+        """The grid as kept with each staged part (a part staged on another grid is not reused)."""
+        return [float(self.origin[0]), float(self.origin[1]), float(self.side)]
 
     def of(self, x, y):
         """(N,) cell i and j of raw coordinates."""
@@ -152,14 +162,14 @@ def file_identity(path):
     return [st.st_size, st.st_mtime_ns]
 
 
-def staged(work, source, part, start, stop):
-    """The record of a part staged from the file as it is now, or None."""
+def staged(work, source, part, start, stop, cells):
+    """The record of a part staged from the file as it is now on the grid ``cells``, or None."""
     rec = part_record(work, source.id, part)
     if not rec.is_file():
         return None
     info = json.loads(rec.read_text())
     if (info.get("identity") != file_identity(source.path) or info.get("path") != source.path
-            or info.get("range") != [start, stop]):
+            or info.get("range") != [start, stop] or info.get("grid") != cells.record()):
         return None
     return info
 
@@ -207,6 +217,11 @@ def stage_part(work, source, part, start, stop, cells):
                 n += take
     except LidarSigError:
         raise
+    except OSError as exc:  # the work folder's disk (full, read-only), not the input, failed
+        if exc.filename is not None and str(exc.filename).startswith(str(out)):
+            raise LidarSigError(f"cannot stage {source.name} ({exc.strerror}); free space or give another "
+                                "--work-dir", path=out.parent.parent) from None
+        raise LidarSigError(f"cannot be read ({_reason(exc)})", path=source.path) from None
     except Exception as exc:  # laspy and lazrs raise many kinds on damaged input
         raise LidarSigError(f"cannot be read as LAS/LAZ after {start + n:,} points ({_reason(exc)}); check "
                             "that the file is complete", path=source.path) from None
@@ -214,6 +229,7 @@ def stage_part(work, source, part, start, stop, cells):
         raise LidarSigError(f"holds {start + n:,} points but its header says {source.n_points:,}; the file is "
                             "truncated", path=source.path)
     info = {"path": source.path, "identity": file_identity(source.path), "range": [start, stop], "n": n,
+            "grid": cells.record(),
             "lo": lo.tolist(),
             "hi": hi.tolist(), "labelled": labelled, "cells": sorted(occupied)}
     if part == 0:
