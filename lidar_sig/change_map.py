@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .crs import same_crs
 from .errors import LidarSigError
 from .progress import step
 from .signature import Frame, Signature
@@ -32,6 +33,8 @@ from .signature import Frame, Signature
 CELL = 25.0
 #: Fewest points of a cell, in each epoch, for a signature worth comparing (docs/changes.md).
 MIN_POINTS = 1000
+#: Most cells a change map holds (its table takes about 200 bytes a cell).
+MAX_CELLS = 4_000_000
 #: Frame of the per-cell signatures: 64 px (2 px margin) instead of 512 (docs/changes.md).
 CELL_FRAME = Frame(64, 2)
 #: Metric that ranks the cells by default (docs/changes.md): delta_KL of the class distributions
@@ -67,9 +70,16 @@ class Grid:
         """The smallest grid aligned to multiples of ``size`` that holds every point of ``xy``
         (an (N, 2) array, or several stacked)."""
         lo, hi = xy.min(axis=0), xy.max(axis=0)
-        x0, y0 = (math.floor(v / size) * size for v in lo)
-        cols = int((hi[0] - x0) // size) + 1
-        rows = int((hi[1] - y0) // size) + 1
+        corner = []
+        for v in lo:
+            c = math.floor(v / size) * size
+            if math.floor((v - c) / size) < 0:  # round-off put the corner past the point
+                c -= size
+            corner.append(c)
+        x0, y0 = corner
+        # the arithmetic of cell_of, so that every point falls in a cell
+        cols = int(math.floor((hi[0] - x0) / size)) + 1
+        rows = int(math.floor((hi[1] - y0) / size)) + 1
         return cls(float(x0), float(y0), float(size), rows, cols)
 
     @property
@@ -314,16 +324,6 @@ def read_epoch(source, *, columns=None):
     return PointCloud(np.vstack([c.xyz for c in clouds]), labels, path=name, crs=first.crs, units=first.units)
 
 
-def same_crs(a, b):
-    """Whether two CRS (WKT or any text pyproj reads, or None) are the same; two unknown CRS
-    are the same (both taken as metres)."""
-    if a is None or b is None:
-        return a is None and b is None
-    import pyproj
-
-    return pyproj.CRS.from_user_input(a) == pyproj.CRS.from_user_input(b)
-
-
 def check_cell(cell):
     """The cell side as a float of metres, or LidarSigError naming the value."""
     if isinstance(cell, bool) or not isinstance(cell, (int, float, np.integer, np.floating)) \
@@ -353,7 +353,7 @@ def changes(a, b, *, cell=CELL, pipeline=None, min_points=MIN_POINTS, score=None
     render : str
         Rendering of Sg and Sas for the image metrics (see :mod:`lidar_sig.signature`).
     frame : Frame
-        Frame of the per-cell signatures; default :data:`CELL_FRAME` (128 px).
+        Frame of the per-cell signatures; default :data:`CELL_FRAME` (64 px).
 
     Returns
     -------
@@ -385,6 +385,9 @@ def changes(a, b, *, cell=CELL, pipeline=None, min_points=MIN_POINTS, score=None
                             "geometric metric")
     units = clouds[0].units
     grid = Grid.covering(np.vstack([c.xyz[:, :2] for c in clouds]), cell / units.horizontal)
+    if grid.n_cells > MAX_CELLS:  # a far outlier, or a cell size meant in another unit
+        raise LidarSigError(f"the epochs span {grid.cols:,} x {grid.rows:,} cells of {cell:g} m, more than "
+                            f"{MAX_CELLS:,}; use a larger cell size (--cell) or remove far outlying points")
     filled = np.minimum(*(np.bincount(grid.cell_of(c.xyz[:, :2]), minlength=grid.n_cells) for c in clouds))
     if filled.max() < min_points:  # said before the saliency is computed
         raise LidarSigError(f"no cell of {cell:g} m holds {min_points:,} points in both epochs (at most "

@@ -40,6 +40,23 @@ def test_grid_is_aligned_to_multiples_of_the_cell_and_cells_are_half_open():
     assert x_min.tolist() == [1000.0, 1050.0] and y_max.tolist() == [2100.0, 2025.0]
 
 
+def test_every_point_falls_in_the_grid_where_the_division_rounds():
+    # 27392.3 / 0.1 rounds up to a whole number, putting the floored corner past the point, and
+    # Python's // disagrees with the floor of the division at 6706.2 / 0.1: both used to give
+    # points outside the grid (cell -1) and a ValueError in the binning
+    for xy in (np.array([[27392.3, 100.0], [27400.0, 101.0]]), np.array([[6700.0, 0.0], [6706.2, 3.0]])):
+        g = Grid.covering(xy, 0.1)
+        assert (g.cell_of(xy) >= 0).all() and g.x0 <= xy[:, 0].min()
+
+
+def test_a_far_outlier_is_refused_in_one_line_before_the_saliency():
+    a = small_cloud(0)
+    far = PointCloud(np.vstack([a.xyz, a.xyz[:1] + [2e6, 2e6, 0.0]]), np.concatenate([a.labels, a.labels[:1]]),
+                     crs=a.crs)
+    with pytest.raises(LidarSigError, match="cells of 25 m.*outlying"):
+        changes(far, small_cloud(1), cell=25)
+
+
 def test_per_cell_signatures_add_up_to_the_whole_epoch():
     a, b = small_cloud(0), small_cloud(1)
     cm = changes(a, b, cell=10, min_points=1)
