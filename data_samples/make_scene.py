@@ -1,7 +1,8 @@
 """Generate a small synthetic two-epoch airborne-LiDAR urban scene.
 
 This script writes ``epoch1.laz`` and ``epoch2.laz``, a small demo and test
-data set for the ``lidar_sig`` toolbox. The toolbox compares point-cloud
+data set (and ``epoch2_aligned.laz``, epoch 2 without its rotation, for the
+change map, which compares the same ground cell by cell) for the ``lidar_sig`` toolbox. The toolbox compares point-cloud
 signatures between two acquisitions of the same area. Real data sets are large
 and have licences, so here is a synthetic scene that fits in a repository and
 that any user can rebuild exactly.
@@ -570,8 +571,10 @@ def to_las(pts, date, flight_line):
     return las
 
 
-def make_epoch(scene, epoch):
+def make_epoch(scene, epoch, rotate=True):
     seed, density_factor, rotation_deg, date = EPOCHS[epoch]
+    if not rotate:
+        rotation_deg = 0.0
     pts = sample_scene(scene, seed, density_factor)
     for xk, yk in (("x", "y"), ("pulse_x", "pulse_y")):
         x, y = rotate_about_centre(pts[xk], pts[yk], rotation_deg)
@@ -591,9 +594,11 @@ def main(argv=None):
     args.out.mkdir(parents=True, exist_ok=True)
 
     scenes = build_scenes()
-    for epoch, scene in scenes.items():
-        las = make_epoch(scene, epoch)
-        path = args.out / f"epoch{epoch}.laz"
+    # epoch2_aligned.laz: epoch 2 without the rotation, on epoch 1's ground (for the change map)
+    for epoch, scene, rotate, name in ((1, scenes[1], True, "epoch1"), (2, scenes[2], True, "epoch2"),
+                                       (2, scenes[2], False, "epoch2_aligned")):
+        las = make_epoch(scene, epoch, rotate)
+        path = args.out / f"{name}.laz"
         las.write(path)  # LAZ compression follows the .laz extension
         print(f"wrote {path}: {len(las.points)} points, "
               f"{len(scene.buildings)} buildings, {len(scene.trees)} trees, "
