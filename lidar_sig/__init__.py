@@ -23,7 +23,7 @@ _EXPORTS = {
     "PointCloud": "cloud", "LidarSigError": "errors", "load_signature": "io", "read": "io",
     "compare": "metrics", "Pipeline": "pipeline", "Result": "pipeline", "Saliency": "saliency",
     "Scales": "scales", "knn": "scales", "radii": "scales", "Frame": "signature", "Signature": "signature",
-    "compare_sources": "comparison", "Comparison": "comparison", "resilience": "resilience",
+    "compare_sources": "comparison", "Comparison": "comparison", "resilience": "sampling",
     "Report": "reporting", "report": "reporting", "changes": "change_map", "ChangeMap": "change_map",
     "run_set": "tiling.run", "SetRun": "tiling.run", "executor": "tiling.execute",
     "saliency_in_tiles": "tiling.core",

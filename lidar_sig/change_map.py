@@ -19,13 +19,14 @@ shift of a few decimetres between the epochs moves a few points across a cell ed
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from .crs import same_crs
-from .errors import LidarSigError
+from .errors import LidarSigError, LidarSigWarning
 from .progress import step
 from .signature import Frame, Signature
 
@@ -175,6 +176,8 @@ class ChangeMap:
 
     def ranked(self, n=None):
         """Flat indices of the valid cells, most changed (largest score) first; the first ``n``."""
+        if n is not None and (isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0):
+            raise LidarSigError(f"ranked takes a whole number of cells >= 0 (or None: all), got {n!r}")
         valid = np.flatnonzero(self.table["valid"])
         order = valid[np.argsort(-self.table["score"][valid], kind="stable")]
         return order if n is None else order[:n]
@@ -201,6 +204,8 @@ class ChangeMap:
 
     def top(self, n=10):
         """The ``n`` most changed cells as plain dicts (rank, bounds, counts, metrics, classes)."""
+        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0:
+            raise LidarSigError(f"top takes a whole number of cells >= 0, got {n!r}")
         out = []
         for rank, flat in enumerate(self.ranked(n), 1):
             rec = self.table[flat]
@@ -379,6 +384,11 @@ def changes(a, b, *, cell=CELL, pipeline=None, min_points=MIN_POINTS, score=None
         raise LidarSigError(f"{names[0]} and {names[1]} are in different CRS ({_crs_name(clouds[0].crs)} / "
                             f"{_crs_name(clouds[1].crs)}); reproject one epoch into the other's CRS first")
     labelled = all(c.labels is not None for c in clouds)
+    if not labelled and any(c.labels is not None for c in clouds):
+        bare = names[0] if clouds[0].labels is None else names[1]
+        warnings.warn(f"{bare} has no class labels: the cells are compared by geometry only (ranked by "
+                      f"{score or GEOMETRIC_SCORE}) and both epochs' points are shown as one class", LidarSigWarning,
+                      stacklevel=2)
     score = score or (SCORE if labelled else GEOMETRIC_SCORE)
     if score in ("kl", "l1") and not labelled:
         raise LidarSigError(f"score {score!r} needs class labels in both epochs; use emd_info or another "

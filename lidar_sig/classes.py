@@ -36,6 +36,11 @@ class ClassTable:
         seen = [int(c) for cs in self.codes for c in cs]
         if len(seen) != len(set(seen)):
             raise LidarSigError(f"class table {self.name!r} maps a code to two classes")
+        names = [str(n) for n in self.names]
+        twice = sorted({n for n in names if names.count(n) > 1 or n == "other"})
+        if twice:  # a name stands for one class in counts, reports and archives
+            raise LidarSigError(f"class table {self.name!r} names two classes {', '.join(map(repr, twice))} "
+                                "('other' is the class of codes outside the table); give each class its own name")
 
     @property
     def class_names(self):
@@ -74,7 +79,7 @@ ASPRS = ClassTable(
     "asprs",
     names=("created, never classified", "unclassified", "ground", "low vegetation",
            "medium vegetation", "high vegetation", "building", "low point (noise)",
-           "reserved", "water", "rail", "road surface", "reserved", "wire guard",
+           "reserved (8)", "water", "rail", "road surface", "reserved (12)", "wire guard",
            "wire conductor", "transmission tower", "wire connector", "bridge deck",
            "high noise"),
     codes=tuple((c,) for c in range(19)),

@@ -49,6 +49,8 @@ class PointCloud:
 
     def __post_init__(self):
         try:
+            if np.asarray(self.xyz).dtype.kind not in "iuf":  # complex, booleans, strings, objects
+                raise TypeError
             xyz = np.asarray(self.xyz, dtype=np.float64)
         except (TypeError, ValueError):
             raise LidarSigError(f"coordinates must be numbers, an (N, 3) array; got {type(self.xyz).__name__}",
@@ -56,7 +58,8 @@ class PointCloud:
         if xyz.ndim != 2 or xyz.shape[1] != 3:
             raise LidarSigError(f"coordinates must have shape (N, 3), got {xyz.shape}", path=self.path)
         if xyz.shape[0] == 0:
-            raise LidarSigError("the file holds no points; give a file with points", path=self.path)
+            raise LidarSigError(f"the {'file' if self.path else 'cloud'} holds no points; give one with points",
+                                path=self.path)
         bad = ~np.isfinite(xyz).all(axis=1)
         if bad.any():
             raise LidarSigError(

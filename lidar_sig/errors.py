@@ -3,6 +3,8 @@
 The command line turns a :class:`LidarSigError` into one line on stderr and exit status 2;
 anything else is a bug and keeps its traceback.
 """
+import os
+from pathlib import Path
 
 
 class LidarSigError(ValueError):
@@ -27,3 +29,12 @@ class Interrupted(KeyboardInterrupt):
 
         self.signum = int(signum)
         super().__init__(signal.Signals(self.signum).name)
+
+
+def as_path(value, what):
+    """``value`` (a str or path-like, not empty) as a Path; else a LidarSigError saying that
+    ``what`` takes a path and what it got (its type, not its repr: an array's is many lines)."""
+    if isinstance(value, (str, os.PathLike)) and str(value) != "":
+        return Path(value)
+    got = "an empty path" if isinstance(value, str) else ("None" if value is None else f"a {type(value).__name__}")
+    raise LidarSigError(f"{what} takes a file path, got {got}")

@@ -248,6 +248,10 @@ def fv_distance(a, b, *, grid=FV_GRID):
                                 - fisher_vector(*triangle_positions(b), grid=grid)))
 
 
+#: Most bins per RGB channel of the colour histograms (d_BD-Img, d_EMD-Img).
+MAX_COLOR_BINS = 32
+
+
 def compare(a, b, *, render="smooth", color_bins=8):
     """Every metric between two signatures, as a dict of floats (SPEC 6).
 
@@ -263,7 +267,12 @@ def compare(a, b, *, render="smooth", color_bins=8):
     for name, sig in (("a", a), ("b", b)):
         if not isinstance(sig, Signature):
             raise LidarSigError(f"compare takes two signatures (result.signature or load_signature(path)); "
-                                f"{name} is {sig!r}")
+                                f"{name} is {'None' if sig is None else 'a ' + type(sig).__name__}")
+    if isinstance(color_bins, bool) or not isinstance(color_bins, (int, np.integer)) \
+            or not 2 <= color_bins <= MAX_COLOR_BINS:
+        raise LidarSigError(f"color_bins must be a whole number of bins per RGB channel from 2 to "
+                            f"{MAX_COLOR_BINS}, got {color_bins!r}")
+    color_bins = int(color_bins)
     a.check_comparable(b)
     mask = a.frame.mask()
     sg_a, sas_a = a.render(render)

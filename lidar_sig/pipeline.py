@@ -12,7 +12,7 @@ from . import __version__
 from .classes import UNLABELED, class_table
 from .cloud import PointCloud
 from .compile import announce_compilation
-from .errors import LidarSigError, LidarSigWarning
+from .errors import LidarSigError, LidarSigWarning, as_path
 from .io.open3d import from_open3d, is_open3d
 from .neighbors import WEIGHTS, NeighborIndex, unique_points
 from .plugins import get_descriptor, get_strategy
@@ -40,6 +40,9 @@ class Result:
         dimensions, .ply/.pcd attributes, .xyz/.txt/.pts/.csv columns), a signature archive
         (.h5/.hdf5, with per-point datasets unless ``points=False``) or an image of Sas (.png);
         images are rendered as ``render``."""
+        path = as_path(path, "write")
+        if not isinstance(overwrite, bool):
+            raise LidarSigError(f"overwrite must be True or False, got {overwrite!r}")
         with step(f"writing {Path(path).name}", points=len(self.cloud)):
             self._write(path, Path(path).suffix.lower(), overwrite, points, render)
 
@@ -159,9 +162,14 @@ class Pipeline:
                 "weights": self.weights, "max_neighbors": self.max_neighbors,
                 "min_neighbors": self.min_neighbors}
 
+    def min_points(self):
+        """Fewest distinct locations a cloud needs for this method: the largest k, or
+        ``min_neighbors`` for radius scales."""
+        return max(self.scales.values) if self.scales.kind == "knn" else self.min_neighbors
+
     def _check_size(self, cloud, n_locations):
         n = len(cloud)
-        need = max(self.scales.values) if self.scales.kind == "knn" else self.min_neighbors
+        need = self.min_points()
         if n_locations < need:
             what = f"k = {need}" if self.scales.kind == "knn" else f"{need} neighbours per point"
             where = (f"{n_locations} distinct locations ({n} points)" if n_locations < n

@@ -102,6 +102,16 @@ def test_unlabelled_epochs_rank_by_a_geometric_metric():
     assert np.array_equal(cm.table["score"][valid], cm.table["emd_info"][valid])
 
 
+def test_one_unlabelled_epoch_is_said_not_shown_as_a_class_change():
+    from lidar_sig.errors import LidarSigWarning
+
+    a, b = small_cloud(0), small_cloud(1)
+    b.labels = None
+    with pytest.warns(LidarSigWarning, match="has no class labels.*geometry only"):
+        cm = changes(a, b, cell=10, min_points=100)
+    assert cm.score == "emd_info"
+
+
 # -- must show 1: known edits of real data ----------------------------------------------------
 
 @pytest.fixture(scope="module")

@@ -1,4 +1,4 @@
-"""`lidar-sig resilience` and lidar_sig.resilience: metrics of random subsamples (SPEC 7)."""
+"""`lidar-sig resilience` and lidar_sig.resilience (lidar_sig.sampling): metrics of random subsamples (SPEC 7)."""
 import json
 import subprocess
 import sys
@@ -7,7 +7,7 @@ import numpy as np
 
 import lidar_sig as ls
 from conftest import SAMPLES, airborne_like
-from lidar_sig.resilience import resilience
+from lidar_sig.sampling import resilience
 
 
 def run(*args):
@@ -46,6 +46,10 @@ def test_resilience_refuses_bad_fractions_and_existing_plot_before_work(tmp_path
     for bad in ("0", "1.5", "", "a"):
         proc = run("resilience", SAMPLES / "epoch2.laz", "--fractions", bad)
         assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, (bad, proc.stderr)
+    proc = run("resilience", SAMPLES / "epoch2.laz", "--seed", "-1")
+    assert proc.returncode == 2 and "--seed" in proc.stderr and len(proc.stderr.strip().splitlines()) == 1
+    proc = run("resilience", SAMPLES / "epoch2.laz", "--fractions", "1e-6")
+    assert proc.returncode == 2 and "epoch2.laz" in proc.stderr and "fraction 1e-06 keeps 0" in proc.stderr
     plot = tmp_path / "there.png"
     plot.write_bytes(b"keep")
     proc = run("resilience", SAMPLES / "epoch2.laz", "--plot", plot)

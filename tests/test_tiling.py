@@ -270,7 +270,7 @@ def test_a_set_never_writes_over_its_inputs_nor_two_outputs_on_one_file(tmp_path
     assert not (tmp_path / "out").exists()
 
 
-@pytest.mark.parametrize("size", ["0", "-5", "nan", "inf"])
+@pytest.mark.parametrize("size", ["0", "-5", "nan", "inf", "0.001"])
 def test_a_bad_tile_size_is_one_line_before_any_work(tmp_path, size):
     proc = lidar_sig_cli("signature", SAMPLES / "epoch1.laz", "-o", tmp_path / "s.h5", "--tile-size", size,
                          "--workers", "1")

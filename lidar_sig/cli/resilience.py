@@ -5,7 +5,7 @@ import click
 
 from ..errors import LidarSigError
 from ..io import check_output, read
-from ..resilience import DEFAULT_FRACTIONS, METRIC_KEYS, METRIC_NAMES, plot_resilience, resilience
+from ..sampling import DEFAULT_FRACTIONS, METRIC_KEYS, METRIC_NAMES, plot_resilience, resilience
 from . import cli
 from .options import columns_option, number_list, overwrite_option, pipeline_options, render_option
 
@@ -16,7 +16,8 @@ from .options import columns_option, number_list, overwrite_option, pipeline_opt
               help="Fractions of the points to keep, comma-separated, each in (0, 1].")
 @click.option("--repeats", default=3, show_default=True, type=click.IntRange(1, 1000),
               help="Random subsamples per fraction.")
-@click.option("--seed", default=0, show_default=True, type=int, help="Seed of the random subsamples.")
+@click.option("--seed", default=0, show_default=True, type=click.IntRange(0),
+              help="Seed of the random subsamples.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object on stdout.")
 @click.option("--plot", default=None, help="Also draw every metric against the fraction as a PNG file.")
 @render_option

@@ -7,7 +7,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from ..errors import LidarSigError
+from ..errors import LidarSigError, as_path
 from ..progress import step
 from .atomic import atomic_output, check_output, check_outputs, output_group
 from .hdf5 import HDF5_EXTENSIONS, archive_summary, load_signature, write_archive
@@ -27,8 +27,7 @@ def read(path, *, columns=None):
 
     ``columns`` names the columns of a text file (see :mod:`lidar_sig.io.text`).
     """
-    if not isinstance(path, (str, os.PathLike)):
-        raise LidarSigError(f"read takes a file path, got {path!r}")
+    as_path(path, "read")
     if isinstance(columns, str):
         columns = parse_columns(columns)
     elif columns is not None:

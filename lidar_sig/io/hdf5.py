@@ -13,7 +13,7 @@ import json
 import numpy as np
 
 from ..classes import ClassTable
-from ..errors import LidarSigError
+from ..errors import LidarSigError, as_path
 from ..saliency import LN3
 from ..signature import METHOD_KEYS, Frame, Signature
 from .atomic import atomic_output
@@ -193,6 +193,9 @@ def load_signature(path):
     Every part is checked before use (shapes, counts, the class table, the method record): a
     damaged or hand-edited archive gives a LidarSigError naming what is wrong.
     """
+    path = as_path(path, "load_signature")
+    if not path.is_file():
+        raise LidarSigError("no such file; check the path" if not path.exists() else "is not a file", path=path)
     with _open(path) as f:
         try:
             return _read_signature(f, path)

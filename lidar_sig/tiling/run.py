@@ -28,7 +28,7 @@ import numpy as np
 
 from .. import __version__
 from ..classes import UNLABELED
-from ..errors import LidarSigError
+from ..errors import LidarSigError, as_path
 from ..progress import progress
 from ..saliency import Saliency
 from ..signature import Signature
@@ -44,6 +44,8 @@ POINT_VALUES = np.dtype([("values", "f8", 3), ("chosen", "i8")])
 #: Default points per processing tile (with its halo about a quarter more): what one worker
 #: holds at once, about 0.5 GiB at the pipeline's 0.21 GiB per million points.
 TILE_POINTS = 2_000_000
+#: Fewest points a processing tile holds on average: smaller tiles are refused.
+MIN_TILE_POINTS = 500
 
 
 @dataclass(frozen=True)
@@ -229,35 +231,50 @@ def run_set(pipeline, inputs, *, work, tile_size=None, backend=None, resume=Fals
     """Process the LAS/LAZ files and folders ``inputs`` as one set, in tiles of ``tile_size``
     metres (default: about TILE_POINTS points each), on ``backend``
     (:func:`lidar_sig.tiling.execute.executor`; default this process), with scratch files in
-    ``work``, a folder that must not hold an input or one of the ``outputs`` (it is removed
-    after a complete run). With ``resume``, staged files and finished tiles of an earlier run of
-    the same set, grid and method are reused. Returns a :class:`SetRun`."""
+    ``work``, a folder that must not hold an input or one of the ``outputs``. The results stay
+    in ``work`` (the :class:`SetRun` reads them from there); the command line removes it after a
+    complete run, in Python :func:`remove_work` does. With ``resume``, staged files and finished
+    tiles of an earlier run of the same set, grid and method are reused. Returns a
+    :class:`SetRun`."""
     from .execute import InProcess
 
     check_tileable(pipeline)
-    if tile_size is not None and not (isinstance(tile_size, (int, float)) and math.isfinite(tile_size)
-                                      and tile_size > 0):
+    if tile_size is not None and (isinstance(tile_size, bool) or not isinstance(tile_size, (int, float))
+                                  or not math.isfinite(tile_size) or tile_size <= 0):
         raise LidarSigError(f"the tile size must be a positive number of metres, got {tile_size!r}")
+    as_path(work, "run_set's work (a folder for the run's scratch files)")
+    if isinstance(inputs, (str, os.PathLike)):
+        inputs = [inputs]
+    if not inputs:
+        raise LidarSigError("give at least one LAS/LAZ file or folder")
     start = time.perf_counter()
     backend = backend or InProcess()
     files = expand(inputs)
     sources = scan(files)  # bad inputs are refused before anything is written
+    good = [s for s in sources if s.error is None]
+    if good:
+        factors = good[0].factors
+        lo = np.min([s.lo for s in good], axis=0)
+        hi = np.max([s.hi for s in good], axis=0)
+        extent = (hi[:2] - lo[:2]) * np.asarray(factors[:2])  # metres
+        area = max(float(np.prod(extent)), 1e-12)
+        n_points = sum(s.n_points for s in good)
+        if tile_size is None:  # from the headers: about TILE_POINTS per tile, 2 tiles per worker at least
+            tile_size = min(tile_side_for(TILE_POINTS, n_points / area),
+                            tile_side_for(n_points / (2 * backend.workers), n_points / area))
+        n_tiles = math.prod(max(1, math.ceil(e / tile_size)) for e in extent)
+        if n_tiles > max(4, n_points / MIN_TILE_POINTS):  # halos would outweigh the tiles' own points
+            raise LidarSigError(f"tiles of {tile_size:g} m would hold about {n_points / n_tiles:,.0f} points "
+                                f"each ({n_tiles:,} tiles); give a --tile-size of at least "
+                                f"{tile_side_for(MIN_TILE_POINTS, n_points / area):.3g} m, or none for the "
+                                "default")
     work = prepare_work(work, resume, keep=[*files, *outputs])
     run = SetRun(sources, execution=backend.description)
     for s in sources:
         if s.error:
             run.failed_sources[s.path] = s.error
-    good = [s for s in sources if s.error is None]
     if not good:
         return run
-    factors = good[0].factors
-    lo = np.min([s.lo for s in good], axis=0)
-    hi = np.max([s.hi for s in good], axis=0)
-    if tile_size is None:  # from the headers: about TILE_POINTS per tile, 2 tiles per worker at least
-        area = max(float(np.prod((hi[:2] - lo[:2]) * np.asarray(factors[:2]))), 1e-12)
-        n_points = sum(s.n_points for s in good)
-        tile_size = min(tile_side_for(TILE_POINTS, n_points / area),
-                        tile_side_for(n_points / (2 * backend.workers), n_points / area))
     cells = Cells(tuple(lo[:2].tolist()), float(tile_size) / factors[0] / CELLS_PER_TILE)
 
     # 1. staging
@@ -288,7 +305,7 @@ def run_set(pipeline, inputs, *, work, tile_size=None, backend=None, resume=Fals
     lo = np.min([r["lo"] for r in records.values()], axis=0)
     hi = np.max([r["hi"] for r in records.values()], axis=0)
     n_points = sum(r["n"] for r in records.values())
-    need = max(pipeline.scales.values) if pipeline.scales.kind == "knn" else pipeline.min_neighbors
+    need = pipeline.min_points()
     if n_points < need:
         raise LidarSigError(f"the set holds {n_points} points, fewer than the largest scale needs ({need}); "
                             "use a larger set or smaller scales")

@@ -38,6 +38,21 @@ CASES = {
     "knn empty": (lambda s: ls.knn(), "at least one"),
     "unknown rendering": (lambda s: s.sg("pretty"), "rendering"),
     "class table code True": (lambda s: ls.ClassTable("t", ("a",), ((True,),), ((1, 2, 3),)), "whole numbers"),
+    "class table names twice": (lambda s: ls.ClassTable("t", ("a", "a"), ((2,), (3,)), ((1, 2, 3),) * 2), "'a'"),
+    "class named other": (lambda s: ls.ClassTable("t", ("other",), ((2,),), ((1, 2, 3),)), "'other'"),
+    "color_bins -1": (lambda s: ls.compare(s, s, color_bins=-1), "color_bins"),
+    "color_bins None": (lambda s: ls.compare(s, s, color_bins=None), "color_bins"),
+    "color_bins 1.5": (lambda s: ls.compare(s, s, color_bins=1.5), "color_bins"),
+    "compare an array": (lambda s: ls.compare(s, XYZ), "b is a ndarray"),
+    "read an array": (lambda s: ls.read(XYZ), "got a ndarray"),
+    "read an empty path": (lambda s: ls.read(""), "empty path"),
+    "complex coordinates": (lambda s: ls.Pipeline().run(XYZ.astype(complex)), "numbers"),
+    "load_signature None": (lambda s: ls.load_signature(None), "file path"),
+    "load_signature missing": (lambda s: ls.load_signature("missing.h5"), "no such file"),
+    "run_set work None": (lambda s: ls.run_set(ls.Pipeline(), [SAMPLES / "epoch1.laz"], work=None), "work"),
+    "run_set no input": (lambda s: ls.run_set(ls.Pipeline(), [], work="w"), "at least one"),
+    "resilience seed -1": (lambda s: ls.resilience(XYZ, seed=-1), "seed"),
+    "resilience tiny fraction": (lambda s: ls.resilience(XYZ, fractions=(0.01,)), "fraction 0.01 keeps 3"),
 }
 
 
@@ -58,3 +73,31 @@ def test_arrays_run_like_clouds():
     b = ls.Pipeline().run(ls.PointCloud(XYZ, labels))
     assert np.array_equal(a.saliency.values, b.saliency.values, equal_nan=True)
     assert "metre (assumed: no CRS)" == a.metadata["units"]
+
+
+def test_result_write_refuses_a_bad_path_or_overwrite(tmp_path):
+    result = ls.Pipeline(scales=ls.knn(10)).run(XYZ)
+    for path, named in ((None, "file path"), (3, "got a int")):
+        with pytest.raises(ls.LidarSigError, match=named):
+            result.write(path)
+    (tmp_path / "o.laz").write_bytes(b"keep")
+    with pytest.raises(ls.LidarSigError, match="overwrite must be True or False"):
+        result.write(tmp_path / "o.laz", overwrite="no")
+    assert (tmp_path / "o.laz").read_bytes() == b"keep"
+
+
+def test_public_functions_stay_functions_after_their_modules_are_imported():
+    # a submodule named like a public function would replace it on the package once imported
+    import subprocess
+    import sys
+
+    code = ("import importlib, lidar_sig as ls\n"
+            "import lidar_sig.cli\n"
+            "for name in ls.__all__:\n"
+            "    try: importlib.import_module('lidar_sig.' + ls._EXPORTS[name])\n"
+            "    except ImportError: pass\n"
+            "import types\n"
+            "bad = [n for n in ls.__all__ if isinstance(getattr(ls, n), types.ModuleType)]\n"
+            "print(bad)\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0 and out.stdout.strip() == "[]", out.stdout + out.stderr

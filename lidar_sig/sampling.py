@@ -74,11 +74,19 @@ def resilience(cloud, pipeline=None, *, fractions=DEFAULT_FRACTIONS, repeats=3, 
         raise LidarSigError(f"fractions must be in (0, 1], got {fractions}")
     if int(repeats) < 1:
         raise LidarSigError(f"repeats must be at least 1, got {repeats}")
-    full = pipeline.run(cloud).signature
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise LidarSigError(f"the seed must be a whole number >= 0, got {seed!r}")
     n = len(cloud)
+    points = tuple(int(round(f * n)) for f in fractions)
+    need = pipeline.min_points()
+    if min(points) < need:
+        f = fractions[points.index(min(points))]
+        raise LidarSigError(f"fraction {f:g} keeps {min(points):,} of the {n:,} points of "
+                            f"{cloud.path or 'the cloud'}, fewer than the method needs ({need:,}); give larger "
+                            "fractions")
+    full = pipeline.run(cloud).signature
     rng = np.random.default_rng(seed)
     values = {key: np.full((len(fractions), int(repeats)), np.nan) for key in METRIC_KEYS}
-    points = tuple(int(round(f * n)) for f in fractions)
     runs = [(i, r) for i in range(len(fractions)) for r in range(int(repeats))]
     for i, r in _progress(runs, desc="subsamples", enabled=progress, unit="run"):
         keep = np.sort(rng.choice(n, points[i], replace=False))
