@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from .crs import same_crs
-from .errors import LidarSigError, LidarSigWarning
+from .errors import LidarSigError, LidarSigWarning, whole_number
 from .progress import step
 from .signature import Frame, Signature
 
@@ -176,8 +176,8 @@ class ChangeMap:
 
     def ranked(self, n=None):
         """Flat indices of the valid cells, most changed (largest score) first; the first ``n``."""
-        if n is not None and (isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0):
-            raise LidarSigError(f"ranked takes a whole number of cells >= 0 (or None: all), got {n!r}")
+        if n is not None:
+            n = whole_number(n, "the number of cells")
         valid = np.flatnonzero(self.table["valid"])
         order = valid[np.argsort(-self.table["score"][valid], kind="stable")]
         return order if n is None else order[:n]
@@ -204,8 +204,6 @@ class ChangeMap:
 
     def top(self, n=10):
         """The ``n`` most changed cells as plain dicts (rank, bounds, counts, metrics, classes)."""
-        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0:
-            raise LidarSigError(f"top takes a whole number of cells >= 0, got {n!r}")
         out = []
         for rank, flat in enumerate(self.ranked(n), 1):
             rec = self.table[flat]
@@ -367,8 +365,7 @@ def changes(a, b, *, cell=CELL, pipeline=None, min_points=MIN_POINTS, score=None
     from .pipeline import Pipeline
 
     cell = check_cell(cell)
-    if isinstance(min_points, bool) or not isinstance(min_points, (int, np.integer)) or min_points < 1:
-        raise LidarSigError(f"min_points must be a whole number of points >= 1, got {min_points!r}")
+    min_points = whole_number(min_points, "min_points", low=1)
     if score is not None and score not in METRIC_KEYS:
         raise LidarSigError(f"unknown score {score!r}; use one of {', '.join(METRIC_KEYS)}")
     if pipeline is not None and not isinstance(pipeline, Pipeline):

@@ -49,9 +49,10 @@ class PointCloud:
 
     def __post_init__(self):
         try:
-            if np.asarray(self.xyz).dtype.kind not in "iuf":  # complex, booleans, strings, objects
+            xyz = np.asarray(self.xyz)
+            if xyz.dtype.kind not in "iuf":  # complex, booleans, strings, objects
                 raise TypeError
-            xyz = np.asarray(self.xyz, dtype=np.float64)
+            xyz = xyz.astype(np.float64, copy=False)
         except (TypeError, ValueError):
             raise LidarSigError(f"coordinates must be numbers, an (N, 3) array; got {type(self.xyz).__name__}",
                                 path=self.path) from None

@@ -138,8 +138,10 @@ def _geokeys(header):
 def same_crs(a, b):
     """Whether two CRS (WKT or any text pyproj reads, or None) are the same; two unknown CRS
     are the same (both taken as metres)."""
+    if a == b:  # the usual case, tiles of one survey: no parsing
+        return True
     if a is None or b is None:
-        return a is None and b is None
+        return False
     import pyproj
 
     return pyproj.CRS.from_user_input(a) == pyproj.CRS.from_user_input(b)

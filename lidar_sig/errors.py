@@ -31,6 +31,18 @@ class Interrupted(KeyboardInterrupt):
         super().__init__(signal.Signals(self.signum).name)
 
 
+def whole_number(value, what, *, low=0, high=None):
+    """``value`` as an int if it is a whole number (not a bool) from ``low`` to ``high``; else a
+    LidarSigError naming ``what`` and the value."""
+    import numpy as np
+
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low \
+            or (high is not None and value > high):
+        bounds = f">= {low:,}" if high is None else f"from {low:,} to {high:,}"
+        raise LidarSigError(f"{what} must be a whole number {bounds}, got {value!r}")
+    return int(value)
+
+
 def as_path(value, what):
     """``value`` (a str or path-like, not empty) as a Path; else a LidarSigError saying that
     ``what`` takes a path and what it got (its type, not its repr: an array's is many lines)."""

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import LidarSigError
+from .errors import LidarSigError, whole_number
 from .saliency import LN3
 from .signature import to_uint8
 
@@ -268,11 +268,7 @@ def compare(a, b, *, render="smooth", color_bins=8):
         if not isinstance(sig, Signature):
             raise LidarSigError(f"compare takes two signatures (result.signature or load_signature(path)); "
                                 f"{name} is {'None' if sig is None else 'a ' + type(sig).__name__}")
-    if isinstance(color_bins, bool) or not isinstance(color_bins, (int, np.integer)) \
-            or not 2 <= color_bins <= MAX_COLOR_BINS:
-        raise LidarSigError(f"color_bins must be a whole number of bins per RGB channel from 2 to "
-                            f"{MAX_COLOR_BINS}, got {color_bins!r}")
-    color_bins = int(color_bins)
+    color_bins = whole_number(color_bins, "color_bins (bins per RGB channel)", low=2, high=MAX_COLOR_BINS)
     a.check_comparable(b)
     mask = a.frame.mask()
     sg_a, sas_a = a.render(render)

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import LidarSigError
+from .errors import LidarSigError, whole_number
 from .metrics import compare
 from .progress import progress as _progress
 
@@ -74,8 +74,7 @@ def resilience(cloud, pipeline=None, *, fractions=DEFAULT_FRACTIONS, repeats=3, 
         raise LidarSigError(f"fractions must be in (0, 1], got {fractions}")
     if int(repeats) < 1:
         raise LidarSigError(f"repeats must be at least 1, got {repeats}")
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise LidarSigError(f"the seed must be a whole number >= 0, got {seed!r}")
+    seed = whole_number(seed, "the seed")
     n = len(cloud)
     points = tuple(int(round(f * n)) for f in fractions)
     need = pipeline.min_points()

@@ -87,8 +87,7 @@ class Tiling:
     size: float
 
     def __post_init__(self):
-        if not (math.isfinite(self.size) and self.size > 0):
-            raise LidarSigError(f"the tile size must be a positive number of metres, got {self.size!r}")
+        check_tile_size(self.size)
 
     @property
     def shape(self):
@@ -112,6 +111,14 @@ class Tiling:
         """Every (i, j), row by row."""
         nx, ny = self.shape
         return [(i, j) for j in range(ny) for i in range(nx)]
+
+
+def check_tile_size(size):
+    """The tile side as a float of metres, or LidarSigError naming the value."""
+    if isinstance(size, bool) or not isinstance(size, (int, float, np.integer, np.floating)) \
+            or not math.isfinite(size) or size <= 0:
+        raise LidarSigError(f"the tile size must be a positive number of metres, got {size!r}")
+    return float(size)
 
 
 def tile_name(i, j):

@@ -32,8 +32,8 @@ from ..errors import LidarSigError, as_path
 from ..progress import progress
 from ..saliency import Saliency
 from ..signature import Signature
-from .core import (SetContext, Tiling, _positions, area_cap, check_tileable, context_of, tile_name,
-                   tile_saliency, tile_second_distances)
+from .core import (SetContext, Tiling, _positions, area_cap, check_tile_size, check_tileable, context_of,
+                   tile_name, tile_saliency, tile_second_distances)
 from .sources import (Cells, cell_files, expand, load_cells, scan, source_of, index_of, stage_part, staged,
                       tile_side_for)
 
@@ -239,9 +239,8 @@ def run_set(pipeline, inputs, *, work, tile_size=None, backend=None, resume=Fals
     from .execute import InProcess
 
     check_tileable(pipeline)
-    if tile_size is not None and (isinstance(tile_size, bool) or not isinstance(tile_size, (int, float))
-                                  or not math.isfinite(tile_size) or tile_size <= 0):
-        raise LidarSigError(f"the tile size must be a positive number of metres, got {tile_size!r}")
+    if tile_size is not None:
+        tile_size = check_tile_size(tile_size)
     as_path(work, "run_set's work (a folder for the run's scratch files)")
     if isinstance(inputs, (str, os.PathLike)):
         inputs = [inputs]
