@@ -1,0 +1,136 @@
+"""The package's structure (docs/architecture.md): its modules import each other without a
+cycle, none reaches into another's private (underscore) names, and the architecture page names
+every module. Imports are read from the source with ``ast``, those inside functions included (a
+lazy import still ties the two modules); the lazy public names of ``lidar_sig/__init__.py``
+(loaded through importlib on first use) are not imports."""
+import ast
+import re
+
+from conftest import ROOT
+
+PACKAGE = ROOT / "lidar_sig"
+PAGE = ROOT / "docs" / "architecture.md"
+
+
+def _module_name(path):
+    parts = path.relative_to(ROOT).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+# module name -> source file; a package's __init__ is a module of its own (named like the package)
+MODULES = {_module_name(p): p for p in sorted(PACKAGE.rglob("*.py"))}
+
+
+def _is_package(name):
+    return MODULES[name].name == "__init__.py"
+
+
+def _base(module, node):
+    """The absolute module name an ``ImportFrom`` node imports from."""
+    if node.level == 0:
+        return node.module
+    package = module if _is_package(module) else module.rpartition(".")[0]
+    for _ in range(node.level - 1):
+        package = package.rpartition(".")[0]
+    return f"{package}.{node.module}" if node.module else package
+
+
+def imports(module):
+    """``(target, name, bound)`` for every import of a package module in ``module``: ``name`` is
+    the name taken from ``target`` (None when the import names the module itself) and ``bound``
+    the name it gets in ``module`` (None unless it is bound to a module)."""
+    tree = ast.parse(MODULES[module].read_text(encoding="utf-8"))
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            for alias in node.names:
+                if alias.name in MODULES:
+                    yield alias.name, None, alias.asname
+        elif isinstance(node, ast.ImportFrom):
+            base = _base(module, node)
+            if base not in MODULES:
+                continue
+            for alias in node.names:
+                sub = f"{base}.{alias.name}"
+                if sub in MODULES:  # a submodule: ``from . import page``
+                    yield sub, None, alias.asname or alias.name
+                else:
+                    yield base, alias.name, None
+
+
+def graph():
+    """module -> set of the package modules it imports (itself left out)."""
+    return {m: {t for t, _, _ in imports(m) if t != m} for m in MODULES}
+
+
+def find_cycle(edges):
+    """A list of modules that import each other in a circle (the first again at the end), or None."""
+    state = {}  # module -> "open" while on the path, "done" once every path from it is explored
+    path = []
+
+    def visit(m):
+        state[m] = "open"
+        path.append(m)
+        for t in sorted(edges[m]):
+            if state.get(t) == "open":
+                return path[path.index(t):] + [t]
+            if t not in state:
+                found = visit(t)
+                if found:
+                    return found
+        state[m] = "done"
+        path.pop()
+        return None
+
+    for m in sorted(edges):
+        if m not in state:
+            found = visit(m)
+            if found:
+                return found
+    return None
+
+
+def _private(name):
+    return name.startswith("_") and not (name.startswith("__") and name.endswith("__"))
+
+
+def test_the_walk_finds_the_package_and_its_imports():
+    # the test can fail only if it sees the package: its modules and some lazy imports among them
+    assert {"lidar_sig", "lidar_sig.pipeline", "lidar_sig.io", "lidar_sig.cli"} <= set(MODULES)
+    edges = graph()
+    assert "lidar_sig.signature" in edges["lidar_sig.pipeline"]
+    assert "lidar_sig.io" in edges["lidar_sig.pipeline"]  # a lazy import, inside a function
+    assert find_cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}}) == ["a", "b", "c", "a"]
+    assert find_cycle({"a": {"b"}, "b": set()}) is None
+
+
+def test_no_import_cycle():
+    cycle = find_cycle(graph())
+    assert cycle is None, "modules import each other in a circle: " + " -> ".join(cycle)
+
+
+def test_no_module_takes_another_modules_private_names():
+    found = []
+    for module in MODULES:
+        bound = {}
+        for target, name, as_name in imports(module):
+            if target != module and name is not None and _private(name):
+                found.append(f"{module} imports {name} from {target}")
+            if name is None and as_name:
+                bound[as_name] = target
+        tree = ast.parse(MODULES[module].read_text(encoding="utf-8"))
+        for node in ast.walk(tree):  # page._esc, where page is a module of the package
+            if (isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name)
+                    and node.value.id in bound and bound[node.value.id] != module and _private(node.attr)):
+                found.append(f"{module} uses {node.value.id}.{node.attr} of {bound[node.value.id]}")
+    assert not found, "\n".join(found)
+
+
+def test_the_architecture_page_names_every_module():
+    # the table's first column names each module by its path in lidar_sig/
+    listed = set()
+    for line in PAGE.read_text(encoding="utf-8").splitlines():
+        if line.startswith("|"):
+            listed |= set(re.findall(r"`([\w/]+\.py)`", line.split("|")[1]))
+    files = {str(p.relative_to(PACKAGE)) for p in MODULES.values()}
+    assert not files - listed, f"docs/architecture.md does not name {sorted(files - listed)}"
+    assert not listed - files, f"docs/architecture.md names modules that do not exist: {sorted(listed - files)}"
