@@ -50,3 +50,10 @@ def as_path(value, what):
         return Path(value)
     got = "an empty path" if isinstance(value, str) else ("None" if value is None else f"a {type(value).__name__}")
     raise LidarSigError(f"{what} takes a file path, got {got}")
+
+
+def reason(exc):
+    """The first line of an exception's message, at most 160 characters (its type when it has
+    none): what a library said about a damaged input, for a LidarSigError naming the file."""
+    text = str(exc).strip().splitlines()
+    return (text[0] if text else type(exc).__name__)[:160]

@@ -11,7 +11,8 @@ from ..errors import LidarSigError, as_path
 from ..progress import step
 from .atomic import atomic_output, check_output, check_outputs, output_group
 from .hdf5 import HDF5_EXTENSIONS, archive_summary, load_signature, write_archive
-from .las import LAS_EXTENSIONS, check_las_output, read_las, saliency_fields, write_las
+from .fields import saliency_fields
+from .las import LAS_EXTENSIONS, check_las_output, read_las, write_las
 from .open3d import OPEN3D_EXTENSIONS, read_open3d, write_open3d
 from .text import TEXT_EXTENSIONS, parse_columns, read_text, write_text
 

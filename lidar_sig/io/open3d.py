@@ -27,7 +27,8 @@ import numpy as np
 from ..cloud import PointCloud
 from ..errors import LidarSigError, LidarSigWarning
 from .atomic import atomic_output
-from .table import cloudcompare_name, marker, parse_marker, plain_name, point_table
+from .fields import marker, parse_marker
+from .table import cloudcompare_name, plain_name, point_table
 
 OPEN3D_EXTENSIONS = (".ply", ".pcd")
 LABEL_NAMES = ("label", "classification", "class")
@@ -210,7 +211,7 @@ def to_open3d(result, *, colors="saliency"):
     ``"cloud"`` keeps the cloud's own colours (8-bit LAS values and 16-bit ones scaled to [0, 1]);
     None sets none.
     """
-    from .las import saliency_fields
+    from .fields import saliency_fields
 
     o3d = _open3d()
     cloud, sal = result.cloud, result.saliency

@@ -9,9 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .las import output_names
+from .fields import output_names
 
-MARKER = "lidar_sig"  # first word of the header comment that lists our outputs
 CC_PREFIX = "scalar_"  # CloudCompare's mark of a scalar field in PLY and text files
 _CC_OWN = ("red", "green", "blue", "nx", "ny", "nz")  # colours and normals it reads by name
 
@@ -74,18 +73,3 @@ def _attributes(cloud):
                 if name not in ("X", "Y", "Z", "classification")}
     return dict(cloud.attributes)
 
-
-def marker(outputs):
-    """The header comment naming the attributes a lidar_sig run wrote."""
-    from .. import __version__
-
-    return f"{MARKER} {__version__} outputs: {' '.join(outputs)}"
-
-
-def parse_marker(comments):
-    """The output names listed by a :func:`marker` among header ``comments``, else ()."""
-    for text in comments:
-        words = text.replace(",", " ").split()
-        if len(words) > 2 and words[0] == MARKER and words[2] == "outputs:":
-            return tuple(words[3:])
-    return ()

@@ -20,7 +20,8 @@ import numpy as np
 from ..cloud import PointCloud
 from ..errors import LidarSigError, LidarSigWarning
 from .atomic import atomic_output
-from .table import cloudcompare_name, marker, parse_marker, plain_name, point_table
+from .fields import marker, parse_marker
+from .table import cloudcompare_name, plain_name, point_table
 
 TEXT_EXTENSIONS = (".xyz", ".txt", ".pts", ".csv")
 LAYOUTS = {

@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import LidarSigError
+from ..errors import LidarSigError, reason
 
 LAS_SUFFIXES = (".las", ".laz")
 #: Bits of a point identifier that hold its index in its file (files up to 10^12 points).
@@ -94,7 +94,6 @@ def scan(files):
     import laspy
 
     from ..crs import las_units, same_crs
-    from ..io.las import _reason
 
     sources = []
     for i, f in enumerate(files):
@@ -110,7 +109,7 @@ def scan(files):
         except LidarSigError:
             raise
         except Exception as exc:  # laspy raises many kinds on a damaged header
-            sources.append(Source(i, str(f), error=f"cannot be read as LAS/LAZ ({_reason(exc)})"))
+            sources.append(Source(i, str(f), error=f"cannot be read as LAS/LAZ ({reason(exc)})"))
     good = [s for s in sources if s.error is None]
     for s in good:
         if s.factors != good[0].factors:
@@ -180,8 +179,6 @@ def stage_part(work, source, part, start, stop, cells):
     when it cannot be read."""
     import laspy
 
-    from ..io.las import _reason
-
     out = part_dir(work, source.id, part)
     shutil.rmtree(out, ignore_errors=True)  # an interrupted earlier attempt
     out.mkdir(parents=True)
@@ -221,9 +218,9 @@ def stage_part(work, source, part, start, stop, cells):
         if exc.filename is not None and str(exc.filename).startswith(str(out)):
             raise LidarSigError(f"cannot stage {source.name} ({exc.strerror}); free space or give another "
                                 "--work-dir", path=out.parent.parent) from None
-        raise LidarSigError(f"cannot be read ({_reason(exc)})", path=source.path) from None
+        raise LidarSigError(f"cannot be read ({reason(exc)})", path=source.path) from None
     except Exception as exc:  # laspy and lazrs raise many kinds on damaged input
-        raise LidarSigError(f"cannot be read as LAS/LAZ after {start + n:,} points ({_reason(exc)}); check "
+        raise LidarSigError(f"cannot be read as LAS/LAZ after {start + n:,} points ({reason(exc)}); check "
                             "that the file is complete", path=source.path) from None
     if n != stop - start:
         raise LidarSigError(f"holds {start + n:,} points but its header says {source.n_points:,}; the file is "

@@ -1,0 +1,72 @@
+"""The per-point outputs every format writes (SPEC 8): their values by name, the names they are
+written under beside a user's own attributes, and the header comment that lists them.
+
+LAS/LAZ keeps them as extra dimensions (:mod:`lidar_sig.io.las`), PLY, PCD and text as
+attributes or columns (:mod:`lidar_sig.io.table`); every writer takes its fields from
+:func:`saliency_fields` and its names from :func:`output_names`.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import LidarSigError
+
+#: Prefix of our names when the input already has an attribute of the same name that is not ours.
+PREFIX = "lidar_sig_"
+#: First word of the header comment (PLY, PCD, text) that lists our outputs.
+MARKER = "lidar_sig"
+
+
+def saliency_fields(saliency, scale_kind=None, scale_values=None):
+    """Per-point outputs by their LAS names: Cl, Cs, Cp, Egeom (float32), GeomClass (uint16) and,
+    for Optimal-scale, OptimalScale (uint16: the chosen k, or the 1-based radius index; 0 where
+    undefined). Every writer uses these."""
+    fields = {"Cl": saliency.cl.astype(np.float32), "Cs": saliency.cs.astype(np.float32),
+              "Cp": saliency.cp.astype(np.float32), "Egeom": saliency.egeom.astype(np.float32),
+              "GeomClass": saliency.geom_class.astype(np.uint16)}
+    if saliency.optimal_scale is not None:
+        chosen = saliency.optimal_scale
+        if scale_kind == "knn":
+            value = np.where(chosen >= 0, np.asarray(scale_values)[np.maximum(chosen, 0)], 0)
+        else:
+            value = chosen + 1
+        fields["OptimalScale"] = value.astype(np.uint16)
+    return fields
+
+
+def output_names(fields, existing, previous=(), *, path=None):
+    """Names to write the per-point ``fields`` under, and a note (or None).
+
+    ``existing`` are the attribute names the output already holds, ``previous`` those of them an
+    earlier lidar_sig run wrote (the caller drops them: they are replaced). When the input has
+    an attribute of its own under one of our names, every field is written as ``lidar_sig_<name>``
+    so that nothing of the user's is overwritten.
+    """
+    own = set(existing) - set(previous)
+    clash = [n for n in fields if n in own]
+    if not clash:
+        return {n: n for n in fields}, None
+    names = {n: PREFIX + n for n in fields}
+    taken = [v for v in names.values() if v in own]
+    if taken:
+        raise LidarSigError(f"has its own attributes {', '.join(clash + taken)}, named like lidar_sig's "
+                            "outputs; rename them before running", path=path or "input")
+    note = (f"the input has its own {', '.join(clash)} (not written by lidar_sig), kept as they are; "
+            f"the saliency is written as {', '.join(names.values())}")
+    return names, note
+
+
+def marker(outputs):
+    """The header comment naming the attributes a lidar_sig run wrote."""
+    from .. import __version__
+
+    return f"{MARKER} {__version__} outputs: {' '.join(outputs)}"
+
+
+def parse_marker(comments):
+    """The output names listed by a :func:`marker` among header ``comments``, else ()."""
+    for text in comments:
+        words = text.replace(",", " ").split()
+        if len(words) > 2 and words[0] == MARKER and words[2] == "outputs:":
+            return tuple(words[3:])
+    return ()

@@ -1,0 +1,115 @@
+"""The saliency's extra dimensions (SPEC 8): their LAS types and descriptions, how a later run
+recognises the ones an earlier run wrote, adding them to a LasData, and the min and max each
+extra-bytes record declares.
+"""
+from __future__ import annotations
+
+import laspy
+import numpy as np
+
+from ..fields import PREFIX, output_names, saliency_fields
+
+# name -> (LAS extra-bytes type, description of at most 32 bytes). 2-byte integers because
+# QGIS drops 1-byte extra dimensions. The descriptions also mark a dimension as ours.
+SALIENCY_DIMS = {
+    "Cl": ("f4", "line-type saliency Cl [0,1]"),
+    "Cs": ("f4", "surface-type saliency Cs [0,1]"),
+    "Cp": ("f4", "point-type saliency Cp [0,1]"),
+    "Egeom": ("f4", "geometric entropy [nats]"),
+    "GeomClass": ("u2", "1 line 2 surface 3 point 0 none"),
+    "OptimalScale": ("u2", ""),  # description set per run: k, or radius index
+}
+#: Description of OptimalScale per kind of scales.
+OPTIMAL_DESCRIPTIONS = {"knn": "k of minimum-entropy scale", "radius": "index of min-entropy radius"}
+# Undefined saliency: NaN in the float dimensions, 0 in the integer ones (GeomClass "none",
+# OptimalScale "no scale"); declared as the no-data value of each extra dimension.
+NO_DATA = {"f": np.nan, "u": 0}
+
+
+def is_ours(name, description):
+    """True for a dimension a lidar_sig run wrote: one of our names (plain or prefixed) with
+    the description we give it."""
+    base = name[len(PREFIX):] if name.startswith(PREFIX) else name
+    if base == "OptimalScale":
+        return description in OPTIMAL_DESCRIPTIONS.values()
+    return base in SALIENCY_DIMS and description == SALIENCY_DIMS[base][1]
+
+
+def lidar_sig_dims(las):
+    """Names of the extra dimensions of ``las`` that an earlier lidar_sig run wrote."""
+    return tuple(d.name for d in las.point_format.extra_dimensions if is_ours(d.name, d.description))
+
+
+def add_saliency_dims(las, saliency, scale_kind=None, scale_values=None, *, path=None):
+    """Set the saliency extra dimensions of ``las`` (those of an earlier run are replaced);
+    returns the notes on what the caller should know (outputs renamed beside a user's own)."""
+    notes = []
+    previous = lidar_sig_dims(las)
+    if previous:  # a re-run replaces instead of duplicating
+        las.remove_extra_dims(previous)
+    fields = saliency_fields(saliency, scale_kind, scale_values)
+    names, note = output_names(fields, las.point_format.dimension_names, previous, path=path)
+    if note:
+        notes.append(note)
+    params = []
+    for name, values in fields.items():
+        kind, desc = SALIENCY_DIMS[name]
+        if name == "OptimalScale":
+            desc = OPTIMAL_DESCRIPTIONS[scale_kind]
+        params.append(laspy.ExtraBytesParams(name=names[name], type=np.dtype(kind), description=desc,
+                                             no_data=[NO_DATA[np.dtype(kind).kind]]))
+    las.add_extra_dims(params)
+    for name, values in fields.items():
+        las[names[name]] = values
+    return notes
+
+
+def extend_ranges(ranges, header, points):
+    """Widen ``ranges`` ({(name, element): (min, max)}) by each extra dimension's values in
+    ``points`` that are not its no-data value (NaN never counts), as
+    :func:`set_extra_bytes_ranges` keeps them: over the chunks of a file written in parts."""
+    for vlr in header.vlrs.get("ExtraBytesVlr"):
+        for record in vlr.extra_bytes_structs:
+            name = record.format_name()
+            if name not in points.array.dtype.names:
+                continue
+            raw = np.asarray(points.array[name]).reshape(len(points), -1)
+            keep = ~np.isnan(raw) if raw.dtype.kind == "f" else np.ones(raw.shape, bool)
+            no_data = record.no_data
+            if no_data is not None:
+                for i in range(raw.shape[1]):
+                    if not np.isnan(no_data[i]):
+                        keep[:, i] &= raw[:, i] != no_data[i]
+            for i in range(raw.shape[1]):
+                values = raw[keep[:, i], i]
+                if len(values):
+                    lo, hi = ranges.get((name, i), (values.min(), values.max()))
+                    ranges[(name, i)] = (min(lo, values.min()), max(hi, values.max()))
+
+
+def set_extra_bytes_ranges(header, points, ranges=None):
+    """Store in each extra-bytes record that flags a min or a max the true min and max of the
+    dimension's values that are not its no-data value (NaN never counts); a dimension without
+    such values gets none. ``ranges`` ({(name, element): (min, max)}, from a file written in
+    chunks) replaces ``points``.
+
+    laspy (2.7) rebuilds every record when dimensions are added, flags both and stores the first
+    point's value: a user's dimensions get their true range too.
+    """
+    if ranges is None:
+        ranges = {}
+        extend_ranges(ranges, header, points)
+    for vlr in header.vlrs.get("ExtraBytesVlr"):
+        for record in vlr.extra_bytes_structs:
+            if record.data_type == 0 or not (record.min_is_relevant() or record.max_is_relevant()):
+                continue
+            low, high = record._raw_min(), record._raw_max()  # writable views, None where not flagged
+            for i in range(record.num_elements()):
+                if (record.format_name(), i) not in ranges:
+                    record.options &= ~(record.MIN_BIT_MASK | record.MAX_BIT_MASK)
+                    break
+                lo_i, hi_i = ranges[(record.format_name(), i)]
+                if low is not None:
+                    low[i] = lo_i
+                if high is not None:
+                    high[i] = hi_i

@@ -1,0 +1,56 @@
+"""Reading a LAS/LAZ file into a PointCloud: the points, the ASPRS class codes, the CRS and its
+units, and the extra dimensions an earlier lidar_sig run wrote."""
+from __future__ import annotations
+
+import os
+import warnings
+
+import laspy
+import numpy as np
+
+from ...cloud import PointCloud
+from ...crs import las_units
+from ...errors import LidarSigError, LidarSigWarning, reason
+from .dims import lidar_sig_dims
+
+LAS_EXTENSIONS = (".las", ".laz")
+
+
+def read_las(path):
+    """Read a LAS/LAZ file; labels are the ASPRS classification codes."""
+    try:
+        las = laspy.read(path)
+    except Exception as exc:  # laspy and lazrs raise many kinds on damaged input
+        raise LidarSigError(f"cannot be read as LAS/LAZ ({reason(exc)}); check that the file "
+                            "is complete and really LAS/LAZ", path=path) from None
+    if len(las.points) == 0:
+        raise LidarSigError("the file holds no points; give a file with points", path=path)
+    if len(las.points) != las.header.point_count:
+        raise LidarSigError(f"holds {len(las.points)} points but its header says "
+                            f"{las.header.point_count}; the file is truncated", path=path)
+    records = _records_in_file(path, las.header)
+    if records is not None and records > las.header.point_count:
+        warnings.warn(f"{path}: the header counts {las.header.point_count:,} points but the file holds "
+                      f"{records:,} point records; only the header's {las.header.point_count:,} are read (fix the "
+                      "header's point count to use them all)", LidarSigWarning, stacklevel=3)
+    xyz = np.column_stack([np.asarray(las.x), np.asarray(las.y), np.asarray(las.z)])
+    labels = np.asarray(las.classification, dtype=np.int64)
+    if not labels.any():
+        labels = None  # class 0 "created, never classified" everywhere: an unlabeled cloud
+    crs, units = las_units(las.header, path=path)
+    return PointCloud(xyz, labels, source=las, path=str(path), previous_outputs=lidar_sig_dims(las),
+                      crs=crs, units=units)
+
+
+def _records_in_file(path, header):
+    """Point records an uncompressed LAS file holds, from its size (None for LAZ, where only the
+    compressed chunks know): a header may count fewer than there are."""
+    if header.are_points_compressed:
+        return None
+    end = os.path.getsize(path)
+    if header.number_of_evlrs and header.start_of_first_evlr:
+        end = min(end, header.start_of_first_evlr)
+    waveforms = getattr(header, "start_of_waveform_data_packet_record", 0)
+    if waveforms and waveforms > header.offset_to_point_data:
+        end = min(end, waveforms)
+    return max(0, end - header.offset_to_point_data) // header.point_format.size

@@ -1,0 +1,121 @@
+"""Writing a cloud with its saliency as a LAS 1.4 file (SPEC 8), whole or chunk by chunk, atomically;
+a failed write (a full disk) is reported as such."""
+from __future__ import annotations
+
+import contextlib
+import copy
+import warnings
+
+import laspy
+import numpy as np
+
+from ...cloud import PointCloud
+from ...crs import las_units
+from ...errors import LidarSigError, LidarSigWarning
+from ..atomic import atomic_output, stop_if_interrupted
+from .build import check_las_output, to_lasdata
+from .copc import without_copc
+from .dims import add_saliency_dims, extend_ranges, set_extra_bytes_ranges
+
+
+def write_las(path, cloud, saliency, *, scale_kind=None, scale_values=None, overwrite=False):
+    """Write the cloud with saliency extra dimensions (SPEC 8) to ``path`` (.las or .laz), LAS 1.4.
+
+    Cl, Cs, Cp, Egeom as float32 (NaN where undefined), GeomClass as uint16 (0 where undefined);
+    with an Optimal-scale result also OptimalScale (uint16): the chosen k for k-nearest scales,
+    the 1-based radius index for spherical ones, 0 where undefined. NaN and 0 are declared as the
+    dimensions' no-data values; their min and max are those of the defined values. What the
+    caller should know (an upgraded version, a dropped COPC index, renamed outputs) is issued as
+    a :class:`LidarSigWarning` once the file is written.
+    """
+    check_las_output(cloud, path)
+    las, notes = with_saliency(cloud, saliency, scale_kind, scale_values)
+    with _las_writer(path, las.header, overwrite) as writer:
+        writer.write_points(las.points)
+        if las.evlrs:
+            writer.write_evlrs(las.evlrs)
+        # the writer rewrites its header, VLRs included, when it closes
+        set_extra_bytes_ranges(writer.header, las.points)
+    for text in notes:
+        warnings.warn(text, LidarSigWarning, stacklevel=4)  # the caller of Result.write
+
+
+def with_saliency(cloud, saliency, scale_kind=None, scale_values=None):
+    """The LAS 1.4 LasData written for ``cloud`` (see :func:`lidar_sig.io.las.build.to_lasdata`)
+    with the saliency extra dimensions set, and the notes on what changed."""
+    las, notes = to_lasdata(cloud)
+    notes += add_saliency_dims(las, saliency, scale_kind, scale_values, path=cloud.path)
+    return las, notes
+
+
+def write_las_chunks(path, source, saliency_chunks, *, scale_kind=None, scale_values=None, overwrite=False,
+                     chunk_points=500_000):
+    """Write the LAS/LAZ file ``source`` with saliency extra dimensions to ``path``, as
+    :func:`write_las` does, chunk by chunk: ``saliency_chunks(start, stop)`` gives the Saliency
+    of points [start, stop). Memory is bounded by the chunk, whatever the file's size."""
+    notes = []
+    ranges = {}
+    with laspy.open(source) as reader:
+        crs, units = las_units(reader.header, path=source)
+        header, evlrs = reader.header, reader.header.evlrs
+        writer_cm = writer = None
+        start = 0
+        try:
+            for chunk in reader.chunk_iterator(chunk_points):
+                stop = start + len(chunk)
+                part = laspy.LasData(header=copy.deepcopy(header), points=chunk)
+                cloud = PointCloud(np.column_stack([np.asarray(chunk.x), np.asarray(chunk.y), np.asarray(chunk.z)]),
+                                   source=part, path=str(source), crs=crs, units=units)
+                las, notes = with_saliency(cloud, saliency_chunks(start, stop), scale_kind, scale_values)
+                if writer is None:
+                    writer_cm = _las_writer(path, las.header, overwrite)
+                    writer = writer_cm.__enter__()
+                writer.write_points(las.points)
+                extend_ranges(ranges, las.header, las.points)
+                start = stop
+                stop_if_interrupted()  # a long streamed write ends soon after Ctrl-C or SIGTERM
+            if writer is None:
+                raise LidarSigError("the file holds no points; give a file with points", path=source)
+            if evlrs:
+                writer.write_evlrs(without_copc(evlrs))
+            set_extra_bytes_ranges(writer.header, None, ranges)
+        except BaseException as exc:
+            if writer_cm is not None:
+                writer_cm.__exit__(type(exc), exc, exc.__traceback__)
+            raise
+        writer_cm.__exit__(None, None, None)
+    for text in notes:
+        warnings.warn(text, LidarSigWarning, stacklevel=2)
+
+
+@contextlib.contextmanager
+def _las_writer(path, header, overwrite):
+    compress = str(path).lower().endswith(".laz")
+    with atomic_output(path, overwrite=overwrite) as tmp, open(tmp, "wb") as raw:
+        fh = _KeepsWriteErrors(raw)
+        try:
+            with laspy.LasWriter(fh, header, do_compress=compress, closefd=False) as writer:
+                yield writer
+        except Exception:
+            if fh.error is not None:  # lazrs reports a failed write as an error of its own
+                raise fh.error from None
+            raise
+
+
+class _KeepsWriteErrors:
+    """A file that keeps the OSError of a failed write (a full disk, a quota), so that it is
+    reported as such when the LAZ compressor turns it into an error of its own."""
+
+    def __init__(self, fh):
+        self._fh = fh
+        self.error = None
+
+    def write(self, data):
+        try:
+            return self._fh.write(data)
+        except OSError as exc:
+            self.error = exc
+            raise
+
+    def __getattr__(self, name):
+        return getattr(self._fh, name)
