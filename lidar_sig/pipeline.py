@@ -12,7 +12,7 @@ from . import __version__
 from .classes import UNLABELED, class_table
 from .cloud import PointCloud
 from .compile import announce_compilation
-from .errors import LidarSigError, LidarSigWarning, as_path
+from .errors import LidarSigError, LidarSigWarning
 from .io.open3d import from_open3d, is_open3d
 from .neighbors import WEIGHTS, NeighborIndex, unique_points
 from .plugins import get_descriptor, get_strategy
@@ -39,30 +39,10 @@ class Result:
         """Write to ``path`` by extension: a point cloud with per-point saliency (.las/.laz extra
         dimensions, .ply/.pcd attributes, .xyz/.txt/.pts/.csv columns), a signature archive
         (.h5/.hdf5, with per-point datasets unless ``points=False``) or an image of Sas (.png);
-        images are rendered as ``render``."""
-        path = as_path(path, "write")
-        if not isinstance(overwrite, bool):
-            raise LidarSigError(f"overwrite must be True or False, got {overwrite!r}")
-        with step(f"writing {Path(path).name}", points=len(self.cloud)):
-            self._write(path, Path(path).suffix.lower(), overwrite, points, render)
+        images are rendered as ``render`` (:func:`lidar_sig.io.results.write_result`)."""
+        from .io.results import write_result
 
-    def _write(self, path, ext, overwrite, points, render):
-        from .io import CLOUD_EXTENSIONS, HDF5_EXTENSIONS, write_archive, write_cloud
-        from .render import write_signature_png
-
-        if ext in CLOUD_EXTENSIONS:
-            write_cloud(path, self.cloud, self.saliency, scale_kind=self.metadata["scale_kind"],
-                        scale_values=self.metadata["scale_values"], overwrite=overwrite)
-        elif ext in HDF5_EXTENSIONS:
-            sources = [self.cloud.path] if self.cloud.path and Path(self.cloud.path).is_file() else []
-            write_archive(path, self.signature, saliency=self.saliency if points else None,
-                          labels=self.cloud.labels if points else None, sources=sources,
-                          render=render, overwrite=overwrite)
-        elif ext == ".png":
-            write_signature_png(path, self.signature, mode=render, overwrite=overwrite)
-        else:
-            raise LidarSigError(f"cannot write {ext or 'files without extension'}; use a point-cloud "
-                                "format, .h5 or .png", path=path)
+        write_result(self, path, overwrite=overwrite, points=points, render=render)
 
     def to_open3d(self, *, colors="saliency"):
         """An ``open3d.t.geometry.PointCloud`` with the per-point outputs as attributes and, by
