@@ -51,6 +51,11 @@ METRICS = (
     Metric("l1", "L1", "0 to 2", 0.0, True, "L1 distance of class distributions",
            "changes in class shares: twice the share of points that would have to change class"),
 )
+#: Keys of the metrics (of :func:`compare`'s dict), in the order of METRICS: the order of every
+#: table of metrics and of the change map's GeoTIFF bands.
+METRIC_KEYS = tuple(m.key for m in METRICS)
+#: The paper's name of each metric, by key.
+METRIC_NAMES = {m.key: m.name for m in METRICS}
 
 
 def _as_counts(p, q):

@@ -11,12 +11,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import LidarSigError, whole_number
-from .metrics import compare
+from .metrics import METRIC_KEYS, METRIC_NAMES, compare
 from .progress import progress as _progress
 
-METRIC_KEYS = ("bhattacharyya", "ssim", "emd_info", "emd_img", "fv", "kl", "l1")
-METRIC_NAMES = dict(zip(METRIC_KEYS, ("d_BD-Img", "s_SSIM", "d_EMD-Info", "d_EMD-Img", "delta_FV",
-                                      "delta_KL", "L1")))
 DEFAULT_FRACTIONS = tuple(round(f, 1) for f in np.arange(1.0, 0.05, -0.1))
 
 

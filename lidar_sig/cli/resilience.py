@@ -5,7 +5,8 @@ import click
 
 from ..errors import LidarSigError
 from ..io import check_output, read
-from ..sampling import DEFAULT_FRACTIONS, METRIC_KEYS, METRIC_NAMES, plot_resilience, resilience
+from ..metrics import METRIC_KEYS, METRIC_NAMES
+from ..sampling import DEFAULT_FRACTIONS, plot_resilience, resilience
 from . import cli
 from .options import columns_option, number_list, overwrite_option, pipeline_options, render_option
 
