@@ -145,3 +145,16 @@ def same_crs(a, b):
     import pyproj
 
     return pyproj.CRS.from_user_input(a) == pyproj.CRS.from_user_input(b)
+
+
+def crs_name(crs):
+    """The name of a CRS (WKT or any text pyproj reads) for people, e.g. "RGF93 v1 / Lambert-93";
+    None without one, the start of the text itself when pyproj cannot read it."""
+    if not crs:
+        return None
+    try:
+        import pyproj
+
+        return pyproj.CRS.from_user_input(crs).name
+    except Exception:  # an unreadable CRS text is shown as it is
+        return str(crs)[:80]

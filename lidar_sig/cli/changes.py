@@ -3,9 +3,9 @@ import json
 
 import click
 
-from ..change_map import CELL, METRIC_KEYS, MIN_POINTS, changes, check_cell
+from ..change_map import CELL, MIN_POINTS, changes, check_cell
 from ..errors import LidarSigError
-from ..metrics import METRICS
+from ..metrics import METRIC_KEYS, METRIC_NAMES
 from . import cli
 from .options import columns_option, overwrite_option, pipeline_options, render_option
 
@@ -48,9 +48,8 @@ def changes_command(a, b, output, cell, min_points, score, top, png, report, as_
         return
     info = result.to_dict(top)
     grid = info["grid"]
-    names = {m.key: m.name for m in METRICS}
     click.echo(f"{grid['rows']} x {grid['cols']} cells of {cell_m:g} m, {grid['valid']} compared (both epochs "
-               f"with {min_points:,} points or more); ranked by {names[result.score]}")
+               f"with {min_points:,} points or more); ranked by {METRIC_NAMES[result.score]}")
     click.echo(f"{'rank':>4} {'x min':>10} {'y min':>11} {'points A':>9} {'points B':>9} {'score':>8}  classes A -> B")
     for item in info["top"]:
         classes = ", ".join(f"{k} {na:,}->{nb:,}" for k, (na, nb) in item["classes"].items())

@@ -1,0 +1,74 @@
+"""The epochs of a change map: each read from a file, a folder of tiles or a list of files (tiles
+joined into one cloud), the two checked to be in one CRS, and each held with its saliency."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..cloud import PointCloud
+from ..crs import crs_name, same_crs
+from ..errors import LidarSigError
+
+
+@dataclass
+class Epoch:
+    """One epoch of a change map: its name, cloud, per-point saliency (SPEC 1), the run's
+    statistics and, once binned, the flat cell index of each point."""
+
+    name: str
+    cloud: object
+    saliency: object
+    metadata: dict = field(default_factory=dict)
+    cells: np.ndarray = None
+
+
+def read_epoch(source, *, columns=None):
+    """A PointCloud from a file, a folder of tiles, a list of files, or a PointCloud.
+
+    Tiles of one epoch are joined into one cloud (their saliency is then computed across tile
+    edges); they must share one CRS and be all labelled or all unlabelled.
+    """
+    from ..io import CLOUD_EXTENSIONS, read
+
+    if isinstance(source, PointCloud):
+        return source
+    if isinstance(source, (str, Path)) and Path(source).is_dir():
+        paths = sorted(p for p in Path(source).iterdir() if p.suffix.lower() in CLOUD_EXTENSIONS)
+        if not paths:
+            raise LidarSigError(f"holds no point-cloud files ({', '.join(CLOUD_EXTENSIONS)})", path=source)
+    elif isinstance(source, (list, tuple)):
+        paths = list(source)
+        if not paths:
+            raise LidarSigError("an epoch given as a list needs at least one file")
+    elif isinstance(source, (str, Path)):
+        return read(source, columns=columns)
+    else:
+        raise LidarSigError(f"cannot read an epoch from a {type(source).__name__}; give a file, a folder of "
+                            "tiles, a list of files or a PointCloud")
+    clouds = [read(p, columns=columns) for p in paths]
+    if len(clouds) == 1:
+        return clouds[0]
+    first = clouds[0]
+    for c in clouds[1:]:
+        if not same_crs(first.crs, c.crs):
+            raise LidarSigError(f"is in another CRS than {first.path}; tiles of one epoch must share one CRS",
+                                path=c.path)
+        if (c.labels is None) != (first.labels is None):
+            raise LidarSigError(f"has {'no ' if c.labels is None else ''}class labels unlike {first.path}; "
+                                "give tiles of one epoch that are all labelled or all unlabelled", path=c.path)
+    labels = None if first.labels is None else np.concatenate([c.labels for c in clouds])
+    name = str(source) if not isinstance(source, (list, tuple)) else f"{first.path} (+{len(clouds) - 1} tiles)"
+    return PointCloud(np.vstack([c.xyz for c in clouds]), labels, path=name, crs=first.crs, units=first.units)
+
+
+def check_same_crs(clouds, names):
+    """Refuse two epochs that are not in one CRS (or of which one has none), naming both."""
+    if (clouds[0].crs is None) != (clouds[1].crs is None):
+        k = 0 if clouds[1].crs is None else 1  # the epoch that has one
+        raise LidarSigError(f"{names[1 - k]} has no CRS while {names[k]} is in {crs_name(clouds[k].crs)}; "
+                            "give both epochs in one CRS")
+    if not same_crs(clouds[0].crs, clouds[1].crs):
+        raise LidarSigError(f"{names[0]} and {names[1]} are in different CRS ({crs_name(clouds[0].crs)} / "
+                            f"{crs_name(clouds[1].crs)}); reproject one epoch into the other's CRS first")

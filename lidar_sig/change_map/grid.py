@@ -1,0 +1,81 @@
+"""The change map's grid: square cells in CRS coordinates, aligned to multiples of the cell size,
+north up; which cell holds each point, and each cell's bounds."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import LidarSigError
+
+#: Default cell side, in metres.
+CELL = 25.0
+#: Most cells a change map holds (its table takes about 200 bytes a cell).
+MAX_CELLS = 4_000_000
+
+
+@dataclass(frozen=True)
+class Grid:
+    """A regular grid of square cells in CRS coordinates, north up.
+
+    ``x0, y0`` is the lower-left corner (multiples of ``size``), ``size`` the cell side in CRS
+    units, ``rows x cols`` cells; raster row 0 is the northernmost row.
+    """
+
+    x0: float
+    y0: float
+    size: float
+    rows: int
+    cols: int
+
+    @classmethod
+    def covering(cls, xy, size):
+        """The smallest grid aligned to multiples of ``size`` that holds every point of ``xy``
+        (an (N, 2) array, or several stacked)."""
+        lo, hi = xy.min(axis=0), xy.max(axis=0)
+        corner = []
+        for v in lo:
+            c = math.floor(v / size) * size
+            if math.floor((v - c) / size) < 0:  # round-off put the corner past the point
+                c -= size
+            corner.append(c)
+        x0, y0 = corner
+        # the arithmetic of cell_of, so that every point falls in a cell
+        cols = int(math.floor((hi[0] - x0) / size)) + 1
+        rows = int(math.floor((hi[1] - y0) / size)) + 1
+        return cls(float(x0), float(y0), float(size), rows, cols)
+
+    @property
+    def n_cells(self):
+        return self.rows * self.cols
+
+    @property
+    def transform(self):
+        """Affine coefficients (a, b, c, d, e, f) from (col, row) to (x, y) of the raster's
+        pixel corners: x = a col + b row + c, y = d col + e row + f (rasterio's order;
+        GDAL's GetGeoTransform order is (c, a, b, f, d, e))."""
+        return (self.size, 0.0, self.x0, 0.0, -self.size, self.y0 + self.rows * self.size)
+
+    def cell_of(self, xy):
+        """(N,) flat cell index (row-major, row 0 north) of each point, -1 outside the grid."""
+        col = np.floor((xy[:, 0] - self.x0) / self.size).astype(np.int64)
+        j = np.floor((xy[:, 1] - self.y0) / self.size).astype(np.int64)
+        row = self.rows - 1 - j
+        inside = (col >= 0) & (col < self.cols) & (row >= 0) & (row < self.rows)
+        return np.where(inside, row * self.cols + col, -1)
+
+    def bounds(self, flat):
+        """(x_min, y_min, x_max, y_max) arrays of the cells ``flat``."""
+        row, col = np.divmod(np.asarray(flat), self.cols)
+        x_min = self.x0 + col * self.size
+        y_min = self.y0 + (self.rows - 1 - row) * self.size
+        return x_min, y_min, x_min + self.size, y_min + self.size
+
+
+def check_cell(cell):
+    """The cell side as a float of metres, or LidarSigError naming the value."""
+    if isinstance(cell, bool) or not isinstance(cell, (int, float, np.integer, np.floating)) \
+            or not math.isfinite(cell) or cell <= 0:
+        raise LidarSigError(f"the cell size must be a positive number of metres, got {cell!r}")
+    return float(cell)
