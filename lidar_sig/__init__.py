@@ -24,7 +24,7 @@ _EXPORTS = {
     "compare": "metrics", "Pipeline": "pipeline", "Result": "pipeline", "Saliency": "saliency",
     "Scales": "scales", "knn": "scales", "radii": "scales", "Frame": "signature", "Signature": "signature",
     "compare_sources": "comparison", "Comparison": "comparison", "resilience": "sampling",
-    "Report": "reporting", "report": "reporting", "changes": "change_map", "ChangeMap": "change_map",
+    "Report": "reporting", "report": "comparison", "changes": "change_map", "ChangeMap": "change_map",
     "run_set": "tiling.run", "SetRun": "tiling.run", "executor": "tiling.execute",
     "saliency_in_tiles": "tiling.core",
 }

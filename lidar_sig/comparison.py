@@ -1,10 +1,12 @@
-"""Comparing two clouds, or their archives, with one method (SPEC 6): `lidar-sig compare`.
+"""Comparing two clouds, or their archives, with one method (SPEC 6): `lidar-sig compare`, and
+the report of one input or of two compared (:func:`report`).
 
 Both sides must be made the same way: two clouds are computed with one pipeline (the same k, or
 the same radii in metres); a cloud compared with an archive is computed the way the archive was
 made; two archives must record the same method, class table and frame. The image metrics render
 both signatures alike (the counts are lossless, so any rendering can be chosen afterwards).
-Warnings say what may make the figures mislead, and nothing else.
+Warnings say what may make the figures mislead, and nothing else. An input is a path, a
+PointCloud, a Signature or a pipeline Result; :class:`Side` holds one as compared and reported.
 """
 from __future__ import annotations
 
@@ -80,6 +82,45 @@ class Comparison:
         return comparison_report(self)
 
 
+def report(a, b=None, pipeline=None, *, render=None, columns=None):
+    """The report of one cloud, or of the comparison of two (:mod:`lidar_sig.reporting`).
+
+    Parameters
+    ----------
+    a, b : str, Path, PointCloud, Signature, Result or Comparison
+        Clouds or archives as :func:`compare_sources` takes them (``b`` None for one cloud's
+        report), a pipeline ``Result``, or an already made ``Comparison``.
+    pipeline : Pipeline, optional
+        The method for clouds; default ``Pipeline()``.
+    render : str, optional
+        Rendering of Sg and Sas (see :mod:`lidar_sig.signature`); default "smooth".
+
+    >>> import lidar_sig as ls                                         # doctest: +SKIP
+    >>> ls.report("epoch1.laz", "epoch2.laz").save("report.html")      # doctest: +SKIP
+    """
+    from .reporting import comparison_report, signature_report
+
+    if isinstance(a, Comparison):
+        return comparison_report(a)
+    if b is not None:
+        return comparison_report(compare_sources(a, b, pipeline, render=render, columns=columns))
+    return signature_report(side_of(a, pipeline, columns), render=render or "smooth")
+
+
+def side_of(x, pipeline=None, columns=None):
+    """The :class:`Side` of one input: a pipeline Result as it is, an archive loaded, a cloud
+    read and run through ``pipeline`` (default ``Pipeline()``)."""
+    from .pipeline import Pipeline, Result
+
+    if isinstance(x, Result):
+        return Side(input_name(x.cloud), x.signature, x)
+    loaded = load_input(x, columns)
+    if isinstance(loaded, Signature):
+        return Side(input_name(x), loaded)
+    result = (pipeline or Pipeline()).run(loaded)
+    return Side(input_name(x), result.signature, result)
+
+
 def compare_sources(a, b, pipeline=None, *, render=None, columns=None, method_given=(), tiling=None):
     """Compare two point clouds or signature archives, in any mix (SPEC 6).
 
@@ -103,9 +144,9 @@ def compare_sources(a, b, pipeline=None, *, render=None, columns=None, method_gi
     from .pipeline import Pipeline
 
     pipeline = pipeline or Pipeline()
-    names = [_name(x) for x in (a, b)]
+    names = [input_name(x) for x in (a, b)]
     as_set = any(v is not None for v in (tiling or {}).values())
-    loaded = [_load(x, columns, as_set) for x in (a, b)]
+    loaded = [load_input(x, columns, as_set) for x in (a, b)]
     sigs = [x for x in loaded if isinstance(x, Signature)]
     clouds = [x for x in loaded if isinstance(x, PointCloud)]
     labelled = ([bool(x.classes.names) for x in sigs] + [c.labels is not None for c in clouds]
@@ -145,13 +186,17 @@ def compare_sources(a, b, pipeline=None, *, render=None, columns=None, method_gi
     return Comparison(sides[0], sides[1], metrics, render, method, warnings)
 
 
-def _name(x):
+def input_name(x):
+    """The name an input is shown under: its path, a signature's source, or "(in memory)"."""
     if isinstance(x, (str, Path)):
         return str(x)
     return getattr(x, "path", None) or (x.metadata.get("source") if isinstance(x, Signature) else None) or "(in memory)"
 
 
-def _load(x, columns, as_set=False):
+def load_input(x, columns=None, as_set=False):
+    """An input made ready to compare: a PointCloud or Signature as it is, an archive (.h5)
+    loaded, a cloud file read (``columns`` of a text file), a folder of tiles (or, with
+    ``as_set``, a LAS/LAZ file) as a Path to process as one set."""
     from .io import HDF5_EXTENSIONS, load_signature, read
     from .tiling.sources import LAS_SUFFIXES
 

@@ -104,7 +104,7 @@ def test_a_note_during_a_shown_step_gets_a_line_of_its_own(monkeypatch, capsys):
     # a note printed while a step's line shows used to be glued to that line
     import time
 
-    from lidar_sig.cli import _note
+    from lidar_sig.cli.group import show_note as _note
     from lidar_sig.errors import LidarSigWarning
     from lidar_sig.progress import step
 

@@ -154,7 +154,7 @@ class ChangeMap:
                 write_geotiff(path, bands, descriptions, self.grid.transform, self.crs, overwrite=overwrite)
         elif ext == ".png":
             from ..render import write_png
-            from ..reporting.changes import change_map_image
+            from ..reporting import change_map_image
 
             with step(f"writing {Path(path).name}"):
                 write_png(path, change_map_image(self), overwrite=overwrite)
@@ -167,7 +167,7 @@ class ChangeMap:
     def report(self):
         """The HTML report: the map over a top view of both epochs and the signatures of the top
         cells side by side (:class:`lidar_sig.reporting.Report`)."""
-        from ..reporting.changes import changes_report
+        from ..reporting import changes_report
 
         return changes_report(self)
 

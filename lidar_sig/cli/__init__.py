@@ -2,49 +2,13 @@
 
 Every way a run can end says so in one line on stderr: a user error (LidarSigError, or a bad
 option) with exit status 2; an interrupt (Ctrl-C, SIGTERM) with 130 or 143, outputs left as they
-were; a note from the library (LidarSigWarning) is one line too and does not stop the run.
+were; a note from the library (LidarSigWarning) is one line too and does not stop the run
+(:mod:`lidar_sig.cli.group`). One module per command; :func:`main` runs them.
 """
-import signal
-import warnings
-
 import click
 
-from ..errors import Interrupted, LidarSigError, LidarSigWarning
-from ..progress import say
-
-
-def _note(message, category, filename, lineno, file=None, line=None, _shown=warnings.showwarning):
-    if issubclass(category, LidarSigWarning):
-        say(f"lidar-sig: note: {message}")  # above a step line that may be showing
-    else:
-        _shown(message, category, filename, lineno, file, line)
-
-
-class _Group(click.Group):
-    def invoke(self, ctx):
-        try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("always", LidarSigWarning)
-                warnings.showwarning = _note
-                return super().invoke(ctx)
-        except LidarSigError as exc:
-            click.echo(f"lidar-sig: error: {exc}", err=True)
-            ctx.exit(2)
-        except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM as Interrupted
-            signum = exc.signum if isinstance(exc, Interrupted) else signal.SIGINT
-            name = signal.Signals(signum).name
-            click.echo(f"lidar-sig: interrupted ({name}); outputs not written, earlier ones left as they were",
-                       err=True)
-            ctx.exit(128 + signum)
-
-
-@click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})
-@click.version_option(package_name="lidar_sig")
-def cli():
-    """Semantic signatures of airborne LiDAR point clouds, and their comparison."""
-
-
-from . import changes, compare, info, plugins, resilience, saliency, signature  # noqa: E402,F401  (registers the commands)
+from . import changes, compare, info, plugins, resilience, saliency, signature  # noqa: F401  (registers the commands)
+from .group import cli
 
 
 def main(argv=None):

@@ -6,7 +6,7 @@ import click
 from ..change_map import CELL, MIN_POINTS, changes, check_cell
 from ..errors import LidarSigError
 from ..metrics import METRIC_KEYS, METRIC_NAMES
-from . import cli
+from .group import cli
 from .options import columns_option, overwrite_option, pipeline_options, render_option
 
 

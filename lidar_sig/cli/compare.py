@@ -5,11 +5,11 @@ import click
 
 from ..comparison import compare_sources
 from ..metrics import METRICS
-from . import cli
+from .group import cli
 from ..reporting import COMPARISON_PLOTS
 from .options import (check_report_outputs, columns_option, overwrite_option, pipeline_options, render_option,
                       report_options, tiling_options, write_report)
-from .report import archive_summary_line, run_summary
+from .summaries import archive_summary_line, run_summary
 
 @cli.command()
 @click.argument("a")

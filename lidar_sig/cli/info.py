@@ -5,7 +5,7 @@ import click
 import numpy as np
 
 from ..io import HDF5_EXTENSIONS, archive_summary, read
-from . import cli
+from .group import cli
 from .options import columns_option
 
 

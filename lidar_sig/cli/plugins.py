@@ -2,7 +2,7 @@
 import click
 
 from ..plugins import available
-from . import cli
+from .group import cli
 
 
 @cli.command()

@@ -7,7 +7,7 @@ from ..errors import LidarSigError
 from ..io import check_output, read
 from ..metrics import METRIC_KEYS, METRIC_NAMES
 from ..sampling import DEFAULT_FRACTIONS, plot_resilience, resilience
-from . import cli
+from .group import cli
 from .options import columns_option, number_list, overwrite_option, pipeline_options, render_option
 
 

@@ -6,9 +6,9 @@ import click
 
 from ..errors import LidarSigError
 from ..io import CLOUD_EXTENSIONS, check_cloud_output, check_output, read
-from . import cli
+from .group import cli
 from .options import columns_option, overwrite_option, pipeline_options, resume_options, tiling_options
-from .report import echo_run
+from .summaries import echo_run
 from .tiles import finish, is_set, output_name, run_tiles
 
 

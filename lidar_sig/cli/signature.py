@@ -6,13 +6,13 @@ import click
 from ..errors import LidarSigError
 from ..io import HDF5_EXTENSIONS, check_outputs, output_group, read
 from ..render import write_signature_png
+from ..comparison import report as ls_report
 from ..reporting import SIGNATURE_PLOTS
-from ..reporting import report as ls_report
 from ..signature import RENDERINGS
-from . import cli
+from .group import cli
 from .options import (check_report_outputs, columns_option, overwrite_option, pipeline_options, render_option,
                       report_options, resume_options, tiling_options, write_report)
-from .report import echo_run
+from .summaries import echo_run
 from .tiles import finish, is_set, run_tiles
 
 

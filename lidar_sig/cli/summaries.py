@@ -1,17 +1,13 @@
 """Printing of run summaries shared by the commands."""
 import click
 
-
-def _scales_text(m):
-    if m["scale_kind"] == "knn":
-        return "k " + ", ".join(str(int(v)) for v in m["resolved_scales"])
-    return "radii " + ", ".join(f"{v:.4g}" for v in m["resolved_scales"]) + " m"
+from ..reporting.sections import scales_text
 
 
 def run_summary(source, result):
     """One line: points, method, scales, units, undefined, capped and duplicate counts."""
     m = result.metadata
-    text = (f"{source}: {m['n_points']:,} points, {m['descriptor']} {m['strategy']}, {_scales_text(m)}, "
+    text = (f"{source}: {m['n_points']:,} points, {m['descriptor']} {m['strategy']}, {scales_text(m)}, "
             f"{m['weights']} weights, units {m['units']}; {m['n_undefined']:,} undefined")
     if m["n_undefined"]:
         text += " (left out of the signature)"
@@ -25,7 +21,7 @@ def run_summary(source, result):
 def archive_summary_line(side):
     """One line for an archive input of compare."""
     m = side.signature.metadata
-    scales = _scales_text(m) if "resolved_scales" in m and "scale_kind" in m else m.get("scales", "?")
+    scales = scales_text(m) if "resolved_scales" in m and "scale_kind" in m else m.get("scales", "?")
     what = "set of tiles" if "tiling" in m else "archive"
     return (f"{side.name}: {what} of {side.signature.n_points:,} points, {m.get('descriptor', '?')} "
             f"{m.get('strategy', '?')}, {scales}, {m.get('weights', 'none')} weights")

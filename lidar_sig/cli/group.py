@@ -1,0 +1,44 @@
+"""The ``lidar-sig`` command group: how every run ends. A user error (LidarSigError, or a bad
+option) is one line on stderr and exit status 2; an interrupt (Ctrl-C, SIGTERM) one line and 130
+or 143, outputs left as they were; a note from the library (LidarSigWarning) one line that does
+not stop the run. Each command registers itself on :func:`cli` (one module per command).
+"""
+import signal
+import warnings
+
+import click
+
+from ..errors import Interrupted, LidarSigError, LidarSigWarning
+from ..progress import say
+
+
+def show_note(message, category, filename, lineno, file=None, line=None, _shown=warnings.showwarning):
+    """Show a LidarSigWarning as one note line (``warnings.showwarning``'s signature); others as usual."""
+    if issubclass(category, LidarSigWarning):
+        say(f"lidar-sig: note: {message}")  # above a step line that may be showing
+    else:
+        _shown(message, category, filename, lineno, file, line)
+
+
+class _Group(click.Group):
+    def invoke(self, ctx):
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("always", LidarSigWarning)
+                warnings.showwarning = show_note
+                return super().invoke(ctx)
+        except LidarSigError as exc:
+            click.echo(f"lidar-sig: error: {exc}", err=True)
+            ctx.exit(2)
+        except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM as Interrupted
+            signum = exc.signum if isinstance(exc, Interrupted) else signal.SIGINT
+            name = signal.Signals(signum).name
+            click.echo(f"lidar-sig: interrupted ({name}); outputs not written, earlier ones left as they were",
+                       err=True)
+            ctx.exit(128 + signum)
+
+
+@click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(package_name="lidar_sig")
+def cli():
+    """Semantic signatures of airborne LiDAR point clouds, and their comparison."""

@@ -1,0 +1,51 @@
+"""A report as a document: one self-contained HTML page and its figures, shown in a notebook,
+saved as a file and the figures as PNG files."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from ..progress import step
+from . import page
+from .paths import check_plots_folder, check_report_path
+
+
+@dataclass
+class Report:
+    """An HTML report: ``title``, the page's ``body`` (an HTML fragment with its style) and its
+    ``figures`` (file name -> PNG bytes), in the page's order."""
+
+    title: str
+    body: str
+    figures: dict = field(default_factory=dict)
+
+    def html(self):
+        """The whole page, as text."""
+        return page.document(self.title, self.body)
+
+    def _repr_html_(self):  # a notebook shows the report in place
+        return self.body
+
+    def save(self, path, *, overwrite=False):
+        """Write the page to ``path`` (.html), atomically; refuses an existing file unless
+        ``overwrite``."""
+        from ..io.atomic import atomic_output
+
+        check_report_path(path)
+        with step(f"writing {Path(path).name}"), atomic_output(path, overwrite=overwrite) as tmp:
+            tmp.write_text(self.html(), encoding="utf-8")
+
+    def save_plots(self, folder, *, overwrite=False):
+        """Write every figure as a PNG file in ``folder`` (made if missing, its parent must
+        exist); refuses existing files unless ``overwrite``. Returns the paths written."""
+        from ..render import write_png
+
+        folder = Path(folder)
+        check_plots_folder(folder, self.figures, overwrite=overwrite)
+        folder.mkdir(exist_ok=True)
+        paths = []
+        with step(f"writing {len(self.figures)} plots in {folder}"):
+            for name, png in self.figures.items():
+                write_png(folder / name, png, overwrite=overwrite)
+                paths.append(folder / name)
+        return paths
