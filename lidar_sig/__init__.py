@@ -25,7 +25,7 @@ _EXPORTS = {
     "Scales": "scales", "knn": "scales", "radii": "scales", "Frame": "signature", "Signature": "signature",
     "compare_sources": "comparison", "Comparison": "comparison", "resilience": "sampling",
     "Report": "reporting", "report": "comparison", "changes": "change_map", "ChangeMap": "change_map",
-    "run_set": "tiling.run", "SetRun": "tiling.run", "executor": "tiling.execute",
+    "run_set": "tiling.run", "SetRun": "tiling.results", "executor": "tiling.execute",
     "saliency_in_tiles": "tiling.core",
 }
 __all__ = sorted(_EXPORTS)

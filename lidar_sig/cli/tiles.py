@@ -4,8 +4,9 @@ from pathlib import Path
 import click
 
 from ..tiling.execute import executor
-from ..tiling.run import remove_work, run_set
+from ..tiling.run import run_set
 from ..tiling.sources import LAS_SUFFIXES
+from ..tiling.work import remove_work
 
 
 def is_set(sources, tiling, resume=False):

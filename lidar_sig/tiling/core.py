@@ -278,7 +278,7 @@ def tile_saliency(pipeline, load, tiling, ij, ctx, *, halo=None):
         location, vals, pick, ok, cut = block_saliency(pipeline, xyz, want, halo_.edge_distance(xyz),
                                                        ctx.scales, ctx.area_cap)
         # map the block's wanted points back to positions in out_ids
-        pos = _positions(out_ids, ids[want])
+        pos = positions_of(out_ids, ids[want])
         loc = location[want]
         if core_location is None:
             core_location = np.empty(len(out_ids), np.int64)
@@ -335,7 +335,7 @@ def tile_second_distances(load, tiling, ij, ctx, *, halo=None):
             todo = np.ones(len(want_ids), bool)
         support, inverse = unique_points(xyz)
         location = np.arange(len(xyz)) if inverse is None else inverse
-        at = _positions(ids, want_ids[todo])
+        at = positions_of(ids, want_ids[todo])
         loc = location[at]
         if halo_.whole or len(support) >= 3:  # fewer: the second neighbour is outside
             index = NeighborIndex(support, "knn", np.array([min(3, len(support))]), min_neighbors=1)
@@ -346,7 +346,7 @@ def tile_second_distances(load, tiling, ij, ctx, *, halo=None):
             todo[pos[good]] = False
         if not todo.any():
             return out
-        failing = xyz[_positions(ids, want_ids[todo])]
+        failing = xyz[positions_of(ids, want_ids[todo])]
         box = (*failing[:, :2].min(axis=0).tolist(), *failing[:, :2].max(axis=0).tolist())
         width *= 2.0
 
@@ -357,7 +357,7 @@ def area_cap(second_distances):
     return AREA_CAP * float(np.median(second_distances))
 
 
-def _positions(sorted_source, wanted):
+def positions_of(sorted_source, wanted):
     """Positions in ``sorted_source`` (any order, unique) of the identifiers ``wanted``."""
     order = np.argsort(sorted_source, kind="stable")
     at = np.searchsorted(sorted_source[order], wanted)

@@ -1,0 +1,139 @@
+"""What a tiled run of a set made, read back from the work folder: the tiles' statistics, what
+failed and why, the set's signature (the sum of the tiles'), and each input file's per-point
+saliency gathered tile by tile, or streamed into its LAS/LAZ output."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .. import __version__
+from ..saliency import Saliency
+from ..signature import Signature
+from .core import SetContext, Tiling
+from .sources import index_of, source_of
+from .tasks import Plan, result_path
+
+#: Per-point results of one input file on disk: (Cl, Cs, Cp) and the chosen scale index.
+POINT_VALUES = np.dtype([("values", "f8", 3), ("chosen", "i8")])
+
+
+@dataclass
+class SetRun:
+    """What a tiled run of a set made, and what it could not."""
+
+    sources: list
+    ctx: SetContext | None = None
+    tiling: Tiling | None = None
+    plan: Plan | None = None
+    signature: Signature | None = None
+    tile_stats: dict = field(default_factory=dict)
+    failed_sources: dict = field(default_factory=dict)
+    failed_tiles: dict = field(default_factory=dict)
+    sha256: dict = field(default_factory=dict)
+    seconds: float = 0.0
+    execution: str = ""
+
+    @property
+    def missing(self):
+        """Lines naming what is missing and why (empty when the run is complete)."""
+        lines = [f"{Path(p).name}: {why}" for p, why in self.failed_sources.items()]
+        lines += [f"{name}: {why}" for name, why in self.failed_tiles.items()]
+        return lines
+
+    @property
+    def complete(self):
+        return not self.failed_sources and not self.failed_tiles
+
+    def tiling_record(self):
+        """The tiling as recorded in the set's archive."""
+        return {"tile_size_m": self.tiling.size, "tiles": list(self.tiling.shape), "origin_m": list(self.ctx.lo),
+                "centre": list(self.ctx.centre), "area_cap_m": self.ctx.area_cap,
+                "n_tiles_run": len(self.tile_stats),
+                "n_recomputed": sum(s["n_recomputed"] for s in self.tile_stats.values())}
+
+    def source_records(self):
+        """Every source file with its SHA-256 (those that could be read)."""
+        return [{"path": s.path, "sha256": self.sha256[s.path]} for s in self.sources if s.path in self.sha256]
+
+    def values_file(self, source):
+        """A file of ``source``'s per-point (Cl, Cs, Cp) and chosen scale index (records of
+        POINT_VALUES, in its point order), gathered from the tile results one tile at a time;
+        None when a tile holding some of its points failed."""
+        path = Path(self.plan.work) / "points" / f"s{source.id}.bin"
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with open(path, "wb") as fh:
+            fh.truncate(source.n_points * POINT_VALUES.itemsize)
+        found = 0
+        for ij, stats in self.tile_stats.items():
+            if source.id not in stats["sources"]:
+                continue
+            with np.load(result_path(self.plan.work, ij)) as r:
+                mine = source_of(r["ids"]) == source.id
+                at = index_of(r["ids"][mine])
+                # mapped per tile and closed again, so that resident memory stays one tile's
+                out = np.memmap(path, POINT_VALUES, "r+", shape=(source.n_points,))
+                out["values"][at] = r["values"][mine]
+                out["chosen"][at] = r["chosen"][mine] if len(r["chosen"]) else -1
+                out.flush()
+                del out
+                found += int(mine.sum())
+        return path if found == source.n_points else None
+
+    def saliency_chunks(self, path, has_chosen):
+        """``(start, stop) -> Saliency`` of points [start, stop) of a :meth:`values_file`."""
+        def chunk(start, stop):
+            rec = np.fromfile(path, POINT_VALUES, count=stop - start, offset=start * POINT_VALUES.itemsize)
+            return Saliency.from_values(rec["values"], rec["chosen"] if has_chosen else None)
+        return chunk
+
+    def saliency_of(self, source):
+        """Saliency of one input file's points, in its point order (in memory); None when a
+        tile holding some of them failed."""
+        path = self.values_file(source)
+        if path is None:
+            return None
+        return self.saliency_chunks(path, self.plan.pipeline.strategy.name == "optimal")(0, source.n_points)
+
+    def write_points(self, source, output, *, overwrite=False):
+        """Write ``source`` with its per-point saliency to the LAS/LAZ ``output``, streamed in
+        chunks; False (nothing written) when a tile holding some of its points failed."""
+        from ..io.las import write_las_chunks
+
+        path = self.values_file(source)
+        if path is None:
+            return False
+        pipe = self.plan.pipeline
+        write_las_chunks(output, source.path, self.saliency_chunks(path, pipe.strategy.name == "optimal"),
+                         scale_kind=pipe.scales.kind, scale_values=pipe.scales.values, overwrite=overwrite)
+        path.unlink()
+        return True
+
+
+def sum_signatures(run):
+    """The set's signature: the sum of its tiles' (count rasters are additive, SPEC 5), with the
+    set's metadata."""
+    plan = run.plan
+    counts = None
+    egeom = totals = None
+    n_undefined = 0
+    for ij in run.tile_stats:
+        with np.load(result_path(plan.work, ij)) as r:
+            if counts is None:
+                shape = (len(plan.classes), plan.pipeline.frame.size, plan.pipeline.frame.size)
+                counts = np.zeros(int(np.prod(shape)), np.int64)
+                egeom, totals = np.zeros_like(r["egeom_counts"]), np.zeros_like(r["class_totals"])
+            counts[r["counts_at"]] += r["counts"]
+            egeom += r["egeom_counts"]
+            totals += r["class_totals"]
+        n_undefined += run.tile_stats[ij]["n_undefined"]
+    stats = {k: sum(s[k] for s in run.tile_stats.values()) for k in ("n_points", "n_locations", "n_capped")}
+    pipe = plan.pipeline
+    metadata = {"lidar_sig_version": __version__, "source": ", ".join(s.name for s in run.sources),
+                "scales": pipe.scales.describe(), "crs": next((s.crs for s in run.sources if s.crs), None),
+                "n_points": stats["n_points"], "n_undefined": n_undefined, "n_capped": stats["n_capped"],
+                "n_duplicates": stats["n_points"] - stats["n_locations"],
+                "resolved_scales": list(run.ctx.scales), "units": next(s.units for s in run.sources if s.error is None),
+                "metres_per_unit": list(run.ctx.factors), **pipe.method()}
+    return Signature(counts.reshape(shape), pipe.frame, plan.classes, egeom, n_undefined, metadata, totals)
