@@ -11,7 +11,9 @@ skipped; candidates are scanned without branches (each is written, and kept if w
 
 k-nearest rows come sorted by distance. Spherical rows are grouped by scale, each group in no
 particular order: the neighbours of scale s are a prefix of those of scale s + 1, which is all
-the descriptors need (SPEC 2), at O(n) instead of a sort's O(n log n).
+the descriptors need (SPEC 2), at O(n) instead of a sort's O(n log n). :func:`count_within`
+counts the neighbours within given squared distances; :mod:`lidar_sig.neighbors` decides
+which (the tie rule).
 """
 from __future__ import annotations
 
@@ -64,10 +66,10 @@ def _insertion_sort(d, ix, n):
 
 
 @njit(cache=True)
-def _partition_radius(d, ix, m, r2s, k, out_d, out_i, out_counts, bucket, counts):
+def _partition_radius(d, ix, m, r2s, k, out_d, out_i, bucket, counts):
     """Write d[:m] (all within the largest radius) to out grouped by radius, at most the k
-    nearest, and the number within each radius to out_counts. ``bucket`` (size >= m) and
-    ``counts`` (size S + 1) are work space."""
+    nearest; return how many were written. ``bucket`` (size >= m) and ``counts`` (size S + 1)
+    are work space."""
     if m > k:
         _select(d, ix, m, k)
         m = k
@@ -81,7 +83,6 @@ def _partition_radius(d, ix, m, r2s, k, out_d, out_i, out_counts, bucket, counts
         counts[s + 1] += 1
     for s in range(n_scales):
         counts[s + 1] += counts[s]
-        out_counts[s] = counts[s + 1]
     for a in range(m):
         s = bucket[a]
         pos = counts[s]
@@ -137,16 +138,17 @@ def _shell(ci, cj, ck, s, dims, cell_keys, lut, cell_start, rs, re, rc, n_ranges
 
 @njit(cache=True, parallel=True)
 def nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, origin, h, queries, group_start,
-            ks, r2s, s_max, n_chunks, out_d2, out_idx, out_n, out_counts, out_total, done):
+            ks, r2s, s_max, n_chunks, out_d2, out_idx, out_n, out_total, done):
     """Neighbours of each query: k-nearest sorted, spherical grouped by scale (module docstring).
 
     k-nearest mode when ``r2s`` is empty: ``ks[-1]`` is the largest k. Spherical
     mode otherwise: ``r2s`` are the squared radii, ascending, and ``ks[0]`` the cap.
     ``queries`` are point indices, runs of one voxel delimited by ``group_start``. Row ``i`` of
-    ``out_d2`` (squared distances) and ``out_idx`` gets ``out_n[i]`` neighbours, and in spherical
-    mode ``out_counts[i]`` the number within each radius (at most the cap) and ``out_total[i]``
-    the number within the largest radius before the cap; ``done[i]`` is
-    False where ``s_max`` shells could not settle the query (the caller completes it).
+    ``out_d2`` (squared distances) and ``out_idx`` gets ``out_n[i]`` neighbours (spherical: every
+    point with a squared distance of at most ``r2s[-1]``, the cap nearest of them), and in
+    spherical mode ``out_total[i]`` the number within the largest radius before the cap;
+    ``done[i]`` is False where ``s_max`` shells could not settle the query (the caller completes
+    it).
     """
     n_groups = group_start.size - 1
     n_chunks = max(1, min(n_groups, n_chunks))
@@ -199,7 +201,9 @@ def nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, origin, h,
                 t = max(t, 1e-3 * h)
                 settled = True
                 while True:
-                    t2 = t * t * (1.0 + 1e-12)  # round-off must not drop the k-th neighbour
+                    # round-off must not drop the k-th neighbour; a sphere holds exactly what
+                    # is within its squared radius
+                    t2 = t * t * (1.0 + 1e-12) if knn_mode else r2
                     s_need = 0
                     while s_need * h + margin < t and s_need < s_cover:
                         s_need += 1
@@ -250,32 +254,22 @@ def nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, origin, h,
                         prev_dk = np.sqrt(buf_d[n - 1])
                 else:
                     out_total[qpos] = m  # before the cap
-                    n = _partition_radius(buf_d, buf_i, m, r2s, k, hd, hi, out_counts[qpos], bucket, scale_counts)
+                    n = _partition_radius(buf_d, buf_i, m, r2s, k, hd, hi, bucket, scale_counts)
                 out_n[qpos] = n
                 done[qpos] = True
 
 
 @njit(cache=True, parallel=True)
-def knn_counts(d2, n, ks, tie, counts, kth_d2):
-    """Neighbours within each k-nearest scale, ties with the k-th included, into ``counts``
-    (B, S), and the k-th squared distances into ``kth_d2`` (B, S).
-
-    Rows of ``d2`` are sorted ascending with ``n[b]`` valid entries; a neighbour ties with the
-    k-th when its squared distance is at most (1 + ``tie``) times the k-th's.
-    """
+def count_within(d2, n, limits, counts):
+    """Into ``counts`` (B, S): how many of the first ``n[b]`` squared distances of row ``b`` of
+    ``d2`` are at most ``limits[b, s]``, in any order of the row (sorted or grouped by scale)."""
     for b in prange(d2.shape[0]):
-        for s in range(ks.size):
-            kth = min(ks[s], n[b]) - 1
-            if kth < 0:
-                counts[b, s] = 0
-                kth_d2[b, s] = 0.0
-                continue
-            limit = d2[b, kth] * (1.0 + tie)
-            c = kth + 1
-            while c < n[b] and d2[b, c] <= limit:
-                c += 1
+        for s in range(limits.shape[1]):
+            limit = limits[b, s]
+            c = 0
+            for j in range(n[b]):
+                c += d2[b, j] <= limit
             counts[b, s] = c
-            kth_d2[b, s] = d2[b, kth]
 
 
 #: Voxels of the dense voxel -> occupied-voxel look-up table, at most (else binary search).
@@ -314,9 +308,9 @@ class VoxelGrid:
             self.lut = np.full(n_cells, -1, np.int64)
             self.lut[self.cell_keys] = np.arange(len(self.cell_keys))
 
-    def search(self, queries, d2, idx, n, counts, total, done, ks=None, radii2=None, cap=512, s_max=4):
+    def search(self, queries, d2, idx, n, total, done, ks=None, radii2=None, cap=512, s_max=4):
         """Neighbours of the sorted-order points ``queries`` into ``d2``, ``idx``, ``n``,
-        ``counts`` and ``total`` (spherical mode) and ``done``.
+        ``total`` (spherical mode) and ``done``.
 
         Give ``ks`` (k-nearest scales, ascending) or ``radii2`` (squared radii, ascending, at
         most ``cap`` nearest). Row i gets n[i] neighbours; the rest of the row is left as is.
@@ -333,4 +327,4 @@ class VoxelGrid:
             ks = np.array([cap], dtype=np.int64)
         nearest(self.points, self.cell_of, self.cell_ijk, self.cell_start, self.cell_keys, self.lut,
                 self.dims, self.origin, self.cell, queries, group_start, ks, r2s,
-                int(s_max), 8 * get_num_threads(), d2, idx, n, counts, total, done)
+                int(s_max), 8 * get_num_threads(), d2, idx, n, total, done)

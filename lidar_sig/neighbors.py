@@ -16,12 +16,13 @@ that chose them.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .grid import LUT_CELLS, VoxelGrid, knn_counts
+from .grid import LUT_CELLS, VoxelGrid, count_within
 
 # Bytes of neighbour lists (squared distance + index) held at once; bounds memory per block.
 _BLOCK_BYTES = 96 * 2**20
@@ -41,6 +42,35 @@ TIE_SLACK = 8
 #: Area weights are capped at (AREA_CAP x the median second-neighbour distance)^2, so that an
 #: isolated point cannot dominate the neighbourhoods it falls in.
 AREA_CAP = 4.0
+
+
+def tie_limit(d2):
+    """The tie rule (:data:`TIE`): the largest squared distance that counts as ``d2``, a k-th
+    neighbour's squared distance or a sphere's squared radius; (1 + TIE) d2."""
+    return d2 * (1.0 + TIE)
+
+
+def radius_reach(radius):
+    """The tie rule as a distance: how far from x_i a neighbour within ``radius`` (metres, or
+    an array of them) can lie, ties included; radius sqrt(1 + TIE)."""
+    return radius * math.sqrt(1.0 + TIE)
+
+
+def counts_within(d2, n, limits):
+    """(B, S) neighbours of each row within each limit: how many of the first ``n[b]`` squared
+    distances of row ``b`` of ``d2`` are at most ``limits[b, s]`` (``limits`` (B, S), or (S,)
+    for every row), in any order of the row. Every count of neighbours within a scale is this."""
+    limits = np.ascontiguousarray(np.broadcast_to(np.asarray(limits, dtype=np.float64),
+                                                  (len(n), np.shape(limits)[-1])))
+    counts = np.empty(limits.shape, np.int64)
+    count_within(d2, np.asarray(n, dtype=np.int64), limits, counts)
+    return counts
+
+
+def area_cap(second_distances):
+    """The cap of the second-neighbour distance behind area weights (coordinate units): AREA_CAP
+    times the median of ``second_distances`` (every distinct location's)."""
+    return AREA_CAP * float(np.median(second_distances))
 
 
 @dataclass
@@ -74,6 +104,8 @@ class NeighborhoodBatch:
     weights : (N,) float64
         Weight of every point of the cloud as a neighbour (sorted order); empty when neighbours
         count equally.
+    kind : {"radius", "knn"}
+        The kind of scales.
     """
 
     xyz: np.ndarray
@@ -86,6 +118,7 @@ class NeighborhoodBatch:
     sigma: np.ndarray
     capped: np.ndarray
     weights: np.ndarray
+    kind: str
 
     @property
     def dist(self):
@@ -93,6 +126,16 @@ class NeighborhoodBatch:
         dist = np.sqrt(self.d2)
         dist[np.arange(dist.shape[1])[None, :] >= self.n[:, None]] = np.inf
         return dist
+
+    def reach(self):
+        """(B,) how far from x_i its neighbourhood at the largest scale can reach, ties
+        included: no point farther away can be in it, however many points are added beyond
+        (a tile checks its halo with this). The largest radius, or the distance to the last
+        neighbour listed, stretched by the tie rule."""
+        if self.kind == "knn":
+            last = self.d2[np.arange(len(self.n)), np.maximum(self.n, 1) - 1]
+            return np.sqrt(tie_limit(last))
+        return radius_reach(self.sigma[:, -1])
 
 
 class NeighborIndex:
@@ -178,20 +221,19 @@ class NeighborIndex:
                              np.empty((max(b, self.block_size()), self.width), dtype=np.int64))
         d2, idx = self._buffers[0][:b], self._buffers[1][:b]
         n = np.zeros(b, np.int64)
-        counts = np.zeros((b, len(self.scales)), np.int64)
         total = np.zeros(b, np.int64)
         done = np.zeros(b, np.bool_)
+        radii2 = tie_limit(self.scales.astype(np.float64) ** 2)
         if self.kind == "knn" or self.capped_search:
-            self.grid.search(rows, d2, idx, n, counts, total, done, ks=np.array([self.width]),
-                             s_max=self.s_max)
+            self.grid.search(rows, d2, idx, n, total, done, ks=np.array([self.width]), s_max=self.s_max)
         else:
-            self.grid.search(rows, d2, idx, n, counts, total, done, cap=self.width, s_max=self.s_max,
-                             radii2=self.scales.astype(np.float64) ** 2 * (1.0 + TIE))
+            self.grid.search(rows, d2, idx, n, total, done, cap=self.width, s_max=self.s_max, radii2=radii2)
         if not done.all():
-            self._complete(rows, d2, idx, n, counts, total, done, self.width,
-                           kind="knn" if self.capped_search else None)
+            self._complete(rows, d2, idx, n, total, done, self.width, kind="knn" if self.capped_search else None)
         if self.capped_search:
-            counts, total, n = _cut_at_radii(d2, n, self.scales, self.max_neighbors)
+            counts, total, n = _cut_at_radii(d2, n, radii2, self.max_neighbors)
+        elif self.kind == "radius":
+            counts = counts_within(d2, n, radii2)
         if self.kind == "knn":
             counts, sigma = _knn_counts(d2, n, self.scales)
             n = counts[:, -1].copy()  # neighbours past the largest scale's ties are not needed
@@ -203,7 +245,7 @@ class NeighborIndex:
         d2, idx = d2[:, :width], idx[:, :width]
         counts = np.where(counts >= self.min_neighbors, counts, 0).astype(np.int64)
         return NeighborhoodBatch(self.xyz, rows, self.order[rows], idx, d2, n, counts,
-                                 np.ascontiguousarray(sigma), capped, self.weights)
+                                 np.ascontiguousarray(sigma), capped, self.weights, self.kind)
 
     def area_weights(self, cap=None):
         """(N,) weight of each point as a neighbour, sorted order: the squared distance to its
@@ -214,7 +256,7 @@ class NeighborIndex:
         """
         d_second = self.second_distances()
         if cap is None:
-            cap = AREA_CAP * float(np.median(d_second))
+            cap = area_cap(d_second)
         return np.minimum(d_second, cap) ** 2
 
     def second_distances(self, rows=None):
@@ -231,10 +273,10 @@ class NeighborIndex:
             b = len(block)
             d2, idx = np.empty((b, k)), np.empty((b, k), np.int64)
             found, done = np.zeros(b, np.int64), np.zeros(b, np.bool_)
-            counts, total = np.zeros((b, 1), np.int64), np.zeros(b, np.int64)
-            self.grid.search(block, d2, idx, found, counts, total, done, ks=np.array([k]), s_max=_KNN_SHELLS)
+            total = np.zeros(b, np.int64)
+            self.grid.search(block, d2, idx, found, total, done, ks=np.array([k]), s_max=_KNN_SHELLS)
             if not done.all():
-                self._complete(block, d2, idx, found, counts, total, done, k, kind="knn")
+                self._complete(block, d2, idx, found, total, done, k, kind="knn")
             d_second[part] = np.sqrt(d2[:, k - 1])
         return d_second
 
@@ -243,15 +285,16 @@ class NeighborIndex:
             self._tree = cKDTree(self.xyz)
         return self._tree
 
-    def _complete(self, rows, d2, idx, n, counts, total, done, width, kind=None):
-        # Queries the voxel shells could not settle (isolated points far from the rest).
+    def _complete(self, rows, d2, idx, n, total, done, width, kind=None):
+        # Queries the voxel shells could not settle (isolated points far from the rest, or a
+        # sphere's query on the face of a voxel), listed sorted by distance.
         kind = kind or self.kind
         todo = np.flatnonzero(~done)
         q = self.xyz[rows[todo]]
         if kind == "knn":
             dist, nb = self._kdtree().query(q, k=width)
         else:
-            bound = float(self.scales.max()) * np.sqrt(1.0 + TIE)
+            bound = radius_reach(float(self.scales.max()))
             dist, nb = self._kdtree().query(q, k=width, distance_upper_bound=bound)
         dist, nb = dist.reshape(len(todo), -1), nb.reshape(len(todo), -1)
         found = np.isfinite(dist)
@@ -259,7 +302,6 @@ class NeighborIndex:
         d2[todo] = np.where(found, dist * dist, np.inf)
         idx[todo] = np.where(found, nb, -1)
         if kind == "radius":
-            counts[todo] = np.stack([(dist <= r * np.sqrt(1.0 + TIE)).sum(1) for r in self.scales], axis=1)
             # a full list may hide more points inside the sphere: ask for one more
             full = todo[n[todo] == width]
             if len(full):
@@ -300,26 +342,22 @@ def _knn_counts(d2, n, ks):
     """Neighbours per k-nearest scale, ties with the k-th included, and the k-th distances.
 
     ``d2`` (B, W) squared distances sorted ascending, ``n`` (B,) valid per row, ``ks`` (S,).
-    Returns counts (B, S) and sigma (B, S), the distance to the k-th neighbour.
+    Returns counts (B, S) and sigma (B, S), the distance to the k-th neighbour (to the last
+    where a row holds fewer than k; 0 in an empty row).
     """
-    counts = np.empty((len(n), len(ks)), np.int64)
-    kth_d2 = np.empty((len(n), len(ks)))
-    knn_counts(d2, n, np.asarray(ks, dtype=np.int64), TIE, counts, kth_d2)
-    return counts, np.sqrt(kth_d2)
+    kth = np.minimum(np.asarray(ks, dtype=np.int64)[None, :], n[:, None]) - 1
+    kth_d2 = np.where(kth >= 0, np.take_along_axis(d2, np.maximum(kth, 0), axis=1), 0.0)
+    return counts_within(d2, n, tie_limit(kth_d2)), np.sqrt(kth_d2)
 
 
-def _cut_at_radii(d2, n, radii, cap):
+def _cut_at_radii(d2, n, radii2, cap):
     """Spherical neighbourhoods from sorted k-nearest lists of cap + 1: counts (B, S) within each
-    radius among the cap nearest, the number within the largest radius as far as the list
-    tells (cap + 1 when even the last is inside: the sphere was capped), and the list lengths."""
-    r2 = np.asarray(radii, dtype=np.float64) ** 2 * (1.0 + TIE)
-    valid = np.arange(d2.shape[1])[None, :] < n[:, None]
-    inside = valid & (d2 <= r2[-1])
-    total = inside.sum(axis=1)
+    squared radius (``radii2``, ties included) among the cap nearest, the number within the
+    largest as far as the list tells (cap + 1 when even the last is inside: the sphere was
+    capped), and the list lengths."""
+    total = counts_within(d2, n, radii2[-1:])[:, 0]
     keep = np.minimum(total, cap)
-    within = valid & (np.arange(d2.shape[1])[None, :] < keep[:, None])
-    counts = np.stack([(within & (d2 <= r)).sum(axis=1) for r in r2], axis=1)
-    return counts, total, keep
+    return counts_within(d2, keep, radii2), total, keep
 
 
 def _robust_density(xyz):

@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import LidarSigError
-from ..neighbors import AREA_CAP, TIE, NeighborIndex, unique_points
+from ..neighbors import NeighborIndex, area_cap, radius_reach, unique_points
 from ..plugins.base import Descriptor
 
 #: Relative margin kept between a needed distance and the halo's edge (round-off of the tests).
@@ -185,7 +185,7 @@ def first_halo(pipeline, ctx):
     if pipeline.scales.kind == "knn":
         reach = 2.0 * math.sqrt(max(ctx.scales) / (math.pi * ctx.density))
     else:
-        reach = max(ctx.scales) * (1.0 + MARGIN) * math.sqrt(1.0 + TIE)
+        reach = radius_reach(max(ctx.scales) * (1.0 + MARGIN))
     return reach + (ctx.area_cap or 0.0)
 
 
@@ -233,12 +233,10 @@ def block_saliency(pipeline, xyz, query, edge, scales, area_cap):
         capped[loc] = batch.capped
         n = batch.n
         if pipeline.scales.kind == "knn":
-            reach = np.sqrt(batch.d2[np.arange(len(part)), np.maximum(n, 1) - 1] * (1.0 + TIE))
             enough = (n >= max(scales)) | np.isinf(edge_sorted[part])
         else:
-            reach = np.full(len(part), float(max(scales)) * math.sqrt(1.0 + TIE))
             enough = True
-        inside = reach * (1.0 + MARGIN) < edge_sorted[part]
+        inside = batch.reach() * (1.0 + MARGIN) < edge_sorted[part]
         used = np.arange(batch.idx.shape[1])[None, :] < n[:, None]
         neighbours_ok = np.all(~used | weight_ok[np.where(used, batch.idx, 0)], axis=1)
         ok[loc] = enough & inside & neighbours_ok
@@ -349,12 +347,6 @@ def tile_second_distances(load, tiling, ij, ctx, *, halo=None):
         failing = xyz[positions_of(ids, want_ids[todo])]
         box = (*failing[:, :2].min(axis=0).tolist(), *failing[:, :2].max(axis=0).tolist())
         width *= 2.0
-
-
-def area_cap(second_distances):
-    """The set's area-weight cap (metres) from every distinct location's second-neighbour
-    distance: AREA_CAP times their median, as :meth:`NeighborIndex.area_weights` does."""
-    return AREA_CAP * float(np.median(second_distances))
 
 
 def positions_of(sorted_source, wanted):

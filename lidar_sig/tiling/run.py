@@ -28,8 +28,9 @@ import numpy as np
 
 from ..classes import UNLABELED
 from ..errors import LidarSigError, as_path
+from ..neighbors import area_cap
 from ..progress import progress
-from .core import SetContext, Tiling, area_cap, check_tile_size, check_tileable, context_of, tile_name
+from .core import SetContext, Tiling, check_tile_size, check_tileable, context_of, tile_name
 from .results import SetRun, sum_signatures
 from .sources import Cells, cell_files, expand, scan, staged, tile_side_for
 from .tasks import Plan, second_task, stage_task, tile_task
