@@ -262,13 +262,18 @@ def nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, origin, h,
 @njit(cache=True, parallel=True)
 def count_within(d2, n, limits, counts):
     """Into ``counts`` (B, S): how many of the first ``n[b]`` squared distances of row ``b`` of
-    ``d2`` are at most ``limits[b, s]``, in any order of the row (sorted or grouped by scale)."""
+    ``d2`` are at most ``limits[b, s]`` (ascending in s).
+
+    Each row must list the distances at most a limit before the others, as rows sorted by
+    distance and rows grouped by scale do: a count is then the length of a prefix, found by one
+    pass over the row for every scale together.
+    """
     for b in prange(d2.shape[0]):
+        c = 0
         for s in range(limits.shape[1]):
             limit = limits[b, s]
-            c = 0
-            for j in range(n[b]):
-                c += d2[b, j] <= limit
+            while c < n[b] and d2[b, c] <= limit:
+                c += 1
             counts[b, s] = c
 
 

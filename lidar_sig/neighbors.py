@@ -59,7 +59,8 @@ def radius_reach(radius):
 def counts_within(d2, n, limits):
     """(B, S) neighbours of each row within each limit: how many of the first ``n[b]`` squared
     distances of row ``b`` of ``d2`` are at most ``limits[b, s]`` (``limits`` (B, S), or (S,)
-    for every row), in any order of the row. Every count of neighbours within a scale is this."""
+    for every row; ascending). Rows are sorted by distance or grouped by scale, as the search
+    lists them. Every count of neighbours within a scale is this."""
     limits = np.ascontiguousarray(np.broadcast_to(np.asarray(limits, dtype=np.float64),
                                                   (len(n), np.shape(limits)[-1])))
     counts = np.empty(limits.shape, np.int64)

@@ -52,6 +52,23 @@ def test_knn_on_real_like_cloud_with_outliers_matches_kdtree():
     assert (got[:, 100:][extra] <= np.repeat(ref[:, 99:], width - 100, axis=1)[extra] * np.sqrt(1 + TIE)).all()
 
 
+def test_reach_holds_the_neighbourhood_and_no_point_beyond_can_join(pts):
+    # what a tile's halo is checked against: every neighbour lies within the reach, and a
+    # point beyond it is farther than the tie rule lets in (brute-force distances)
+    for kind, scales in (("knn", np.array([5, 12])), ("radius", np.array([0.4, 0.9]))):
+        index = NeighborIndex(pts, kind, scales, min_neighbors=1)
+        rows = np.arange(0, 3000, 29)
+        batch = index.query(rows)
+        reach = batch.reach()
+        for b, row in enumerate(rows):
+            d = np.linalg.norm(index.xyz - index.xyz[row], axis=1)
+            assert (batch.dist[b, :batch.n[b]] <= reach[b]).all()
+            largest = np.sort(d)[scales[-1] - 1] if kind == "knn" else scales[-1]
+            assert reach[b] >= largest * np.sqrt(1 + TIE) * (1 - 1e-12)  # a tied point is within reach
+        if kind == "radius":
+            np.testing.assert_allclose(reach, scales[-1] * np.sqrt(1 + TIE), rtol=1e-15)
+
+
 def test_spherical_cap_keeps_nearest_and_is_reported(pts):
     index = NeighborIndex(pts, "radius", np.array([3.0]), max_neighbors=20, min_neighbors=1)
     batch = index.query(np.arange(10))
