@@ -197,13 +197,12 @@ def load_input(x, columns=None, as_set=False):
     """An input made ready to compare: a PointCloud or Signature as it is, an archive (.h5)
     loaded, a cloud file read (``columns`` of a text file), a folder of tiles (or, with
     ``as_set``, a LAS/LAZ file) as a Path to process as one set."""
-    from .io import HDF5_EXTENSIONS, load_signature, read
-    from .tiling.sources import LAS_SUFFIXES
+    from .io import HDF5_EXTENSIONS, LAS_EXTENSIONS, load_signature, read
 
     if isinstance(x, (PointCloud, Signature)):
         return x
     if isinstance(x, (str, Path)):
-        if Path(x).is_dir() or (as_set and Path(x).suffix.lower() in LAS_SUFFIXES):
+        if Path(x).is_dir() or (as_set and Path(x).suffix.lower() in LAS_EXTENSIONS):
             return Path(x)  # processed as a set of tiles
         if Path(x).suffix.lower() in HDF5_EXTENSIONS:
             return load_signature(x)

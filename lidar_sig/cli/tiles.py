@@ -3,9 +3,9 @@ from pathlib import Path
 
 import click
 
+from ..io import LAS_EXTENSIONS
 from ..tiling.execute import executor
 from ..tiling.run import run_set
-from ..tiling.sources import LAS_SUFFIXES
 from ..tiling.work import remove_work
 
 
@@ -56,4 +56,4 @@ def finish(run, work, written, not_written=()):
 def output_name(outdir, source):
     """Per-point output of one input file: its name, in ``outdir`` (LAS stays LAS, LAZ LAZ)."""
     p = Path(source.path)
-    return Path(outdir) / (p.name if p.suffix.lower() in LAS_SUFFIXES else p.stem + ".laz")
+    return Path(outdir) / (p.name if p.suffix.lower() in LAS_EXTENSIONS else p.stem + ".laz")

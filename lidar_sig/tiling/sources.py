@@ -22,8 +22,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import LidarSigError, reason
+from ..io.las import LAS_EXTENSIONS
 
-LAS_SUFFIXES = (".las", ".laz")
 #: Bits of a point identifier that hold its index in its file (files up to 10^12 points).
 ID_BITS = 40
 #: Points of one staging part (a unit of work: one file's range of points).
@@ -40,13 +40,13 @@ def expand(inputs):
     for given in inputs:
         p = Path(given)
         if p.is_dir():
-            found = sorted(q for q in p.iterdir() if q.is_file() and q.suffix.lower() in LAS_SUFFIXES)
+            found = sorted(q for q in p.iterdir() if q.is_file() and q.suffix.lower() in LAS_EXTENSIONS)
             if not found:
                 raise LidarSigError("the folder holds no .las or .laz file; give a folder of LAS/LAZ tiles",
                                     path=p)
             files += found
         elif p.is_file():
-            if p.suffix.lower() not in LAS_SUFFIXES:
+            if p.suffix.lower() not in LAS_EXTENSIONS:
                 raise LidarSigError("a set of tiles is read from LAS/LAZ files only; convert it, or give "
                                     "it alone", path=p)
             files.append(p)
