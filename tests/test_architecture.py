@@ -1,6 +1,6 @@
 """The package's structure (docs/architecture.md): its modules import each other without a
-cycle, none reaches into another's private (underscore) names, and the architecture page names
-every module. Imports are read from the source with ``ast``, those inside functions included (a
+cycle, none reaches into another's private (underscore) names, every import goes to the same
+layer of the page's diagram or a lower one, and the page names every module. Imports are read from the source with ``ast``, those inside functions included (a
 lazy import still ties the two modules); the lazy public names of ``lidar_sig/__init__.py``
 (loaded through importlib on first use) are not imports."""
 import ast
@@ -134,3 +134,35 @@ def test_the_architecture_page_names_every_module():
     files = {str(p.relative_to(PACKAGE)) for p in MODULES.values()}
     assert not files - listed, f"docs/architecture.md does not name {sorted(files - listed)}"
     assert not listed - files, f"docs/architecture.md names modules that do not exist: {sorted(listed - files)}"
+
+
+def layers():
+    """The layers of the page's diagram, top first: sets of top-level names (``cli``, ``io``,
+    ``pipeline``, ...). A line lists names, then says what they do; a line starting with ``|``
+    separates two layers."""
+    text = PAGE.read_text(encoding="utf-8")
+    diagram = text.split("```\n", 2)[1]
+    tops = {m.split(".")[1] for m in MODULES if "." in m}
+    out = [set()]
+    for line in diagram.splitlines():
+        words = line.split()
+        if words and words[0] == "|":
+            out.append(set())
+            continue
+        for word in words:
+            if word == "->":
+                continue
+            if word.rstrip("/") not in tops:
+                break
+            out[-1].add(word.rstrip("/"))
+    return [layer for layer in out if layer]
+
+
+def test_every_import_goes_to_the_same_layer_or_below():
+    found = layers()
+    level = {name: i for i, layer in enumerate(found) for name in layer}
+    tops = {m.split(".")[1] for m in MODULES if "." in m}
+    assert set(level) == tops and sum(map(len, found)) == len(tops), "each module in one layer of the diagram"
+    up = [f"{m} -> {t}" for m, targets in graph().items() for t in targets
+          if t != "lidar_sig" and m != "lidar_sig" and level[t.split(".")[1]] < level[m.split(".")[1]]]
+    assert not up, "imports of a higher layer: " + ", ".join(up)
