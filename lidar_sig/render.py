@@ -1,14 +1,14 @@
 """Images for people, drawn with OpenCV: Sas and Sg in their triangle (SPEC 5), the difference
 of two signatures, a top view of a cloud coloured by its saliency, PNG encoding.
 
-Every picture is an (H, W, 3) uint8 RGB array; :func:`encode_png` and :func:`write_png` store
-it. OpenCV is imported on first use, so computing saliency alone never loads it.
+Every picture is an (H, W, 3) uint8 RGB array; :func:`encode_png` makes it PNG bytes and
+:mod:`lidar_sig.io.png` writes it. OpenCV is imported on first use, so computing saliency alone
+never loads it.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from .io.atomic import atomic_output
 from .signature import RENDERINGS, smooth_counts, to_uint8
 
 #: Names of the triangle's vertices V_l, V_s, V_p as the pictures label them.
@@ -248,16 +248,3 @@ def encode_png(rgb):
     if not ok:
         raise RuntimeError("OpenCV could not encode the picture as PNG")
     return data.tobytes()
-
-
-def write_png(path, data, *, overwrite=False):
-    """Write PNG ``data`` (bytes, or an RGB uint8 picture) to ``path`` atomically."""
-    if not isinstance(data, (bytes, bytearray)):
-        data = encode_png(data)
-    with atomic_output(path, overwrite=overwrite) as tmp:
-        tmp.write_bytes(data)
-
-
-def write_signature_png(path, signature, *, kind="sas", mode="smooth", overwrite=False):
-    """Write Sas (default) or Sg of ``signature`` as a PNG file."""
-    write_png(path, signature_image(signature, kind, mode), overwrite=overwrite)

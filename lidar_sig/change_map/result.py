@@ -153,7 +153,7 @@ class ChangeMap:
             with step(f"writing {Path(path).name}", bands=len(names)):
                 write_geotiff(path, bands, descriptions, self.grid.transform, self.crs, overwrite=overwrite)
         elif ext == ".png":
-            from ..render import write_png
+            from ..io.png import write_png
             from ..reporting import change_map_image
 
             with step(f"writing {Path(path).name}"):

@@ -5,7 +5,7 @@ import click
 
 from ..errors import LidarSigError
 from ..io import HDF5_EXTENSIONS, check_outputs, output_group, read
-from ..render import write_signature_png
+from ..io.png import write_signature_png
 from ..comparison import report as ls_report
 from ..reporting import SIGNATURE_PLOTS
 from ..signature import RENDERINGS

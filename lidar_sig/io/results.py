@@ -13,8 +13,8 @@ def write_result(result, path, *, overwrite=False, points=True, render="smooth")
     cloud with per-point saliency (.las/.laz extra dimensions, .ply/.pcd attributes,
     .xyz/.txt/.pts/.csv columns), a signature archive (.h5/.hdf5, with per-point datasets unless
     ``points=False``) or an image of Sas (.png); images are rendered as ``render``."""
-    from ..render import write_signature_png
     from . import CLOUD_EXTENSIONS, HDF5_EXTENSIONS, write_archive, write_cloud
+    from .png import write_signature_png
 
     path = as_path(path, "write")
     if not isinstance(overwrite, bool):

@@ -38,7 +38,7 @@ class Report:
     def save_plots(self, folder, *, overwrite=False):
         """Write every figure as a PNG file in ``folder`` (made if missing, its parent must
         exist); refuses existing files unless ``overwrite``. Returns the paths written."""
-        from ..render import write_png
+        from ..io.png import write_png
 
         folder = Path(folder)
         check_plots_folder(folder, self.figures, overwrite=overwrite)

@@ -1,0 +1,18 @@
+"""PNG files of pictures and of signatures (Sas, Sg), written atomically."""
+from __future__ import annotations
+
+from ..render import encode_png, signature_image
+from .atomic import atomic_output
+
+
+def write_png(path, data, *, overwrite=False):
+    """Write PNG ``data`` (bytes, or an RGB uint8 picture) to ``path`` atomically."""
+    if not isinstance(data, (bytes, bytearray)):
+        data = encode_png(data)
+    with atomic_output(path, overwrite=overwrite) as tmp:
+        tmp.write_bytes(data)
+
+
+def write_signature_png(path, signature, *, kind="sas", mode="smooth", overwrite=False):
+    """Write Sas (default) or Sg of ``signature`` as a PNG file."""
+    write_png(path, signature_image(signature, kind, mode), overwrite=overwrite)
