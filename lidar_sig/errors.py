@@ -43,6 +43,19 @@ def whole_number(value, what, *, low=0, high=None):
     return int(value)
 
 
+def positive_metres(value, what):
+    """``value`` as a float if it is a positive finite number (not a bool); else a
+    LidarSigError saying that ``what`` must be a positive number of metres."""
+    import math
+
+    import numpy as np
+
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
+            or not math.isfinite(value) or value <= 0:
+        raise LidarSigError(f"{what} must be a positive number of metres, got {value!r}")
+    return float(value)
+
+
 def as_path(value, what):
     """``value`` (a str or path-like, not empty) as a Path; else a LidarSigError saying that
     ``what`` takes a path and what it got (its type, not its repr: an array's is many lines)."""

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import LidarSigError
+from ..errors import positive_metres
 
 #: Default cell side, in metres.
 CELL = 25.0
@@ -75,7 +75,4 @@ class Grid:
 
 def check_cell(cell):
     """The cell side as a float of metres, or LidarSigError naming the value."""
-    if isinstance(cell, bool) or not isinstance(cell, (int, float, np.integer, np.floating)) \
-            or not math.isfinite(cell) or cell <= 0:
-        raise LidarSigError(f"the cell size must be a positive number of metres, got {cell!r}")
-    return float(cell)
+    return positive_metres(cell, "the cell size")

@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import LidarSigError
+from ..errors import LidarSigError, positive_metres
 from ..neighbors import NeighborIndex, area_cap, radius_reach, unique_points
 from ..plugins.base import Descriptor
 
@@ -115,10 +115,7 @@ class Tiling:
 
 def check_tile_size(size):
     """The tile side as a float of metres, or LidarSigError naming the value."""
-    if isinstance(size, bool) or not isinstance(size, (int, float, np.integer, np.floating)) \
-            or not math.isfinite(size) or size <= 0:
-        raise LidarSigError(f"the tile size must be a positive number of metres, got {size!r}")
-    return float(size)
+    return positive_metres(size, "the tile size")
 
 
 def tile_name(i, j):
