@@ -224,22 +224,22 @@ class NeighborIndex:
         n = np.zeros(b, np.int64)
         total = np.zeros(b, np.int64)
         done = np.zeros(b, np.bool_)
-        radii2 = tie_limit(self.scales.astype(np.float64) ** 2)
+        radii2 = tie_limit(self.scales.astype(np.float64) ** 2) if self.kind == "radius" else None
         if self.kind == "knn" or self.capped_search:
             self.grid.search(rows, d2, idx, n, total, done, ks=np.array([self.width]), s_max=self.s_max)
         else:
             self.grid.search(rows, d2, idx, n, total, done, cap=self.width, s_max=self.s_max, radii2=radii2)
         if not done.all():
             self._complete(rows, d2, idx, n, total, done, self.width, kind="knn" if self.capped_search else None)
-        if self.capped_search:
-            counts, total, n = _cut_at_radii(d2, n, radii2, self.max_neighbors)
-        elif self.kind == "radius":
-            counts = counts_within(d2, n, radii2)
         if self.kind == "knn":
             counts, sigma = _knn_counts(d2, n, self.scales)
             n = counts[:, -1].copy()  # neighbours past the largest scale's ties are not needed
             capped = np.zeros(b, bool)
         else:
+            if self.capped_search:
+                counts, total, n = _cut_at_radii(d2, n, radii2, self.max_neighbors)
+            else:
+                counts = counts_within(d2, n, radii2)
             sigma = np.broadcast_to(self.scales[None, :].astype(np.float64), counts.shape)
             capped = total > self.max_neighbors
         width = max(1, int(n.max()))
