@@ -14,8 +14,9 @@ import numpy as np
 import pytest
 
 import lidar_sig as ls
+from command_line import run
 from conftest import SAMPLES
-from robustness.helpers import assert_one_line_error, digests, leftovers, run, write_las
+from robustness.helpers import assert_one_line_error, digests, leftovers, write_las
 
 SRC = SAMPLES / "epoch1.laz"
 
