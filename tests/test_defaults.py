@@ -1,8 +1,6 @@
 """The defaults measure the land, not the survey (issue 8): rotation, unit, extent, sampling,
 duplicate points; compare makes both sides the same way and warns only when something is off."""
 import json
-import subprocess
-import sys
 
 import laspy
 import numpy as np
@@ -10,15 +8,11 @@ import pyproj
 import pytest
 
 import lidar_sig as ls
+from command_line import run
 from conftest import DATA, IGN, SAMPLES, airborne_like, need_data
 
 TILE = IGN / "test_data_77060_627760_LA93_IGN69.laz"
 FTUS = 1200.0 / 3937.0  # metres per US survey foot
-
-
-def run(*args):
-    return subprocess.run([sys.executable, "-m", "lidar_sig", *map(str, args)], capture_output=True,
-                          text=True, timeout=600)
 
 
 def rotate_z(xyz, degrees):
