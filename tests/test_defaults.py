@@ -22,10 +22,11 @@ def rotate_z(xyz, degrees):
     return (xyz - centre) @ rot.T + centre
 
 
-def test_rotated_ign_tile_gives_the_same_saliency_and_class_counts():
-    cloud = ls.read(need_data(TILE))
+def test_rotated_ign_tile_gives_the_same_saliency_and_class_counts(default_run):
+    a = default_run(TILE)
+    cloud = a.cloud
     turned = ls.PointCloud(rotate_z(cloud.xyz, 30.0), cloud.labels, crs=cloud.crs)
-    a, b = ls.Pipeline().run(cloud), ls.Pipeline().run(turned)
+    b = ls.Pipeline().run(turned)
     assert a.metadata["n_undefined"] == b.metadata["n_undefined"] == 0
     # rotating Lambert-93 coordinates (northings of 6.3e6 m) rounds them to about 1e-9 m, which
     # moves a saliency over decimetre neighbourhoods by about 1e-8 at most
@@ -114,8 +115,8 @@ SHARED = sorted(p for p in DATA.glob("*/*.laz")) if DATA.exists() else []
 
 
 @pytest.mark.parametrize("path", SHARED or [DATA / "missing.laz"], ids=lambda p: p.name)
-def test_defaults_leave_fewer_than_5_percent_undefined(path):
-    result = ls.Pipeline(progress=False).run(need_data(path))
+def test_defaults_leave_fewer_than_5_percent_undefined(default_run, path):
+    result = default_run(path)
     assert result.metadata["n_undefined"] < 0.05 * result.metadata["n_points"]
 
 
@@ -155,8 +156,8 @@ def _archive(tmp_path, name, *options):
     return path
 
 
-def test_compare_refuses_archives_made_with_different_methods(tmp_path):
-    default = _archive(tmp_path, "default.h5")
+def test_compare_refuses_archives_made_with_different_methods(tmp_path, epoch1_archive):
+    default = epoch1_archive
     for name, options, what in (("optimal.h5", ["--strategy", "optimal"], "strategy"),
                                 ("k.h5", ["--k", "10,20"], "scale values"),
                                 ("paper.h5", ["--weights", "none"], "weights")):

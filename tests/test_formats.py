@@ -19,8 +19,8 @@ TILE = IGN / "test_data_77060_627760_LA93_IGN69.laz"
 
 
 @pytest.fixture(scope="module")
-def original():
-    return ls.Pipeline().run(need_data(TILE))
+def original(default_run):
+    return default_run(TILE)
 
 
 @pytest.mark.parametrize("ext", [".ply", ".pcd", ".xyz", ".txt"])
