@@ -29,6 +29,7 @@ def test_archive_round_trip_compares_exactly(optimal_result, tmp_path):
     optimal_result.write(path)
     loaded = ls.load_signature(path)
     out = ls.compare(optimal_result.signature, loaded)
+    # exactly: the archive stores the signature's counts, the same numbers come back
     assert out["ssim"] == 1.0
     assert all(out[k] == 0.0 for k in out if k != "ssim")
     assert np.array_equal(loaded.counts, optimal_result.signature.counts)

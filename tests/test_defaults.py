@@ -171,6 +171,7 @@ def test_compare_refuses_archives_made_with_different_methods(tmp_path, epoch1_a
 def test_cloud_compared_with_an_archive_is_computed_the_archive_way(tmp_path):
     archive = _archive(tmp_path, "optimal.h5", "--strategy", "optimal", "--weights", "none")
     out = json.loads(run("compare", archive, SAMPLES / "epoch1.laz", "--json").stdout)
+    # exactly: the cloud computed the archive's way on the same machine gives the archived signature
     assert out["ssim"] == 1.0 and out["fv"] == out["emd_info"] == out["kl"] == 0.0
     assert out["method"]["strategy"] == "optimal" and out["method"]["weights"] == "none"
     assert out["a"]["kind"] == "archive" and out["b"]["kind"] == "cloud"
