@@ -53,11 +53,10 @@ def run(*args, cwd=None):
     return subprocess.CompletedProcess(["lidar-sig", *argv], status, streams.stdout, streams.stderr)
 
 
-def run_process(*args, cwd=None, env=None, timeout=600):
-    """`python -m lidar_sig ARGS` in a child process; stdin closed, as in a pipeline; ``env``
-    adds to this process's environment."""
+def run_process(*args, cwd=None, timeout=600):
+    """`python -m lidar_sig ARGS` in a child process; stdin closed, as in a pipeline."""
     return subprocess.run([sys.executable, "-m", "lidar_sig", *map(str, args)], capture_output=True, text=True,
-                          cwd=cwd, env=dict(os.environ, **(env or {})), timeout=timeout, stdin=subprocess.DEVNULL)
+                          cwd=cwd, timeout=timeout, stdin=subprocess.DEVNULL)
 
 
 def _exit_status(code):

@@ -18,7 +18,6 @@ exactly; a JSON line is compared as JSON, value by value, the same way.
 import json
 import math
 import re
-from pathlib import Path
 
 import pytest
 
