@@ -12,8 +12,11 @@ def _terminate(signum, frame):
 
 def main(argv=None):
     """Start the command line; returns the exit status."""
-    signal.signal(signal.SIGTERM, _terminate)
     try:
+        # what the SIGTERM handler raises, loaded whole before the handler can run (a SIGTERM
+        # while the command line was importing it raised an ImportError of a partly loaded module)
+        from . import errors  # noqa: F401
+        signal.signal(signal.SIGTERM, _terminate)
         from .cli import main as cli_main
     except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM while the libraries load
         signum = getattr(exc, "signum", signal.SIGINT)

@@ -36,3 +36,34 @@ def airborne_like(n=4000, seed=0, quantum=2.0 ** -10):
     if quantum:
         xyz = np.round(xyz / quantum) * quantum
     return xyz, labels
+
+
+# -- computed once per test run -----------------------------------------------------------------
+# Shared results: a test that changes one must work on a copy.
+
+@pytest.fixture(scope="session")
+def default_run():
+    """``default_run(path)``: ``ls.Pipeline(progress=False).run(path)`` (the defaults: C3DCM,
+    Multiscale over k = 20, 30, 40, area weights), computed once per path for the whole run."""
+    import lidar_sig as ls
+
+    results = {}
+
+    def run(path):
+        path = need_data(path)
+        if path not in results:
+            results[path] = ls.Pipeline(progress=False).run(path)
+        return results[path]
+    return run
+
+
+@pytest.fixture(scope="session")
+def epoch1_archive(tmp_path_factory):
+    """The signature archive of data_samples/epoch1.laz made by `lidar-sig signature` with the
+    defaults (copy it before editing it)."""
+    from command_line import run
+
+    path = tmp_path_factory.mktemp("archive") / "epoch1.h5"
+    made = run("signature", SAMPLES / "epoch1.laz", "-o", path, "-q")
+    assert made.returncode == 0, made.stderr
+    return path

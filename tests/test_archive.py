@@ -2,13 +2,13 @@
 import json
 import shutil
 import subprocess
-import sys
 
 import h5py
 import numpy as np
 import pytest
 
 import lidar_sig as ls
+from command_line import run, run_process
 from conftest import IGN, SAMPLES, need_data
 
 DOCUMENTED = ["/signature/counts", "/signature/sg", "/signature/sas", "/signature/mask",
@@ -29,6 +29,7 @@ def test_archive_round_trip_compares_exactly(optimal_result, tmp_path):
     optimal_result.write(path)
     loaded = ls.load_signature(path)
     out = ls.compare(optimal_result.signature, loaded)
+    # exactly: the archive stores the signature's counts, the same numbers come back
     assert out["ssim"] == 1.0
     assert all(out[k] == 0.0 for k in out if k != "ssim")
     assert np.array_equal(loaded.counts, optimal_result.signature.counts)
@@ -62,19 +63,16 @@ def test_h5dump_header_lists_documented_datasets(optimal_result, tmp_path):
     assert 'GROUP "signature"' in header and 'GROUP "points"' in header
 
 
-def _cli(*args):
-    return subprocess.run([sys.executable, "-m", "lidar_sig", *map(str, args)], capture_output=True,
-                          text=True, timeout=600)
-
-
 def test_cli_signature_archive_then_compare_and_info(tmp_path):
+    # real processes: one end-to-end run of the info command, and an archive read by another process
     arc, png = tmp_path / "e1.h5", tmp_path / "e1.png"
-    made = _cli("signature", SAMPLES / "epoch1.laz", "-o", arc, "--png", png, "-q")
+    made = run_process("signature", SAMPLES / "epoch1.laz", "-o", arc, "--png", png, "-q")
     assert made.returncode == 0, made.stderr
     assert png.read_bytes()[:4] == b"\x89PNG"
-    mixed = json.loads(_cli("compare", arc, SAMPLES / "epoch1.laz", "--json").stdout)
+    mixed = json.loads(run_process("compare", arc, SAMPLES / "epoch1.laz", "--json").stdout)
+    # exactly: the same cloud and the same computation on one machine give the same signature
     assert mixed["ssim"] == 1.0 and mixed["emd_img"] == 0.0 and mixed["fv"] == 0.0
-    info = _cli("info", arc)
+    info = run_process("info", arc)
     assert info.returncode == 0 and "signature archive" in info.stdout and "sha256" in info.stdout
 
 
@@ -91,7 +89,7 @@ def test_bad_archives_exit_2_with_one_line(tmp_path, case):
         ls.Pipeline(scales=ls.knn(10)).run(SAMPLES / "epoch1.laz").write(good)
         path.write_bytes(good.read_bytes()[:4000])
     for args in (("compare", path, SAMPLES / "epoch1.laz"), ("info", path)):
-        proc = _cli(*args)
+        proc = run(*args)
         assert proc.returncode == 2, proc.stderr
         lines = proc.stderr.strip().splitlines()
         assert len(lines) == 1 and path.name in lines[0] and "Traceback" not in proc.stderr
@@ -100,7 +98,7 @@ def test_bad_archives_exit_2_with_one_line(tmp_path, case):
 def test_compare_refuses_archive_with_another_class_table(tmp_path):
     arc = tmp_path / "asprs.h5"
     ls.Pipeline(scales=ls.knn(10, 20)).run(SAMPLES / "epoch1.laz").write(arc)
-    proc = _cli("compare", arc, SAMPLES / "epoch2.laz", "--classes", "paper", "--k", "10,20")
+    proc = run("compare", arc, SAMPLES / "epoch2.laz", "--classes", "paper", "--k", "10,20")
     assert proc.returncode == 2
     assert "class table 'asprs'" in proc.stderr and "--classes" in proc.stderr
     assert "Traceback" not in proc.stderr

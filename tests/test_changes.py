@@ -10,11 +10,12 @@ import numpy as np
 import pytest
 
 import lidar_sig as ls
+from command_line import run, run_process
 from conftest import IGN, ROOT, SAMPLES, airborne_like, need_data
 from lidar_sig.change_map import THRESHOLDS, Grid, changes
 from lidar_sig.cloud import PointCloud
 from lidar_sig.errors import LidarSigError
-from robustness.helpers import assert_one_line_error, leftovers, run
+from robustness.helpers import assert_one_line_error, leftovers
 
 sys.path.insert(0, str(ROOT / "benchmarks"))
 sys.path.insert(0, str(SAMPLES))
@@ -207,8 +208,10 @@ def test_committed_sample_pair_shows_the_cut_trees_and_the_new_building_in_its_t
 def sample_run(tmp_path_factory):
     pytest.importorskip("rasterio", reason="rasterio not installed: pip install -e '.[geo]'")
     out = tmp_path_factory.mktemp("changes")
-    proc = run("changes", SAMPLES / "epoch1.laz", ALIGNED, "-o", out / "map.tif", "--cell", "16",
-               "--min-points", "500", "--png", out / "map.png", "--report", out / "map.html", "--json", "--top", "30")
+    # the command's end-to-end run, in a real process
+    proc = run_process("changes", SAMPLES / "epoch1.laz", ALIGNED, "-o", out / "map.tif", "--cell", "16",
+                       "--min-points", "500", "--png", out / "map.png", "--report", out / "map.html", "--json",
+                       "--top", "30")
     assert proc.returncode == 0, proc.stderr
     return out, json.loads(proc.stdout)
 

@@ -1,22 +1,20 @@
-"""The command line as a user runs it: real processes, exit codes, one-line errors."""
+"""The command line as a user runs it: exit codes, one-line errors. A real process runs the
+saliency, signature, compare and plugins commands once each (the last through the installed
+`lidar-sig` script); the rest run in this process (tests/command_line.py)."""
 import json
+import shutil
 import subprocess
-import sys
 
 import laspy
 import numpy as np
 import pytest
 
+from command_line import run, run_process
 from conftest import IGN, SAMPLES, need_data
 
 WEST = IGN / "test_data_77050_627755_LA93_IGN69.laz"
 EAST = IGN / "test_data_77060_627755_LA93_IGN69.laz"
 SMALL = IGN / "test_data_77060_627760_LA93_IGN69.laz"
-
-
-def run(*args):
-    return subprocess.run([sys.executable, "-m", "lidar_sig", *map(str, args)],
-                          capture_output=True, text=True, timeout=600)
 
 
 def assert_user_error(proc, name):
@@ -34,7 +32,7 @@ def assert_nothing_written(folder, output):
 
 def test_compare_real_ign_columns_prints_every_metric():
     need_data(WEST), need_data(EAST)
-    proc = run("compare", WEST, EAST, "--json")
+    proc = run_process("compare", WEST, EAST, "--json")
     assert proc.returncode == 0, proc.stderr
     out = json.loads(proc.stdout)
     for key in ("bhattacharyya", "ssim", "emd_info", "emd_img", "fv", "kl", "l1"):
@@ -50,6 +48,8 @@ def test_compare_real_ign_columns_prints_every_metric():
 def test_compare_file_with_itself_gives_zero_distances():
     need_data(SMALL)
     out = json.loads(run("compare", SMALL, SMALL, "--json", "--strategy", "optimal").stdout)
+    # exactly: one file computed twice the same way on one machine gives the same signature,
+    # on any CPU, and a signature's distance to itself is 0
     assert out["ssim"] == 1.0
     assert out["bhattacharyya"] == out["emd_info"] == out["emd_img"] == out["fv"] == 0.0
     assert out["kl"] == out["l1"] == 0.0
@@ -72,11 +72,11 @@ def test_compare_defaults_use_the_same_k_and_warn_only_for_normalized_radii():
 def test_saliency_writes_laz_and_refuses_existing_output(tmp_path):
     src = need_data(SMALL)
     out = tmp_path / "sal.laz"
-    proc = run("saliency", src, "-o", out, "--strategy", "optimal")
+    proc = run_process("saliency", src, "-o", out, "--strategy", "optimal")
     assert proc.returncode == 0, proc.stderr
     assert "OptimalScale" in laspy.read(out).point_format.extra_dimension_names
     before = out.read_bytes()
-    again = run("saliency", src, "-o", out)
+    again = run_process("saliency", src, "-o", out)  # the exit status of the process itself
     assert_user_error(again, str(out))
     assert "--overwrite" in again.stderr and out.read_bytes() == before
     assert run("saliency", src, "-o", out, "--overwrite", "-q").returncode == 0
@@ -85,7 +85,7 @@ def test_saliency_writes_laz_and_refuses_existing_output(tmp_path):
 
 def test_signature_writes_png(tmp_path):
     out, sg = tmp_path / "sas.png", tmp_path / "sg.png"
-    proc = run("signature", SAMPLES / "epoch1.laz", "-o", out, "--sg", sg, "--classes", "paper")
+    proc = run_process("signature", SAMPLES / "epoch1.laz", "-o", out, "--sg", sg, "--classes", "paper")
     assert proc.returncode == 0, proc.stderr
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and sg.exists()
 
@@ -150,3 +150,15 @@ def test_plugins_lists_builtins():
     assert proc.returncode == 0
     for name in ("c3dcm", "multiscale", "optimal"):
         assert name in proc.stdout
+
+
+@pytest.mark.skipif(shutil.which("lidar-sig") is None,
+                    reason="the lidar-sig script is not on PATH (pip install -e . installs it)")
+def test_the_installed_lidar_sig_script_runs_the_command_line():
+    proc = subprocess.run(["lidar-sig", "plugins"], capture_output=True, text=True, timeout=600,
+                          stdin=subprocess.DEVNULL)
+    assert proc.returncode == 0, proc.stderr
+    assert "c3dcm" in proc.stdout and "multiscale" in proc.stdout
+    bad = subprocess.run(["lidar-sig", "plugins", "--bogus"], capture_output=True, text=True, timeout=600,
+                         stdin=subprocess.DEVNULL)
+    assert_user_error(bad, "--bogus")

@@ -1,8 +1,6 @@
 """The defaults measure the land, not the survey (issue 8): rotation, unit, extent, sampling,
 duplicate points; compare makes both sides the same way and warns only when something is off."""
 import json
-import subprocess
-import sys
 
 import laspy
 import numpy as np
@@ -10,15 +8,11 @@ import pyproj
 import pytest
 
 import lidar_sig as ls
+from command_line import run
 from conftest import DATA, IGN, SAMPLES, airborne_like, need_data
 
 TILE = IGN / "test_data_77060_627760_LA93_IGN69.laz"
 FTUS = 1200.0 / 3937.0  # metres per US survey foot
-
-
-def run(*args):
-    return subprocess.run([sys.executable, "-m", "lidar_sig", *map(str, args)], capture_output=True,
-                          text=True, timeout=600)
 
 
 def rotate_z(xyz, degrees):
@@ -28,10 +22,11 @@ def rotate_z(xyz, degrees):
     return (xyz - centre) @ rot.T + centre
 
 
-def test_rotated_ign_tile_gives_the_same_saliency_and_class_counts():
-    cloud = ls.read(need_data(TILE))
+def test_rotated_ign_tile_gives_the_same_saliency_and_class_counts(default_run):
+    a = default_run(TILE)
+    cloud = a.cloud
     turned = ls.PointCloud(rotate_z(cloud.xyz, 30.0), cloud.labels, crs=cloud.crs)
-    a, b = ls.Pipeline().run(cloud), ls.Pipeline().run(turned)
+    b = ls.Pipeline().run(turned)
     assert a.metadata["n_undefined"] == b.metadata["n_undefined"] == 0
     # rotating Lambert-93 coordinates (northings of 6.3e6 m) rounds them to about 1e-9 m, which
     # moves a saliency over decimetre neighbourhoods by about 1e-8 at most
@@ -120,8 +115,8 @@ SHARED = sorted(p for p in DATA.glob("*/*.laz")) if DATA.exists() else []
 
 
 @pytest.mark.parametrize("path", SHARED or [DATA / "missing.laz"], ids=lambda p: p.name)
-def test_defaults_leave_fewer_than_5_percent_undefined(path):
-    result = ls.Pipeline(progress=False).run(need_data(path))
+def test_defaults_leave_fewer_than_5_percent_undefined(default_run, path):
+    result = default_run(path)
     assert result.metadata["n_undefined"] < 0.05 * result.metadata["n_points"]
 
 
@@ -161,8 +156,8 @@ def _archive(tmp_path, name, *options):
     return path
 
 
-def test_compare_refuses_archives_made_with_different_methods(tmp_path):
-    default = _archive(tmp_path, "default.h5")
+def test_compare_refuses_archives_made_with_different_methods(tmp_path, epoch1_archive):
+    default = epoch1_archive
     for name, options, what in (("optimal.h5", ["--strategy", "optimal"], "strategy"),
                                 ("k.h5", ["--k", "10,20"], "scale values"),
                                 ("paper.h5", ["--weights", "none"], "weights")):
@@ -176,6 +171,7 @@ def test_compare_refuses_archives_made_with_different_methods(tmp_path):
 def test_cloud_compared_with_an_archive_is_computed_the_archive_way(tmp_path):
     archive = _archive(tmp_path, "optimal.h5", "--strategy", "optimal", "--weights", "none")
     out = json.loads(run("compare", archive, SAMPLES / "epoch1.laz", "--json").stdout)
+    # exactly: the cloud computed the archive's way on the same machine gives the archived signature
     assert out["ssim"] == 1.0 and out["fv"] == out["emd_info"] == out["kl"] == 0.0
     assert out["method"]["strategy"] == "optimal" and out["method"]["weights"] == "none"
     assert out["a"]["kind"] == "archive" and out["b"]["kind"] == "cloud"

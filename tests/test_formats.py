@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 import lidar_sig as ls
+from command_line import run
 from conftest import IGN, need_data
 from lidar_sig.errors import LidarSigWarning
 from lidar_sig.io import write_cloud
@@ -18,8 +19,8 @@ TILE = IGN / "test_data_77060_627760_LA93_IGN69.laz"
 
 
 @pytest.fixture(scope="module")
-def original():
-    return ls.Pipeline().run(need_data(TILE))
+def original(default_run):
+    return default_run(TILE)
 
 
 @pytest.mark.parametrize("ext", [".ply", ".pcd", ".xyz", ".txt"])
@@ -49,11 +50,6 @@ def test_isprs_vaihingen_text_layout(tmp_path):
     assert sig.classes.name == "isprs-vaihingen" and sig.class_counts[:9].sum() == 3000
 
 
-def _cli(*args):
-    return subprocess.run([sys.executable, "-m", "lidar_sig", *map(str, args)], capture_output=True,
-                          text=True, timeout=600)
-
-
 def _bad_files(tmp_path):
     ragged = tmp_path / "ragged.txt"
     ragged.write_text("0 0 0\n1 0 0\n1 1\n0 1 1\n")
@@ -75,7 +71,7 @@ def test_bad_files_exit_2_one_line_nothing_written(tmp_path, case):
     src, extra = _bad_files(tmp_path)[case]
     out = tmp_path / "out" / "o.laz"
     out.parent.mkdir()
-    proc = _cli("saliency", src, "-o", out, *extra)
+    proc = run("saliency", src, "-o", out, *extra)
     assert proc.returncode == 2, proc.stderr
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and src.name in lines[0] and "Traceback" not in proc.stderr
@@ -95,14 +91,14 @@ def test_cli_user_class_table_and_info(tmp_path):
     table.write_text('name = "ign-3"\n[[class]]\nname = "vegetation"\ncodes = [3, 4, 5]\ncolor = [20, 140, 40]\n'
                      '[[class]]\nname = "building"\ncodes = [6]\ncolor = [220, 50, 40]\n')
     out = tmp_path / "sig.h5"
-    proc = _cli("signature", need_data(TILE), "-o", out, "--classes", table, "-q")
+    proc = run("signature", need_data(TILE), "-o", out, "--classes", table, "-q")
     assert proc.returncode == 0, proc.stderr
     sig = ls.load_signature(out)
     assert sig.classes.name == "ign-3" and sig.classes.class_names == ("vegetation", "building", "other")
     cloud = ls.read(TILE)
     assert sig.class_counts.sum() == len(cloud) - sig.n_undefined
     assert 0 < sig.class_counts[0] <= np.isin(cloud.labels, [3, 4, 5]).sum()
-    info = _cli("info", TILE)
+    info = run("info", TILE)
     assert info.returncode == 0 and "59,606 points" in info.stdout and "WktCoordinateSystemVlr" in info.stdout
 
 

@@ -1,14 +1,13 @@
 """LAS/LAZ output (SPEC 8): LAS 1.4 originals kept bit for bit, older versions upgraded with
 every value kept, saliency dimensions added once, a user's own dimensions never replaced."""
 import datetime
-import subprocess
-import sys
 
 import laspy
 import numpy as np
 import pytest
 
 import lidar_sig as ls
+from command_line import run
 from conftest import DATA, IGN, IGN_FILES, airborne_like, need_data
 from lidar_sig.errors import LidarSigWarning
 from lidar_sig.io.las import SALIENCY_DIMS, write_las
@@ -175,8 +174,7 @@ def test_legacy_point_formats_map_to_las14_with_values_kept(fmt, tmp_path):
 def test_copc_input_is_written_as_plain_laz_with_one_note(tmp_path):
     path = need_data(COPC)
     out_path = tmp_path / "out.laz"
-    proc = subprocess.run([sys.executable, "-m", "lidar_sig", "saliency", str(path), "-o", str(out_path),
-                           "--k", "10", "-q"], capture_output=True, text=True, timeout=600)
+    proc = run("saliency", path, "-o", out_path, "--k", "10", "-q")
     assert proc.returncode == 0, proc.stderr
     notes = proc.stderr.strip().splitlines()
     assert len(notes) == 1 and "COPC" in notes[0] and "Traceback" not in proc.stderr
@@ -282,8 +280,7 @@ def test_cli_refuses_when_even_the_prefixed_names_are_taken(tmp_path):
     las.write(user)
     out = tmp_path / "out" / "o.laz"
     out.parent.mkdir()
-    proc = subprocess.run([sys.executable, "-m", "lidar_sig", "saliency", str(user), "-o", str(out), "--k", "10",
-                           "-q"], capture_output=True, text=True, timeout=600)
+    proc = run("saliency", user, "-o", out, "--k", "10", "-q")
     assert proc.returncode == 2
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and "user.laz" in lines[0] and "lidar_sig_Cl" in lines[0] and "rename" in lines[0]

@@ -8,15 +8,11 @@ import sys
 
 import pytest
 
+from command_line import run, run_process
 from conftest import SAMPLES
 
 EPOCH2 = SAMPLES / "epoch2.laz"
 STEPS = ("reading epoch2.laz", "neighbourhoods", "saliency (c3dcm multiscale)", "signature", "writing out.laz")
-
-
-def run(*args, cwd):
-    return subprocess.run([sys.executable, "-m", "lidar_sig", *map(str, args)], capture_output=True, text=True,
-                          cwd=cwd)
 
 
 def test_verbose_logs_every_step_with_its_parameters_and_timing(tmp_path):
@@ -30,7 +26,7 @@ def test_verbose_logs_every_step_with_its_parameters_and_timing(tmp_path):
 
 
 def test_off_a_terminal_or_quiet_nothing_but_results(tmp_path):
-    done = run("saliency", EPOCH2, "-o", "a.laz", cwd=tmp_path)
+    done = run_process("saliency", EPOCH2, "-o", "a.laz", cwd=tmp_path)
     assert done.returncode == 0 and done.stderr == ""  # stderr is a pipe: no bars
     done = run("compare", EPOCH2, EPOCH2, "--quiet", "--report", "r.html", cwd=tmp_path)
     assert done.returncode == 0 and done.stderr == ""

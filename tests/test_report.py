@@ -4,8 +4,6 @@ and how it opens in a real browser (headless Chromium)."""
 import base64
 import os
 import re
-import subprocess
-import sys
 from pathlib import Path
 
 import laspy
@@ -14,16 +12,12 @@ import pytest
 
 import lidar_sig as ls
 from browser import Browser, missing
+from command_line import run
 from conftest import SAMPLES
 from lidar_sig.metrics import METRICS
 from lidar_sig.reporting import COMPARISON_PLOTS, SIGNATURE_PLOTS
 
 EPOCH1, EPOCH2 = SAMPLES / "epoch1.laz", SAMPLES / "epoch2.laz"
-
-
-def run(*args, cwd=None):
-    return subprocess.run([sys.executable, "-m", "lidar_sig", *map(str, args)], capture_output=True, text=True,
-                          cwd=cwd)
 
 
 @pytest.fixture(scope="module")

@@ -1,18 +1,12 @@
 """`lidar-sig resilience` and lidar_sig.resilience (lidar_sig.sampling): metrics of random subsamples (SPEC 7)."""
 import json
-import subprocess
-import sys
 
 import numpy as np
 
 import lidar_sig as ls
+from command_line import run, run_process
 from conftest import SAMPLES, airborne_like
 from lidar_sig.sampling import resilience
-
-
-def run(*args):
-    return subprocess.run([sys.executable, "-m", "lidar_sig", *map(str, args)], capture_output=True,
-                          text=True, timeout=600)
 
 
 def test_full_fraction_is_identical_and_distances_grow_as_points_go():
@@ -30,8 +24,8 @@ def test_full_fraction_is_identical_and_distances_grow_as_points_go():
 
 def test_resilience_command_prints_json_and_draws_a_plot(tmp_path):
     plot = tmp_path / "res.png"
-    proc = run("resilience", SAMPLES / "epoch2.laz", "--fractions", "1,0.6", "--repeats", "2", "--json",
-               "--plot", plot, "-q")
+    proc = run_process("resilience", SAMPLES / "epoch2.laz", "--fractions", "1,0.6", "--repeats", "2", "--json",
+                       "--plot", plot, "-q")  # the command's end-to-end run in a real process
     assert proc.returncode == 0, proc.stderr
     out = json.loads(proc.stdout)
     assert out["fractions"] == [1.0, 0.6] and out["repeats"] == 2 and out["render"] == "smooth"

@@ -2,8 +2,6 @@
 import hashlib
 import json
 import shutil
-import subprocess
-import sys
 from pathlib import Path
 
 import h5py
@@ -19,6 +17,7 @@ from lidar_sig.tiling.core import saliency_in_tiles
 from lidar_sig.tiling.execute import executor
 from lidar_sig.tiling.run import run_set
 
+from command_line import run as lidar_sig_cli
 from conftest import DATA, IGN, IGN_FILES, SAMPLES, airborne_like, need_data
 
 # Points tied at the same distance from a query can be listed in another order in a tile's
@@ -43,10 +42,14 @@ def counts_of(sal, labels):
 
 
 @pytest.mark.parametrize("strategy", ["multiscale", "optimal"])
-def test_ahn3_cut_4x4_gives_the_single_block_saliency_and_signature(strategy):
-    cloud = ls.read(need_data(DATA / "ahn3_delft" / "ahn3_cropped_1.laz"))
+def test_ahn3_cut_4x4_gives_the_single_block_saliency_and_signature(strategy, default_run):
+    path = DATA / "ahn3_delft" / "ahn3_cropped_1.laz"
     pipe = ls.Pipeline(strategy=strategy, progress=False)
-    single, _ = pipe.saliency(cloud)
+    if strategy == "multiscale":  # the defaults' run, shared with other tests
+        cloud, single = default_run(path).cloud, default_run(path).saliency
+    else:
+        cloud = ls.read(need_data(path))
+        single, _ = pipe.saliency(cloud)
     side = float(np.max(np.ptp(cloud.xyz[:, :2], axis=0))) / 4
     tiled, stats = saliency_in_tiles(pipe, cloud, side)
     assert stats["n_tiles"] == 16 and stats["n_points"] == len(cloud)
@@ -120,11 +123,6 @@ def test_a_local_dask_cluster_gives_the_same_results_as_the_local_run(tmp_path, 
     assert np.array_equal(run.signature.counts, ign_set.signature.counts)
     for a, b in zip(run.sources, ign_set.sources):
         assert np.array_equal(run.saliency_of(a).values, ign_set.saliency_of(b).values, equal_nan=True)
-
-
-def lidar_sig_cli(*args):
-    return subprocess.run([sys.executable, "-m", "lidar_sig", *map(str, args)], capture_output=True, text=True,
-                          timeout=600)
 
 
 def test_a_file_cut_off_mid_file_is_named_the_others_written_and_resume_completes_the_set(tmp_path, ign_set):
@@ -203,8 +201,7 @@ def test_compare_takes_a_folder_as_one_epoch(tmp_path):
     (("saliency", SAMPLES / "epoch1.laz", "-o", "out", "--workers", "0"), "--workers"),
 ])
 def test_a_set_refuses_bad_arguments_in_one_line_before_any_work(tmp_path, args, name):
-    proc = subprocess.run([sys.executable, "-m", "lidar_sig", *map(str, args)], capture_output=True, text=True,
-                          cwd=tmp_path, timeout=120)
+    proc = lidar_sig_cli(*args, cwd=tmp_path)
     assert proc.returncode == 2, proc.stderr
     assert len(proc.stderr.strip().splitlines()) == 1 and name in proc.stderr and "Traceback" not in proc.stderr
     assert list(tmp_path.iterdir()) == []

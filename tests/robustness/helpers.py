@@ -1,25 +1,17 @@
-"""Shared tools of the robustness corpus: run the command line as a user would, make hostile
-inputs and file systems, and check that a failure is clean."""
+"""Shared tools of the robustness corpus: make hostile inputs and file systems, and check that a
+failure is clean (the command line is run by tests/command_line.py)."""
 from __future__ import annotations
 
 import contextlib
 import hashlib
 import os
 import subprocess
-import sys
 import uuid
 from pathlib import Path
 
 import laspy
 import numpy as np
 import pytest
-
-
-def run(*args, timeout=300, env=None, cwd=None):
-    """`lidar-sig ARGS` in a child process; its stdin is closed, like a pipeline's."""
-    full_env = dict(os.environ, **(env or {}))
-    return subprocess.run([sys.executable, "-m", "lidar_sig", *map(str, args)], capture_output=True, text=True,
-                          timeout=timeout, env=full_env, cwd=cwd, stdin=subprocess.DEVNULL)
 
 
 def assert_one_line_error(proc, *names, status=2):

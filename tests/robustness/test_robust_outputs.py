@@ -12,8 +12,9 @@ import time
 
 import pytest
 
+from command_line import run, run_process
 from conftest import SAMPLES
-from robustness.helpers import assert_one_line_error, digests, fill, leftovers, mounted_tmpfs, run
+from robustness.helpers import assert_one_line_error, digests, fill, leftovers, mounted_tmpfs
 
 SRC = SAMPLES / "epoch1.laz"
 
@@ -106,5 +107,5 @@ def test_a_running_writers_temporary_file_is_left_alone(tmp_path):
     # another live process writing the same output keeps its temporary file
     live = tmp_path / f".o.laz.{os.uname().nodename.replace('.', '-')[:32]}.{os.getpid()}.abcd.tmp.laz"
     live.write_bytes(b"in progress")
-    proc = run("saliency", SRC, "-o", tmp_path / "o.laz", "-q")
+    proc = run_process("saliency", SRC, "-o", tmp_path / "o.laz", "-q")  # another process than the writer
     assert proc.returncode == 0 and live.exists()

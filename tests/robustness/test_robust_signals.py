@@ -3,8 +3,16 @@
 The run ends with one line and exit status 128 + the signal, leaves no temporary file and no
 partial output, and a previous output stays as it was. (A SIGKILL cannot be caught: its
 leftover is tested in test_robust_outputs.)
+
+Each signal is sent when the child has reached a known stage, not after a fixed delay: once a
+given number of the step lines `--verbose` prints as each step ends (the signal then lands in
+the next step), once its temporary output file exists (the write has begun), or once Python's
+import log (`-X importtime`) shows that click has loaded (the command line's own modules, and
+numpy, are loading).
 """
 import os
+import re
+import selectors
 import signal
 import subprocess
 import sys
@@ -16,7 +24,9 @@ import pytest
 from conftest import DATA, SAMPLES, need_data
 from robustness.helpers import digests, leftovers
 
-BIG = DATA / "ahn3_delft" / "ahn3_cropped_1.laz"  # 640k points: the LAZ write takes a while
+BIG = DATA / "ahn3_delft" / "ahn3_cropped_1.laz"  # 640k points: its LAZ write lasts 0.3 s
+SRC = SAMPLES / "epoch1.laz"  # 41,507 points; its archive (with per-point datasets) takes 0.4 s to write
+STEP = re.compile(r"lidar-sig: [^:]+: \d+\.\d+ s( \(.*\))?$")  # a line of --verbose
 
 
 def _interruptible():
@@ -25,10 +35,37 @@ def _interruptible():
     signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
-def start(*args, cwd=None):
-    return subprocess.Popen([sys.executable, "-m", "lidar_sig", *map(str, args)], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, cwd=cwd, stdin=subprocess.DEVNULL,
-                            preexec_fn=_interruptible)
+def start(*args, cwd=None, python=()):
+    return subprocess.Popen([sys.executable, *python, "-m", "lidar_sig", *map(str, args)], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, cwd=cwd, stdin=subprocess.DEVNULL, preexec_fn=_interruptible)
+
+
+def wait_for_lines(proc, wanted, count=1, limit=120):
+    """Read the child's stderr until ``count`` of its lines satisfy ``wanted``; the bytes read."""
+    pipe = proc.stderr
+    read, seen = b"", 0
+    end = time.monotonic() + limit
+    with selectors.DefaultSelector() as selector:
+        selector.register(pipe, selectors.EVENT_READ)
+        while seen < count:
+            if time.monotonic() > end or not selector.select(timeout=max(0.0, end - time.monotonic())):
+                proc.kill()
+                pytest.fail(f"no stage reached within {limit} s: {read.decode(errors='replace')}")
+            chunk = os.read(pipe.fileno(), 65536)
+            if not chunk:
+                proc.kill()
+                pytest.fail(f"the run ended before the stage: {read.decode(errors='replace')}")
+            read += chunk
+            complete = read.decode(errors="replace").split("\n")[:-1]
+            seen = sum(1 for line in complete if wanted(line))
+    return read
+
+
+def finish(proc, read=b""):
+    """Wait for the child to end; its stdout, and its whole stderr (``read``: what was read of it
+    before), as text."""
+    out, err = proc.communicate(timeout=180)
+    return out.decode(errors="replace"), (read + err).decode(errors="replace")
 
 
 def wait_for_temp(folder, proc, limit=120):
@@ -41,10 +78,15 @@ def wait_for_temp(folder, proc, limit=120):
     return False
 
 
-def assert_interrupted(proc, signum):
-    out, err = proc.communicate(timeout=120)
+def said(err):
+    """The lines of ``err`` other than the step lines of --verbose and Python's import log."""
+    return [line for line in err.strip().splitlines() if not STEP.match(line) and not line.startswith("import time:")]
+
+
+def assert_interrupted(proc, signum, read=b""):
+    _, err = finish(proc, read)
     assert proc.returncode == 128 + signum, (proc.returncode, err)
-    lines = err.strip().splitlines()
+    lines = said(err)
     assert len(lines) == 1 and "interrupted" in lines[0] and signal.Signals(signum).name in lines[0], err
     assert "Traceback" not in err and "Exception ignored" not in err
 
@@ -52,7 +94,7 @@ def assert_interrupted(proc, signum):
 @pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGINT])
 @pytest.mark.parametrize("name", ["o.laz", "o.h5"])
 def test_signal_during_the_write_leaves_the_previous_output(tmp_path, signum, name):
-    src = need_data(BIG)
+    src = SRC if name.endswith(".h5") else need_data(BIG)  # writes long enough to be caught in
     command = "signature" if name.endswith(".h5") else "saliency"
     out = tmp_path / name
     out.write_bytes(b"previous")
@@ -60,22 +102,31 @@ def test_signal_during_the_write_leaves_the_previous_output(tmp_path, signum, na
     proc = start(command, src, "-o", out, "--overwrite", "-q")
     if not wait_for_temp(tmp_path, proc):
         proc.kill()
-        pytest.fail(f"the run ended before its write began: {proc.communicate()[1]}")
+        pytest.fail(f"the run ended before its write began: {finish(proc)[1]}")
     proc.send_signal(signum)
     assert_interrupted(proc, signum)
     assert digests(out) == before and not leftovers(tmp_path)
 
 
-@pytest.mark.parametrize("delay", [0.3, 1.0, 2.0, 3.0, 4.5])
-@pytest.mark.parametrize("command", ["saliency", "signature", "compare"])
-def test_sigterm_at_any_moment_leaves_a_whole_output_or_none(tmp_path, command, delay):
-    src = need_data(DATA / "ahn3_delft" / "ahn3_cropped_2.laz")
+# For each command, how many step lines to wait for before SIGTERM, and where the signal lands
+# (the sample's LAZ write takes 0.03 s: too short to aim at; the write is the test above; once
+# a command's outputs are complete: test_signal_after_the_command_ended_ends_the_process_quietly).
+STAGES = {
+    "saliency": {0: "starting", 1: "neighbourhoods", 2: "saliency", 3: "signature or write"},
+    "signature": {0: "starting", 1: "neighbourhoods", 2: "saliency", 3: "signature", 4: "write"},
+    "compare": {0: "starting", 2: "computing A", 5: "computing B", 8: "metrics", 9: "printing"},
+}
+
+
+@pytest.mark.parametrize("command, stage", [(c, n) for c, stages in STAGES.items() for n in stages],
+                         ids=[f"{c}-{name}" for c, stages in STAGES.items() for name in stages.values()])
+def test_sigterm_at_any_moment_leaves_a_whole_output_or_none(tmp_path, command, stage):
     out = tmp_path / ("o.h5" if command == "signature" else "o.laz")
-    args = [command, src] + ([SAMPLES / "epoch1.laz"] if command == "compare" else ["-o", out])
-    proc = start(*args, "-q")
-    time.sleep(delay)
+    args = [command, SRC] + ([SAMPLES / "epoch2.laz"] if command == "compare" else ["-o", out])
+    proc = start(*args, "-q", "--verbose")
+    read = wait_for_lines(proc, STEP.match, stage) if stage else b""
     proc.send_signal(signal.SIGTERM)
-    stdout, err = proc.communicate(timeout=180)
+    stdout, err = finish(proc, read)
     assert not leftovers(tmp_path), err
     # compare writes no file: it has finished when its table is printed whole
     finished = out.exists() or (command == "compare" and "L1 " in stdout)
@@ -83,36 +134,39 @@ def test_sigterm_at_any_moment_leaves_a_whole_output_or_none(tmp_path, command, 
         # finished before the signal (or was shutting down, once the interpreter had put the
         # default handlers back): the output is whole
         if command == "saliency":
-            assert len(laspy.read(out).points) == 208432
+            assert len(laspy.read(out).points) == 41507
         elif command == "signature":
             import lidar_sig as ls
 
-            assert ls.load_signature(out).n_points > 0
+            assert ls.load_signature(out).n_points == 41507
+        assert "Traceback" not in err and said(err) == []
     elif proc.returncode == -signal.SIGTERM:
-        # killed by the signal itself while Python was still importing, before the command line
+        # killed by the signal itself while Python was still starting, before the command line
         # could install its handler: nothing had been opened for writing yet
-        assert err == "" and not out.exists()
+        assert stage == 0 and err == "" and not out.exists()
     else:
         assert proc.returncode == 128 + signal.SIGTERM, err
-        assert len(err.strip().splitlines()) == 1 and "SIGTERM" in err and "Traceback" not in err
+        lines = said(err)
+        assert len(lines) == 1 and "SIGTERM" in lines[0] and "Traceback" not in err, err
         assert not out.exists()
 
 
 def test_ctrl_c_while_computing_is_one_line(tmp_path):
-    proc = start("saliency", need_data(BIG), "-o", tmp_path / "o.laz", "-q")
-    time.sleep(2.0)
+    proc = start("saliency", SRC, "-o", tmp_path / "o.laz", "-q", "--verbose")
+    read = wait_for_lines(proc, lambda line: line.startswith("lidar-sig: reading "))  # now computing
     proc.send_signal(signal.SIGINT)
-    assert_interrupted(proc, signal.SIGINT)
+    assert_interrupted(proc, signal.SIGINT, read)
     assert not os.listdir(tmp_path)
 
 
 @pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
 def test_signal_while_starting_is_one_line(tmp_path, signum):
-    # the libraries take a second to load: a signal then used to print a traceback (Ctrl-C)
-    proc = start("saliency", SAMPLES / "epoch1.laz", "-o", tmp_path / "o.laz", "-q")
-    time.sleep(0.15)
+    # the libraries take a second to load: a signal then used to print a traceback (Ctrl-C; and
+    # SIGTERM while lidar_sig.errors, which its handler raises from, was being imported)
+    proc = start("saliency", SRC, "-o", tmp_path / "o.laz", "-q", python=("-X", "importtime"))
+    read = wait_for_lines(proc, lambda line: line.startswith("import time:") and line.split("|")[-1].strip() == "click")
     proc.send_signal(signum)
-    assert_interrupted(proc, signum)
+    assert_interrupted(proc, signum, read)
     assert not os.listdir(tmp_path)
 
 
