@@ -67,6 +67,18 @@ def test_bhattacharyya_matches_opencv():
     assert bhattacharyya(ha, ha) == pytest.approx(0.0, abs=1e-7)
 
 
+@pytest.mark.parametrize("hist", [np.ones(7), np.arange(1.0, 7.0)])
+def test_bhattacharyya_of_a_histogram_with_itself_is_exactly_zero(hist):
+    # 1 - sum sqrt(h h) is a few 1e-16 for these (not 0), which a square root lifts to 1e-8;
+    # the distance of equal inputs is 0 exactly on every CPU (a sum of zero terms)
+    assert bhattacharyya(hist, hist) == 0.0
+    assert bhattacharyya(hist, 2 * hist) == 0.0  # the same shape: normalized alike, exactly
+    # the other form of the same quantity, for two different histograms
+    other = hist + np.arange(len(hist)) ** 2
+    p, q = hist / hist.sum(), other / other.sum()
+    assert bhattacharyya(hist, other) == pytest.approx(np.sqrt(1 - np.sum(np.sqrt(p * q))), rel=1e-9)
+
+
 def test_compare_identity_and_ranges():
     xyz, labels = airborne_like(3000, seed=1)
     xyz2, labels2 = airborne_like(3000, seed=2)
