@@ -10,7 +10,7 @@ PointCloud, a Signature or a pipeline Result; :class:`Side` holds one as compare
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -154,15 +154,16 @@ def compare_sources(a, b, pipeline=None, *, render=None, columns=None, method_gi
     warnings = []
     if any(labelled) and not all(labelled):
         warnings.append("semantic metrics (kl, l1) need class labels in both clouds; comparing geometry only")
-    if len(clouds) == 2 and sum(c.labels is None for c in clouds) == 1:
-        for c in clouds:  # one unlabeled: one class each, so the signatures stay comparable
-            c.labels = None
+    # one cloud unlabelled, or an unlabelled archive: every cloud is one class, so that the
+    # signatures stay comparable; the caller's clouds are left as they are (unlabelled copies)
+    geometry_only = ((len(clouds) == 2 and sum(c.labels is None for c in clouds) == 1)
+                     or any(not x.classes.names for x in sigs))
+    if geometry_only:
+        loaded = [replace(x, labels=None) if isinstance(x, PointCloud) and x.labels is not None else x
+                  for x in loaded]
     if sigs:
         reference = sigs[0]
         pipeline = _archive_pipeline(reference, pipeline, method_given, names[loaded.index(reference)])
-        for c in clouds:
-            if not reference.classes.names:
-                c.labels = None
     sides = []
     for name, x in zip(names, loaded):
         if isinstance(x, Signature):

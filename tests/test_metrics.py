@@ -165,3 +165,20 @@ def test_opencv_gaussian_blur_equals_scipy_gaussian_filter():
     for sigma in (0.8, 1.5, 3.0):
         ref = gaussian_filter(img, sigma, truncate=3.5, mode="reflect")
         assert np.abs(gaussian_blur(img, sigma) - ref).max() < 1e-12
+
+
+def test_comparing_clouds_leaves_them_unchanged():
+    # one cloud unlabelled: both are compared as one class, but the caller's clouds keep theirs
+    xyz, labels = airborne_like(1500, seed=5)
+    xyz2, _ = airborne_like(1500, seed=6)
+    pipe = ls.Pipeline(scales=ls.knn(10, 20), progress=False)
+    labelled, bare = ls.PointCloud(xyz.copy(), labels.copy()), ls.PointCloud(xyz2.copy())
+    unlabelled_archive = pipe.run(ls.PointCloud(xyz2)).signature
+    for run in (lambda: ls.compare_sources(labelled, bare, pipe),
+                lambda: ls.compare_sources(bare, labelled, pipe),
+                lambda: ls.compare_sources(labelled, unlabelled_archive, pipe),
+                lambda: ls.report(labelled, bare, pipe)):
+        out = run()
+        assert labelled.labels is not None and np.array_equal(labelled.labels, labels)
+        assert np.array_equal(labelled.xyz, xyz) and np.array_equal(bare.xyz, xyz2) and bare.labels is None
+    assert out is not None and ls.compare_sources(labelled, bare, pipe).metrics["kl"] is None

@@ -143,3 +143,14 @@ def test_get_threshold_leaves_flat_ground_undefined():
     assert np.isfinite(loose).mean() > 0.5     # round-off decides line or corner
     assert np.isnan(strict).all()              # the threshold leaves them undefined: no corners
     assert T3DVTGET(get_threshold=1e-6).params()["get_threshold"] == 1e-6
+
+
+def test_get_leaves_a_point_without_voting_neighbours_undefined():
+    # a point 20 m above a steep pyramid roof: no other point within the spheres (T3DVT
+    # undefined), but its cylinders hold the roof below, whose GET reads a corner there
+    pts = _height_field(lambda x, y: 6 - 1.5 * np.maximum(np.abs(x), np.abs(y)))
+    pts = np.vstack([pts, [1.03, 0.52, 6 - 1.5 * 1.03 + 20.0]])
+    scales = ls.radii(0.25, 0.35, 0.45, units="metric")
+    res = ls.Pipeline(descriptor=T3DVTGET(), scales=scales, progress=False).run(ls.PointCloud(pts))
+    assert np.isnan(res.saliency.values[-1]).all() and res.saliency.geom_class[-1] == 0
+    assert res.metadata["n_undefined"] == 1 and res.signature.n_points == len(pts) - 1

@@ -16,7 +16,8 @@ class T3DVTGET(T3DVT):
     GET is computed on cylindrical neighbourhoods (horizontal distance <= r, or the k nearest in
     plan view) at the run's scales, its line/corner saliency averaged over the scales where it
     is defined, and wherever cp_GET > cl_GET the point's saliency is replaced by
-    (cl_GET, 0, cp_GET). GET assumes z is up: results are invariant to rotations about z only.
+    (cl_GET, 0, cp_GET), if the voting saliency is defined (a point without enough neighbours in
+    its spheres stays undefined, whatever GET says). GET assumes z is up: results are invariant to rotations about z only.
 
     Parameters
     ----------
@@ -47,7 +48,9 @@ class T3DVTGET(T3DVT):
 
     def refine(self, batch, saliency):
         cl = self.cl_get[batch.ids]
-        corner = (1.0 - cl) > cl  # cp_GET > cl_GET; False where NaN
+        # cp_GET > cl_GET (False where GET is undefined), and only where the voting saliency is
+        # defined: a point with too few neighbours in its spheres stays undefined (SPEC 1)
+        corner = ((1.0 - cl) > cl) & ~np.isnan(saliency).any(axis=1)
         out = saliency.copy()
         out[corner] = np.column_stack([cl[corner], np.zeros(int(corner.sum())), 1.0 - cl[corner]])
         return out
