@@ -161,7 +161,7 @@ class Pipeline:
         """(B, 3) saliency of a NeighborhoodBatch, and the chosen scale index per point (or None)."""
         per_scale = self.descriptor.saliency(batch)
         combined, pick = self.strategy.combine(per_scale)
-        return self.descriptor.refine(batch, combined), pick
+        return self.descriptor.refine(batch, combined, pick), pick
 
     def saliency(self, cloud):
         """Per-point Saliency of ``cloud`` and run statistics (undefined, capped and duplicate

@@ -39,8 +39,10 @@ class Descriptor:
         and the resolved scales; for descriptors that need cloud-wide passes. ``progress`` is
         the pipeline's progress setting (None: on a terminal only)."""
 
-    def refine(self, batch, saliency):
-        """Adjust the strategy's combined (B, 3) saliency of a block; identity by default."""
+    def refine(self, batch, saliency, pick=None):
+        """Adjust the strategy's combined (B, 3) saliency of a block, given the strategy's
+        chosen scale index per point (``pick``, -1 where undefined; None when the strategy
+        chooses none, as Multiscale); identity by default."""
         return saliency
 
 
