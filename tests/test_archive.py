@@ -104,3 +104,19 @@ def test_compare_refuses_archive_with_another_class_table(tmp_path):
     assert proc.returncode == 2
     assert "class table 'asprs'" in proc.stderr and "--classes" in proc.stderr
     assert "Traceback" not in proc.stderr
+
+
+def test_k_scales_read_back_as_whole_numbers(tmp_path):
+    # k-nearest scales are neighbour counts: an archive gives them as the cloud does, in JSON too
+    cloud = ls.read(SAMPLES / "epoch1.laz")
+    result = ls.Pipeline(scales=ls.knn(10, 20), progress=False).run(cloud)
+    path = tmp_path / "e1.h5"
+    result.write(path, points=False)
+    loaded = ls.load_signature(path)
+    assert loaded.metadata["resolved_scales"] == [10, 20]
+    assert all(type(v) is int for v in loaded.metadata["resolved_scales"])
+    facts = ls.compare_sources(path, cloud).to_dict()  # the cloud is computed the archive's way
+    assert json.dumps(facts["a"]["scales"]) == json.dumps(facts["b"]["scales"]) == "[10, 20]"
+    with h5py.File(path, "r+") as f:  # as archives made before recorded them: floats
+        f.attrs["resolved_scales"] = np.array([10.0, 20.0])
+    assert json.dumps(ls.load_signature(path).metadata["resolved_scales"]) == "[10, 20]"

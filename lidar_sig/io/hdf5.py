@@ -79,8 +79,9 @@ def write_archive(path, signature, *, saliency=None, labels=None, sources=(), re
                 if key in meta:
                     f.attrs[key] = int(meta[key])
             if "resolved_scales" in meta:
-                f.attrs["resolved_scales"] = np.asarray(meta["resolved_scales"], dtype=np.float64)
-                f.attrs["resolved_scales_units"] = "neighbours" if meta.get("scale_kind") == "knn" else "metres"
+                knn = meta.get("scale_kind") == "knn"  # neighbour counts are whole numbers
+                f.attrs["resolved_scales"] = np.asarray(meta["resolved_scales"], dtype=np.int64 if knn else np.float64)
+                f.attrs["resolved_scales_units"] = "neighbours" if knn else "metres"
             if "metres_per_unit" in meta:
                 f.attrs["metres_per_unit"] = np.asarray(meta["metres_per_unit"], dtype=np.float64)
             f.attrs["descriptor_params"] = json.dumps(meta.get("descriptor_params", {}))
@@ -245,6 +246,12 @@ def _read_signature(f, path):
         meta.update(_method(f.attrs))
     except (ValueError, TypeError, AttributeError):
         raise damaged("its method record is not readable") from None
+    if meta.get("scale_kind") == "knn" and isinstance(meta.get("resolved_scales"), list):
+        # k values as whole numbers, as the pipeline gives them (earlier archives stored floats)
+        try:
+            meta["resolved_scales"] = [int(v) for v in meta["resolved_scales"]]
+        except (TypeError, ValueError):
+            raise damaged("its resolved scales are not numbers") from None
     return Signature(counts, frame, classes, egeom.astype(np.int64), n_undefined, meta,
                      None if totals is None else totals.astype(np.int64))
 
