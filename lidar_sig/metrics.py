@@ -196,7 +196,8 @@ FV_GRID = 8
 
 
 def fisher_vector(positions, weights, *, grid=FV_GRID):
-    """Fisher vector of weighted 2D positions in the unit triangle (SPEC 6, delta_FV).
+    """Fisher vector of weighted 2D positions in the unit triangle (SPEC 6, delta_FV; there the
+    positions are a signature's occupied pixel centres, weighted by their counts).
 
     The mixture is fixed: Gaussians of equal weight centred on a regular ``grid`` x ``grid``
     lattice over [0, 1] x [0, sqrt(3)/2], kept where the centre lies within one spacing of the
@@ -255,7 +256,12 @@ def triangle_positions(signature):
 
 
 def fv_distance(a, b, *, grid=FV_GRID):
-    """delta_FV = ||FV_a - FV_b||_2 of two signatures' positions (count-weighted pixels); in [0, 2]."""
+    """delta_FV = ||FV_a - FV_b||_2 of two signatures, in [0, 2] (SPEC 6).
+
+    The positions are the occupied pixels' centres weighted by their counts
+    (:func:`triangle_positions`), not each point's own barycentric position: half a pixel
+    diagonal at most apart, and a function of the counts, so that an archive compares like
+    the cloud it was made from."""
     return float(np.linalg.norm(fisher_vector(*triangle_positions(a), grid=grid)
                                 - fisher_vector(*triangle_positions(b), grid=grid)))
 
