@@ -43,12 +43,13 @@ class Side:
         return "cloud" if self.result is not None else "archive"
 
     def summary(self):
-        """The side's facts for people and JSON: points, undefined, capped, duplicates, scales,
-        units."""
+        """The side's facts for people and JSON: points, undefined, capped, duplicates, withheld
+        or noise points left out (excluded), scales, units."""
         m = self.signature.metadata
         return {"path": self.name, "kind": self.kind, "points": int(m.get("n_points", self.signature.n_points)),
                 "undefined": int(m.get("n_undefined", self.signature.n_undefined)),
                 "capped": int(m.get("n_capped", 0)), "duplicates": int(m.get("n_duplicates", 0)),
+                "excluded": int(m.get("n_excluded", 0)),
                 "scale_kind": m.get("scale_kind"), "scales": list(m.get("resolved_scales", [])),
                 "scales_unit": "k" if m.get("scale_kind") == "knn" else "m",
                 "units": m.get("units", "unknown")}
@@ -183,7 +184,8 @@ def compare_sources(a, b, pipeline=None, *, render=None, columns=None, method_gi
         metrics = compare_signatures(first, second, render=render)
     warnings += _undefined_warnings(sides) + _class_warnings(sides) + _radii_warnings(sides)
     method = {k: first.metadata[k] for k in ("descriptor", "descriptor_params", "strategy", "scale_kind",
-                                             "scale_values", "scale_units", "weights") if k in first.metadata}
+                                             "scale_values", "scale_units", "weights", "keep_noise")
+              if k in first.metadata}
     return Comparison(sides[0], sides[1], metrics, render, method, warnings)
 
 

@@ -277,7 +277,8 @@ def compare(a, b, *, render="smooth", color_bins=8):
     ``emd_img`` (d_EMD-Img), ``fv`` (delta_FV), ``kl`` (delta_KL) and ``l1`` (L1); ``kl`` and
     ``l1`` are None when either cloud is unlabeled. The image metrics see Sg and Sas rendered
     as ``render`` (see :mod:`lidar_sig.signature`); the semantic ones the class counts of every
-    labelled point, its saliency defined or not. Raises LidarSigError when the signatures are
+    labelled point the run used, its saliency defined or not (withheld and noise points left
+    out, ``Signature.class_totals``). Raises LidarSigError when the signatures are
     not comparable (frames, class tables or methods differ).
     """
     from .signature import Signature

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import lidar_sig as ls
-from conftest import IGN, SAMPLES, need_data
+from conftest import IGN, NOISY, SAMPLES, need_data, noisy_las
 
 DOCUMENTED = ["/signature/counts", "/signature/sg", "/signature/sas", "/signature/mask",
               "/signature/triangle", "/signature/egeom_histogram", "/signature/saliency_histograms",
@@ -120,3 +120,21 @@ def test_k_scales_read_back_as_whole_numbers(tmp_path):
     with h5py.File(path, "r+") as f:  # as archives made before recorded them: floats
         f.attrs["resolved_scales"] = np.array([10.0, 20.0])
     assert json.dumps(ls.load_signature(path).metadata["resolved_scales"]) == "[10, 20]"
+
+
+def test_archive_records_the_points_left_out_and_the_noise_codes(tmp_path):
+    noisy_las(tmp_path / "noisy.laz")
+    cloud = ls.read(tmp_path / "noisy.laz")
+    result = ls.Pipeline(progress=False).run(cloud)
+    path = tmp_path / "noisy.h5"
+    result.write(path)
+    loaded = ls.load_signature(path)
+    assert loaded.metadata["n_excluded"] == sum(NOISY.values()) and loaded.metadata["keep_noise"] is False
+    assert loaded.classes == ls.ASPRS and loaded.classes.noise == (7, 18)
+    assert "withheld or noise points left out" in "\n".join(ls.io.archive_summary(path))
+    # a cloud compared with the archive is computed the archive's way: noise left out
+    same = ls.compare_sources(path, cloud)
+    assert same.metrics["ssim"] == 1.0 and same.metrics["kl"] == 0.0 and same.b.summary()["excluded"] == sum(NOISY.values())
+    with h5py.File(path, "r+") as f:  # as archives made before noise codes were recorded
+        del f["signature/classes/noise_codes"]
+    assert ls.load_signature(path).classes == ls.ASPRS
