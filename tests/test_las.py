@@ -338,6 +338,9 @@ def test_cli_summary_says_how_many_points_were_left_out(tmp_path):
     assert kept.returncode == 0, kept.stderr
     assert "left out" not in kept.stdout
     assert np.isfinite(np.asarray(laspy.read(tmp_path / "b.laz")["Cl"])[-NOISY[18]:]).any()
+    info = subprocess.run([sys.executable, "-m", "lidar_sig", "info", str(path)], capture_output=True, text=True,
+                          timeout=600)
+    assert f"withheld: {NOISY['withheld']} points" in info.stdout, info.stderr
 
 
 def test_noise_codes_follow_the_class_table():
