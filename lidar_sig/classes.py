@@ -17,17 +17,26 @@ class ClassTable:
     """Semantic classes of a signature.
 
     Each class has a name, an RGB colour (0-255) and the label codes that map to it; codes
-    outside the table go to a final class ``"other"``. Equal tables compare equal.
+    outside the table go to a final class ``"other"``. ``noise`` lists the codes that mean
+    noise (ASPRS 7 low point and 18 high noise in the tables over ASPRS codes): a run leaves
+    those points out unless ``keep_noise`` (:func:`lidar_sig.cloud.kept_points`). Equal tables
+    compare equal.
     """
 
     name: str
     names: tuple
     codes: tuple
     colors: tuple
+    noise: tuple = ()
 
     def __post_init__(self):
         if not (len(self.names) == len(self.codes) == len(self.colors)):
             raise LidarSigError("a class table needs one name, code list and colour per class")
+        for c in self.noise:
+            # 0 is "never classified" in ASPRS, and how a LAS file without classes reads
+            if isinstance(c, bool) or not isinstance(c, (int, np.integer)) or not 1 <= c <= MAX_CODE:
+                raise LidarSigError(f"class table {self.name!r}: noise codes must be whole numbers from 1 to "
+                                    f"{MAX_CODE:,}, got {c!r}")
         for cs in self.codes:
             for c in cs:
                 if isinstance(c, bool) or not isinstance(c, (int, np.integer)) or not 0 <= c <= MAX_CODE:
@@ -74,6 +83,10 @@ class ClassTable:
         return np.where(codes[pos] == labels, classes[pos], other)
 
 
+#: ASPRS codes of noise: 7 low point (noise) and 18 high noise (defined from LAS 1.4 on; LAS 1.0-1.3
+#: reserve 18, and it is read as high noise in any version).
+ASPRS_NOISE = (7, 18)
+
 # ASPRS LAS 1.4 standard classes (R15), colours close to common viewer palettes.
 ASPRS = ClassTable(
     "asprs",
@@ -88,6 +101,7 @@ ASPRS = ClassTable(
             (100, 100, 100), (40, 110, 230), (140, 90, 160), (90, 90, 90),
             (100, 100, 100), (250, 200, 0), (250, 170, 0), (200, 120, 0),
             (250, 220, 120), (120, 200, 200), (255, 0, 180)),
+    noise=ASPRS_NOISE,
 )
 
 # The four classes of the paper (tree, building, low vegetation, road), from ASPRS codes:
@@ -97,6 +111,7 @@ PAPER = ClassTable(
     names=("tree", "building", "low vegetation", "road"),
     codes=((4, 5), (6,), (3,), (2, 11)),
     colors=((20, 140, 40), (220, 50, 40), (190, 230, 80), (120, 120, 120)),
+    noise=ASPRS_NOISE,
 )
 
 # ISPRS Vaihingen 3D semantic labeling benchmark (Niemeyer et al. 2014), labels 0-8.
@@ -128,11 +143,13 @@ def class_table(name):
 
 
 def load_class_table(path):
-    """A user class table from TOML or JSON: a ``name`` and a list ``class`` of tables with
-    ``name``, ``codes`` (one code or a list: several codes may map to one class) and ``color``
-    (RGB 0-255). Example (TOML)::
+    """A user class table from TOML or JSON: a ``name``, optionally ``noise`` (the codes of
+    noise points, left out of a run unless ``keep_noise``; e.g. ``[7, 18]`` for ASPRS codes;
+    none by default) and a list ``class`` of tables with ``name``, ``codes`` (one code or a
+    list: several codes may map to one class) and ``color`` (RGB 0-255). Example (TOML)::
 
         name = "ign-vegetation"
+        noise = [7, 18]
         [[class]]
         name = "vegetation"
         codes = [3, 4, 5]
@@ -173,7 +190,10 @@ def load_class_table(path):
         except (KeyError, TypeError, ValueError):
             raise LidarSigError(f"class entry {k + 1} needs a name, codes that are whole numbers from 0 to "
                                 f"{MAX_CODE:,} and an RGB color of three whole numbers 0-255", path=p) from None
+    noise = data.get("noise", [])
+    if not isinstance(noise, list) or not all(isinstance(v, int) and not isinstance(v, bool) for v in noise):
+        raise LidarSigError("noise must be a list of class codes (whole numbers), e.g. noise = [7, 18]", path=p)
     try:
-        return ClassTable(str(data.get("name", p.stem)), tuple(names), tuple(codes), tuple(colors))
+        return ClassTable(str(data.get("name", p.stem)), tuple(names), tuple(codes), tuple(colors), tuple(noise))
     except LidarSigError as exc:
         raise LidarSigError(str(exc), path=p) from None

@@ -36,6 +36,10 @@ class PointCloud:
     units : Units or None
         Metres per coordinate unit (see :mod:`lidar_sig.crs`); derived from ``crs`` when not
         given, metres assumed when the CRS is unknown.
+    withheld : (N,) bool array or None
+        The LAS "withheld" flag of each point (points to be left out, ASPRS), None when no
+        point has it (other formats have no such flag). A run leaves them out unless
+        ``keep_noise`` (:func:`kept_points`).
     """
 
     xyz: np.ndarray
@@ -46,6 +50,7 @@ class PointCloud:
     previous_outputs: tuple = ()
     crs: str | None = None
     units: Units | None = None
+    withheld: np.ndarray | None = None
 
     def __post_init__(self):
         try:
@@ -71,9 +76,23 @@ class PointCloud:
             self.units = units_of(self.crs, path=self.path)
         if self.labels is not None:
             self.labels = _class_codes(self.labels, xyz.shape[0], self.path)
+        if self.withheld is not None:
+            flags = np.asarray(self.withheld)
+            if flags.shape != (xyz.shape[0],) or flags.dtype.kind not in "biu":
+                raise LidarSigError(f"withheld must be one flag per point: {flags.shape} {flags.dtype} for "
+                                    f"{xyz.shape[0]} points", path=self.path)
+            self.withheld = flags.astype(bool) if flags.any() else None
 
     def __len__(self):
         return self.xyz.shape[0]
+
+    def subset(self, keep):
+        """The points ``keep`` (a boolean mask or indices) as a new PointCloud: coordinates,
+        labels, withheld flags, CRS, units and path (not the source's record, which describes
+        every point of the file)."""
+        return PointCloud(self.xyz[keep], None if self.labels is None else self.labels[keep], path=self.path,
+                          crs=self.crs, units=self.units,
+                          withheld=None if self.withheld is None else self.withheld[keep])
 
     def metric_xyz(self):
         """(N, 3) coordinates in metres, centred on the bounding-box centre: what the neighbour
@@ -97,3 +116,22 @@ def _class_codes(labels, n, path):
         raise LidarSigError(f"labels must be class codes from 0 to {MAX_CODE:,}, got {values.min()} to "
                             f"{values.max()}", path=path)
     return values.astype(np.int64)
+
+
+def kept_points(labels, withheld, noise_codes):
+    """(N,) bool: the points a run uses, or None when it uses every point.
+
+    Left out are the points flagged ``withheld`` (the LAS flag; None when none is) and those
+    whose class code (``labels``, None when unlabelled) is one of ``noise_codes``, the class
+    table's noise classes (ASPRS 7 low point and 18 high noise). ``noise_codes`` None keeps
+    every point (``keep_noise``). They are left out of neighbourhoods, signatures and class
+    totals, and get an undefined saliency in per-point outputs, as PDAL and lidR users drop
+    them first.
+    """
+    if noise_codes is None:
+        return None
+    out = None if withheld is None else ~np.asarray(withheld, dtype=bool)
+    if labels is not None and len(noise_codes):
+        clean = ~np.isin(labels, np.asarray(noise_codes, dtype=np.int64))
+        out = clean if out is None else out & clean
+    return None if out is None or out.all() else out

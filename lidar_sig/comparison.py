@@ -10,7 +10,7 @@ PointCloud, a Signature or a pipeline Result; :class:`Side` holds one as compare
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -43,12 +43,13 @@ class Side:
         return "cloud" if self.result is not None else "archive"
 
     def summary(self):
-        """The side's facts for people and JSON: points, undefined, capped, duplicates, scales,
-        units."""
+        """The side's facts for people and JSON: points, undefined, capped, duplicates, withheld
+        or noise points left out (excluded), scales, units."""
         m = self.signature.metadata
         return {"path": self.name, "kind": self.kind, "points": int(m.get("n_points", self.signature.n_points)),
                 "undefined": int(m.get("n_undefined", self.signature.n_undefined)),
                 "capped": int(m.get("n_capped", 0)), "duplicates": int(m.get("n_duplicates", 0)),
+                "excluded": int(m.get("n_excluded", 0)),
                 "scale_kind": m.get("scale_kind"), "scales": list(m.get("resolved_scales", [])),
                 "scales_unit": "k" if m.get("scale_kind") == "knn" else "m",
                 "units": m.get("units", "unknown")}
@@ -154,15 +155,16 @@ def compare_sources(a, b, pipeline=None, *, render=None, columns=None, method_gi
     warnings = []
     if any(labelled) and not all(labelled):
         warnings.append("semantic metrics (kl, l1) need class labels in both clouds; comparing geometry only")
-    if len(clouds) == 2 and sum(c.labels is None for c in clouds) == 1:
-        for c in clouds:  # one unlabeled: one class each, so the signatures stay comparable
-            c.labels = None
+    # one cloud unlabelled, or an unlabelled archive: every cloud is one class, so that the
+    # signatures stay comparable; the caller's clouds are left as they are (unlabelled copies)
+    geometry_only = ((len(clouds) == 2 and sum(c.labels is None for c in clouds) == 1)
+                     or any(not x.classes.names for x in sigs))
+    if geometry_only:
+        loaded = [replace(x, labels=None) if isinstance(x, PointCloud) and x.labels is not None else x
+                  for x in loaded]
     if sigs:
         reference = sigs[0]
         pipeline = _archive_pipeline(reference, pipeline, method_given, names[loaded.index(reference)])
-        for c in clouds:
-            if not reference.classes.names:
-                c.labels = None
     sides = []
     for name, x in zip(names, loaded):
         if isinstance(x, Signature):
@@ -182,7 +184,8 @@ def compare_sources(a, b, pipeline=None, *, render=None, columns=None, method_gi
         metrics = compare_signatures(first, second, render=render)
     warnings += _undefined_warnings(sides) + _class_warnings(sides) + _radii_warnings(sides)
     method = {k: first.metadata[k] for k in ("descriptor", "descriptor_params", "strategy", "scale_kind",
-                                             "scale_values", "scale_units", "weights") if k in first.metadata}
+                                             "scale_values", "scale_units", "weights", "keep_noise")
+              if k in first.metadata}
     return Comparison(sides[0], sides[1], metrics, render, method, warnings)
 
 

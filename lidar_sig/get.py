@@ -12,7 +12,7 @@ so GET's eigenvalues, and T3DVT-GET, are invariant to rotations about z.
 Each pass needs the previous pass at the neighbours, so the cloud is processed as a wavefront
 over blocks of points sorted by voxel: a block's pass 2 runs as soon as pass 1 is done for every
 point its neighbourhoods reach, and its neighbour lists are dropped after pass 3. Memory stays
-bounded by a few blocks of neighbour lists plus six derivatives per point and scale.
+bounded by a few blocks of neighbour lists plus six derivatives and cl_GET per point and scale.
 """
 from __future__ import annotations
 
@@ -112,8 +112,8 @@ def get_line_saliency(gx, gy, hxx, hxy, hyy, tx, ty, magnitude_scale, threshold)
 
 @njit(cache=True, parallel=True)
 def third_pass(xy, rows, ptr, nbr, counts, sigma, d1, d2, threshold, out):
-    """Third derivatives, GET and cl_GET per scale; out[row] = mean cl_GET over the scales where
-    it is defined (NaN if none). GET's magnitude is made dimensionless by sigma^2.
+    """Third derivatives, GET and cl_GET per scale into out[row, s] (NaN where undefined).
+    GET's magnitude is made dimensionless by sigma^2.
 
     t = grad(f_xx + f_yy): f_xxx, f_xxy from f_xx and f_xyy (as d/dx f_yy), f_yyy from f_yy.
     """
@@ -121,8 +121,6 @@ def third_pass(xy, rows, ptr, nbr, counts, sigma, d1, d2, threshold, out):
     for b in prange(rows.size):
         i = rows[b]
         xi, yi = xy[i, 0], xy[i, 1]
-        total = 0.0
-        defined = 0
         for s in range(S):
             fxxi, fyyi = d2[i, s, 0], d2[i, s, 3]
             rxx = ryy = rxy = ax = ay = cx = cy = 0.0
@@ -145,12 +143,8 @@ def third_pass(xy, rows, ptr, nbr, counts, sigma, d1, d2, threshold, out):
             fxyy = a * cx - bb * cy  # d/dx f_yy
             fyyy = c * cy - bb * cx
             hxy = 0.5 * (d2[i, s, 1] + d2[i, s, 2])
-            cl = get_line_saliency(d1[i, s, 0], d1[i, s, 1], d2[i, s, 0], hxy, d2[i, s, 3],
-                                   fxxx + fxyy, fxxy + fyyy, sigma[b, s] * sigma[b, s], threshold)
-            if cl == cl:
-                total += cl
-                defined += 1
-        out[i] = total / defined if defined > 0 else np.nan
+            out[i, s] = get_line_saliency(d1[i, s, 0], d1[i, s, 1], d2[i, s, 0], hxy, d2[i, s, 3],
+                                          fxxx + fxyy, fxxy + fyyy, sigma[b, s] * sigma[b, s], threshold)
 
 
 @njit(cache=True)
@@ -180,7 +174,8 @@ class _Block:
 
 
 def line_saliency_of_index(index, z, *, threshold=0.0, progress=False):
-    """cl_GET per point of a cylindrical NeighborIndex (sorted order), averaged over scales.
+    """(n, S) cl_GET per point (the index's sorted order) and scale of a cylindrical
+    NeighborIndex; NaN where GET is undefined.
 
     ``index`` searches (x, y, 0); ``z`` are the heights in the index's sorted order.
     """
@@ -189,7 +184,7 @@ def line_saliency_of_index(index, z, *, threshold=0.0, progress=False):
     z = np.ascontiguousarray(z, dtype=np.float64)
     d1 = np.empty((n, n_scales, 2))
     d2 = np.empty((n, n_scales, 4))
-    out = np.empty(n)
+    out = np.empty((n, n_scales))
     held = []
     for rows in _progress(index.blocks(), desc="gradient energy tensor", enabled=progress, unit="block"):
         block = _Block(rows, index.query(rows))

@@ -153,11 +153,18 @@ def color_histogram(rgb, mask=None, *, bins=8):
 
 
 def bhattacharyya(hist_a, hist_b):
-    """d_BD-Img: sqrt(1 - sum sqrt(h_a h_b)) of two normalized histograms, in [0, 1] (SPEC 6)."""
+    """d_BD-Img of two histograms, normalized here: sqrt(1 - sum sqrt(h_a h_b)), in [0, 1]
+    (SPEC 6; OpenCV HISTCMP_BHATTACHARYYA).
+
+    Computed as sqrt(1/2 sum (sqrt h_a - sqrt h_b)^2), equal in exact arithmetic for
+    normalized histograms (the squares expand to 1 + 1 - 2 sum sqrt(h_a h_b)): a sum of
+    non-negative terms, exactly 0 for equal histograms, where 1 - sum sqrt(h_a h_b) leaves
+    round-off of about 1e-16 that the square root lifts to 1e-8.
+    """
     a = np.asarray(hist_a, dtype=np.float64)
     b = np.asarray(hist_b, dtype=np.float64)
-    bc = np.sqrt(a / a.sum() * (b / b.sum())).sum()
-    return float(np.sqrt(max(0.0, 1.0 - bc)))
+    diff = np.sqrt(a / a.sum()) - np.sqrt(b / b.sum())
+    return float(min(1.0, np.sqrt(0.5 * np.sum(diff * diff))))
 
 
 def color_bin_centres(bins=8):
@@ -189,7 +196,8 @@ FV_GRID = 8
 
 
 def fisher_vector(positions, weights, *, grid=FV_GRID):
-    """Fisher vector of weighted 2D positions in the unit triangle (SPEC 6, delta_FV).
+    """Fisher vector of weighted 2D positions in the unit triangle (SPEC 6, delta_FV; there the
+    positions are a signature's occupied pixel centres, weighted by their counts).
 
     The mixture is fixed: Gaussians of equal weight centred on a regular ``grid`` x ``grid``
     lattice over [0, 1] x [0, sqrt(3)/2], kept where the centre lies within one spacing of the
@@ -248,7 +256,12 @@ def triangle_positions(signature):
 
 
 def fv_distance(a, b, *, grid=FV_GRID):
-    """delta_FV = ||FV_a - FV_b||_2 of two signatures' positions (count-weighted pixels); in [0, 2]."""
+    """delta_FV = ||FV_a - FV_b||_2 of two signatures, in [0, 2] (SPEC 6).
+
+    The positions are the occupied pixels' centres weighted by their counts
+    (:func:`triangle_positions`), not each point's own barycentric position: half a pixel
+    diagonal at most apart, and a function of the counts, so that an archive compares like
+    the cloud it was made from."""
     return float(np.linalg.norm(fisher_vector(*triangle_positions(a), grid=grid)
                                 - fisher_vector(*triangle_positions(b), grid=grid)))
 
@@ -264,7 +277,8 @@ def compare(a, b, *, render="smooth", color_bins=8):
     ``emd_img`` (d_EMD-Img), ``fv`` (delta_FV), ``kl`` (delta_KL) and ``l1`` (L1); ``kl`` and
     ``l1`` are None when either cloud is unlabeled. The image metrics see Sg and Sas rendered
     as ``render`` (see :mod:`lidar_sig.signature`); the semantic ones the class counts of every
-    labelled point, its saliency defined or not. Raises LidarSigError when the signatures are
+    labelled point the run used, its saliency defined or not (withheld and noise points left
+    out, ``Signature.class_totals``). Raises LidarSigError when the signatures are
     not comparable (frames, class tables or methods differ).
     """
     from .signature import Signature

@@ -10,7 +10,7 @@ import numpy as np
 
 from . import __version__
 from .classes import UNLABELED, class_table
-from .cloud import PointCloud
+from .cloud import PointCloud, kept_points
 from .compile import announce_compilation
 from .errors import LidarSigError, LidarSigWarning
 from .io.open3d import from_open3d, is_open3d
@@ -82,6 +82,13 @@ class Pipeline:
         Signature image frame; default 512 x 512 px.
     progress : bool or None
         Show a progress bar; None shows it on a terminal only.
+    keep_noise : bool
+        False (default) leaves out the points flagged withheld (LAS) and those of the class
+        table's noise classes (ASPRS 7 low point and 18 high noise in ``asprs`` and ``paper``;
+        none in ``isprs-vaihingen``), as PDAL and lidR users drop them first: they join no
+        neighbourhood, signature or class total, and get an undefined saliency in per-point
+        outputs (every point stays in the output file). Their number is reported
+        (``n_excluded``). True uses every point.
 
     Exact duplicate points (same x, y, z) are one location: the neighbour search sees each
     location once, so copies neither vote nor fill a neighbourhood, and every copy gets the
@@ -97,7 +104,8 @@ class Pipeline:
     """
 
     def __init__(self, descriptor="c3dcm", strategy="multiscale", scales=None, *, weights="area",
-                 max_neighbors=512, min_neighbors=3, classes="asprs", frame=None, progress=None):
+                 max_neighbors=512, min_neighbors=3, classes="asprs", frame=None, progress=None,
+                 keep_noise=False):
         self.descriptor = get_descriptor(descriptor)
         self.strategy = get_strategy(strategy)
         self.scales = scales if scales is not None else self.strategy.default_scales
@@ -111,6 +119,9 @@ class Pipeline:
                                 f"from 2 to max_neighbors, got {max_neighbors!r} and {min_neighbors!r}")
         if frame is not None and not isinstance(frame, Frame):
             raise LidarSigError(f"frame must be a lidar_sig.Frame, got {frame!r}")
+        if not isinstance(keep_noise, (bool, np.bool_)):
+            raise LidarSigError(f"keep_noise must be True or False, got {keep_noise!r}")
+        self.keep_noise = bool(keep_noise)
         self.weights = weights
         self.max_neighbors = int(max_neighbors)
         self.min_neighbors = int(min_neighbors)
@@ -128,50 +139,81 @@ class Pipeline:
             descriptor = get_descriptor(method["descriptor"], **method.get("descriptor_params", {}))
             extra = {k: int(method[k]) for k in ("max_neighbors", "min_neighbors") if k in method}
             return cls(descriptor, method["strategy"], scales, weights=method.get("weights", "none"),
-                       **extra, **kwargs)
+                       keep_noise=bool(method.get("keep_noise", False)), **extra, **kwargs)
         except (KeyError, TypeError) as exc:
             raise LidarSigError(f"the recorded method is incomplete or damaged ({exc}); make the "
                                 "signature again") from None
 
     def method(self):
         """What makes two signatures comparable (besides frame and class table): descriptor and
-        its parameters, strategy, scales, neighbour weights and neighbourhood limits."""
+        its parameters, strategy, scales, neighbour weights, neighbourhood limits and whether
+        withheld and noise points are kept."""
         return {"descriptor": self.descriptor.name, "descriptor_params": self.descriptor.params(),
                 "strategy": self.strategy.name, "scale_kind": self.scales.kind,
                 "scale_values": list(self.scales.values), "scale_units": self.scales.units,
                 "weights": self.weights, "max_neighbors": self.max_neighbors,
-                "min_neighbors": self.min_neighbors}
+                "min_neighbors": self.min_neighbors, "keep_noise": self.keep_noise}
+
+    def noise_codes(self):
+        """The class codes whose points a run leaves out (the class table's noise classes), or
+        None when it keeps every point (``keep_noise``); withheld points go with them."""
+        return None if self.keep_noise else tuple(self.classes.noise)
+
+    def kept(self, cloud):
+        """(N,) bool: the points of ``cloud`` a run uses, or None when it uses all
+        (:func:`lidar_sig.cloud.kept_points`); LidarSigError when it would use none."""
+        kept = kept_points(cloud.labels, cloud.withheld, self.noise_codes())
+        if kept is not None and not kept.any():
+            raise LidarSigError(f"every point ({len(cloud):,}) is withheld or of a noise class "
+                                f"({_codes(self.classes.noise)}); keep_noise=True (--keep-noise) uses them",
+                                path=cloud.path)
+        return kept
 
     def min_points(self):
         """Fewest distinct locations a cloud needs for this method: the largest k, or
         ``min_neighbors`` for radius scales."""
         return max(self.scales.values) if self.scales.kind == "knn" else self.min_neighbors
 
-    def _check_size(self, cloud, n_locations):
+    def _check_size(self, cloud, n_locations, n_excluded=0):
         n = len(cloud)
         need = self.min_points()
         if n_locations < need:
             what = f"k = {need}" if self.scales.kind == "knn" else f"{need} neighbours per point"
             where = (f"{n_locations} distinct locations ({n} points)" if n_locations < n
                      else f"{n} points")
+            if n_excluded:
+                where += f" besides {n_excluded:,} withheld or noise points"
             raise LidarSigError(f"holds {where}, fewer than the largest scale needs ({what}); use a "
-                                "larger cloud or smaller scales", path=cloud.path)
+                                "larger cloud or smaller scales"
+                                + (" (keep_noise=True, --keep-noise, uses every point)" if n_excluded else ""),
+                                path=cloud.path)
 
     def describe(self, batch):
         """(B, 3) saliency of a NeighborhoodBatch, and the chosen scale index per point (or None)."""
         per_scale = self.descriptor.saliency(batch)
         combined, pick = self.strategy.combine(per_scale)
-        return self.descriptor.refine(batch, combined), pick
+        return self.descriptor.refine(batch, combined, pick), pick
 
     def saliency(self, cloud):
-        """Per-point Saliency of ``cloud`` and run statistics (undefined, capped and duplicate
-        counts, scales in metres)."""
+        """Per-point Saliency of ``cloud`` and run statistics (undefined, capped, duplicate and
+        excluded counts, scales in metres). Withheld and noise points (see ``keep_noise``) are
+        left out of the run and get an undefined saliency."""
+        kept = self.kept(cloud)
+        if kept is None:
+            values, chosen, stats = self._saliency(cloud, 0)
+            return Saliency.from_values(values, chosen), stats
+        values, chosen, stats = self._saliency(cloud.subset(kept), int((~kept).sum()))
+        return Saliency.of_kept(values, chosen, kept), {**stats, "n_points": len(cloud)}
+
+    def _saliency(self, cloud, n_excluded):
+        """(N, 3) saliency values and (N,) chosen scales (or None) of every point of ``cloud``
+        (the points a run uses), and the run statistics."""
         announce_compilation(self.progress, self.descriptor.name)
         with step("neighbourhoods", enabled=self.progress, points=len(cloud),
                   scales=self.scales.describe(), weights=self.weights) as s:
             xyz = cloud.metric_xyz()
             support, inverse = unique_points(xyz)
-            self._check_size(cloud, len(support))
+            self._check_size(cloud, len(support), n_excluded)
             scales = self.scales.resolve(support)
             self.descriptor.prepare(support, self.scales.kind, scales, max_neighbors=self.max_neighbors,
                                     min_neighbors=self.min_neighbors, progress=self.progress)
@@ -203,9 +245,8 @@ class Pipeline:
         if inverse is not None:  # every copy of a location takes its saliency
             values = values[inverse]
             chosen = chosen[inverse] if chosen is not None else None
-        sal = Saliency.from_values(values, chosen)
         n = len(cloud)
-        n_undefined = int((~sal.defined).sum())
+        n_undefined = int(np.isnan(values).any(axis=1).sum())
         if n_undefined == n:
             raise LidarSigError(
                 f"no point has a defined saliency: every neighbourhood at {self.scales.describe()} "
@@ -220,10 +261,10 @@ class Pipeline:
                    if self.scales.units == "normalized" else "")
                 + "; use smaller radii or the default k-nearest scales", LidarSigWarning, stacklevel=2)
         stats = {"n_points": n, "n_undefined": n_undefined, "n_capped": n_capped,
-                 "n_duplicates": n - m, "resolved_scales": scales.tolist(),
+                 "n_duplicates": n - m, "n_excluded": n_excluded, "resolved_scales": scales.tolist(),
                  "units": cloud.units.describe(), "metres_per_unit": list(cloud.units.factors),
                  **self.method()}
-        return sal, stats
+        return values, chosen, stats
 
     def run(self, cloud, *, labels=None):
         """Saliency and signature of ``cloud``: a PointCloud, a path, an (N, 3) array of
@@ -237,7 +278,8 @@ class Pipeline:
                     "scales": self.scales.describe(), "crs": cloud.crs, **stats}
         with step("signature", enabled=self.progress, classes=classes.name):
             signature = Signature.from_saliency(sal.values, classes.index(codes), classes=classes,
-                                                frame=self.frame, egeom=sal.egeom, metadata=metadata)
+                                                frame=self.frame, egeom=sal.egeom, metadata=metadata,
+                                                kept=self.kept(cloud))
         return Result(cloud, sal, signature, metadata)
 
 
@@ -257,6 +299,10 @@ def as_point_cloud(cloud, labels=None):
         return read(cloud)
     raise LidarSigError(f"cannot run on a {type(cloud).__name__}; give a PointCloud, a file path, an "
                         "(N, 3) numpy array or an Open3D point cloud")
+
+
+def _codes(codes):
+    return "class " + ", ".join(str(c) for c in codes) if codes else "no noise class"
 
 
 def _fmt(values):

@@ -97,6 +97,19 @@ class Saliency:
         values = np.asarray(values, dtype=np.float64)
         return cls(values, geometric_entropy(values), geometric_class(values), optimal_scale)
 
+    @classmethod
+    def of_kept(cls, values, optimal_scale, kept):
+        """The Saliency of every point of a cloud whose points ``kept`` ((N,) bool) alone were
+        computed, with ``values`` (M, 3) and ``optimal_scale`` (M,) or None: the others are
+        undefined (NaN, class 0, scale -1)."""
+        full = np.full((len(kept), 3), np.nan)
+        full[kept] = values
+        chosen = None
+        if optimal_scale is not None:
+            chosen = np.full(len(kept), -1, dtype=np.int64)
+            chosen[kept] = optimal_scale
+        return cls.from_values(full, chosen)
+
     @property
     def cl(self):
         return self.values[:, 0]

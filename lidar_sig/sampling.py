@@ -61,7 +61,6 @@ def resilience(cloud, pipeline=None, *, fractions=DEFAULT_FRACTIONS, repeats=3, 
     ``seed``, so a run can be repeated); its signature is made with the same ``pipeline``
     (default ``Pipeline()``) and compared with the full cloud's under ``render``.
     """
-    from .cloud import PointCloud
     from .pipeline import Pipeline, as_point_cloud
 
     pipeline = pipeline or Pipeline()
@@ -86,8 +85,7 @@ def resilience(cloud, pipeline=None, *, fractions=DEFAULT_FRACTIONS, repeats=3, 
     runs = [(i, r) for i in range(len(fractions)) for r in range(int(repeats))]
     for i, r in _progress(runs, desc="subsamples", enabled=progress, unit="run"):
         keep = np.sort(rng.choice(n, points[i], replace=False))
-        labels = cloud.labels[keep] if cloud.labels is not None else None
-        sub = PointCloud(cloud.xyz[keep], labels, crs=cloud.crs, units=cloud.units)
+        sub = cloud.subset(keep)  # labels and withheld flags with their points
         metrics = compare(full, pipeline.run(sub).signature, render=render)
         for key in METRIC_KEYS:
             if metrics[key] is not None:

@@ -122,13 +122,14 @@ class Signature:
     egeom_counts : (bins,) int64
         Histogram of Egeom over [0, ln 3] nats (SPEC 6, d_EMD-Info).
     n_undefined : int
-        Points left out because their saliency is undefined at every scale.
+        Points left out because their saliency is undefined at every scale (withheld and noise
+        points left out of the run are not among them: ``metadata["n_excluded"]`` counts those).
     metadata : dict
         Descriptor, strategy, scales and sources that made it.
     class_totals : (C,) int64
-        Points of each class in the whole cloud, those with undefined saliency included: a
-        point's class does not depend on its saliency (the semantic metrics use these).
-        Defaults to ``class_counts``.
+        Points of each class in the cloud, those with undefined saliency included (a point's
+        class does not depend on its saliency), withheld and noise points left out of the run
+        excluded: the semantic metrics use these. Defaults to ``class_counts``.
     """
 
     counts: np.ndarray
@@ -145,14 +146,17 @@ class Signature:
 
     @classmethod
     def from_saliency(cls, sal, class_index, *, classes, frame=None, egeom=None, egeom_bins=100,
-                      metadata=None):
+                      metadata=None, kept=None):
         """Build a signature from per-point saliency (N, 3) and class indices (N,).
 
-        Points with NaN saliency are excluded and counted in ``n_undefined``.
+        Points with NaN saliency are excluded and counted in ``n_undefined``. ``kept`` (N,)
+        bool, or None for all, says which points the run used: the others (withheld and noise
+        points) count nowhere, not even in the class totals.
         """
         frame = frame or Frame()
         sal = np.asarray(sal, dtype=np.float64)
-        ok = ~np.isnan(sal).any(axis=1)
+        defined = ~np.isnan(sal).any(axis=1)
+        ok = defined if kept is None else defined & kept
         rows, cols = frame.pixels(sal[ok])
         n_classes = len(classes)
         flat = (np.asarray(class_index)[ok] * frame.size + rows) * frame.size + cols
@@ -161,9 +165,10 @@ class Signature:
         if egeom is None:
             egeom = geometric_entropy(sal)
         hist, _ = np.histogram(np.asarray(egeom)[ok], bins=egeom_bins, range=(0.0, LN3))
-        totals = np.bincount(np.asarray(class_index), minlength=n_classes).astype(np.int64)
-        return cls(counts, frame, classes, hist.astype(np.int64), int((~ok).sum()), dict(metadata or {}),
-                   totals)
+        used = np.asarray(class_index) if kept is None else np.asarray(class_index)[kept]
+        totals = np.bincount(used, minlength=n_classes).astype(np.int64)
+        n_undefined = int((~defined).sum() if kept is None else (~defined & kept).sum())
+        return cls(counts, frame, classes, hist.astype(np.int64), n_undefined, dict(metadata or {}), totals)
 
     @property
     def n_points(self):
@@ -241,7 +246,7 @@ class Signature:
 
 #: Settings that make a signature; two signatures compare only when these agree.
 METHOD_KEYS = ("descriptor", "descriptor_params", "strategy", "scale_kind", "scale_values",
-               "scale_units", "weights", "max_neighbors", "min_neighbors")
+               "scale_units", "weights", "max_neighbors", "min_neighbors", "keep_noise")
 
 
 def method_differences(a, b):

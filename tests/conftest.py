@@ -67,3 +67,34 @@ def epoch1_archive(tmp_path_factory):
     made = run("signature", SAMPLES / "epoch1.laz", "-o", path, "-q")
     assert made.returncode == 0, made.stderr
     return path
+
+
+#: Points of :func:`noisy_las` left out by default: withheld, class 7 (low noise), 18 (high noise).
+NOISY = {"withheld": 40, 7: 30, 18: 30}
+
+
+def noisy_las(path, n=3000, seed=11, version="1.4", point_format=6):
+    """A LAS file of the :func:`airborne_like` scene (first ``n`` points) followed by points to
+    leave out: NOISY["withheld"] withheld points on the ground, NOISY[7] low points below it
+    (class 7) and NOISY[18] high noise above it (class 18). Returns the (N,) mask of the scene."""
+    import laspy
+
+    xyz, labels = airborne_like(n, seed=seed)
+    rng = np.random.default_rng(seed + 1)
+    extra = {"withheld": np.column_stack([rng.uniform(0, 40, (NOISY["withheld"], 2)), np.zeros(NOISY["withheld"])]),
+             7: np.column_stack([rng.uniform(0, 40, (NOISY[7], 2)), rng.uniform(-8, -3, NOISY[7])]),
+             18: np.column_stack([rng.uniform(0, 40, (NOISY[18], 2)), rng.uniform(40, 90, NOISY[18])])}
+    all_xyz = np.vstack([xyz, *extra.values()])
+    classes = np.concatenate([labels, np.full(NOISY["withheld"], 2), np.full(NOISY[7], 7), np.full(NOISY[18], 18)])
+    withheld = np.zeros(len(all_xyz), bool)
+    withheld[n:n + NOISY["withheld"]] = True
+    las = laspy.create(point_format=point_format, file_version=version)
+    las.header.scales = np.array([2.0 ** -10] * 3)  # airborne_like's quantum: coordinates exact
+    las.header.offsets = np.zeros(3)
+    las.x, las.y, las.z = all_xyz[:, 0], all_xyz[:, 1], all_xyz[:, 2]
+    las.classification = classes
+    las.withheld = withheld
+    las.write(path)
+    scene = np.zeros(len(all_xyz), bool)
+    scene[:n] = True
+    return scene

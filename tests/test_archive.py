@@ -9,7 +9,7 @@ import pytest
 
 import lidar_sig as ls
 from command_line import run, run_process
-from conftest import IGN, SAMPLES, need_data
+from conftest import IGN, NOISY, SAMPLES, need_data, noisy_las
 
 DOCUMENTED = ["/signature/counts", "/signature/sg", "/signature/sas", "/signature/mask",
               "/signature/triangle", "/signature/egeom_histogram", "/signature/saliency_histograms",
@@ -102,3 +102,37 @@ def test_compare_refuses_archive_with_another_class_table(tmp_path):
     assert proc.returncode == 2
     assert "class table 'asprs'" in proc.stderr and "--classes" in proc.stderr
     assert "Traceback" not in proc.stderr
+
+
+def test_k_scales_read_back_as_whole_numbers(tmp_path):
+    # k-nearest scales are neighbour counts: an archive gives them as the cloud does, in JSON too
+    cloud = ls.read(SAMPLES / "epoch1.laz")
+    result = ls.Pipeline(scales=ls.knn(10, 20), progress=False).run(cloud)
+    path = tmp_path / "e1.h5"
+    result.write(path, points=False)
+    loaded = ls.load_signature(path)
+    assert loaded.metadata["resolved_scales"] == [10, 20]
+    assert all(type(v) is int for v in loaded.metadata["resolved_scales"])
+    facts = ls.compare_sources(path, cloud).to_dict()  # the cloud is computed the archive's way
+    assert json.dumps(facts["a"]["scales"]) == json.dumps(facts["b"]["scales"]) == "[10, 20]"
+    with h5py.File(path, "r+") as f:  # as archives made before recorded them: floats
+        f.attrs["resolved_scales"] = np.array([10.0, 20.0])
+    assert json.dumps(ls.load_signature(path).metadata["resolved_scales"]) == "[10, 20]"
+
+
+def test_archive_records_the_points_left_out_and_the_noise_codes(tmp_path):
+    noisy_las(tmp_path / "noisy.laz")
+    cloud = ls.read(tmp_path / "noisy.laz")
+    result = ls.Pipeline(progress=False).run(cloud)
+    path = tmp_path / "noisy.h5"
+    result.write(path)
+    loaded = ls.load_signature(path)
+    assert loaded.metadata["n_excluded"] == sum(NOISY.values()) and loaded.metadata["keep_noise"] is False
+    assert loaded.classes == ls.ASPRS and loaded.classes.noise == (7, 18)
+    assert "withheld or noise points left out" in "\n".join(ls.io.archive_summary(path))
+    # a cloud compared with the archive is computed the archive's way: noise left out
+    same = ls.compare_sources(path, cloud)
+    assert same.metrics["ssim"] == 1.0 and same.metrics["kl"] == 0.0 and same.b.summary()["excluded"] == sum(NOISY.values())
+    with h5py.File(path, "r+") as f:  # as archives made before noise codes were recorded
+        del f["signature/classes/noise_codes"]
+    assert ls.load_signature(path).classes == ls.ASPRS

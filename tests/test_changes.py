@@ -336,3 +336,22 @@ def test_an_epoch_given_as_a_folder_of_tiles_is_joined_before_the_saliency(tmp_p
     # same points, saliency across the tile edge as in the whole cloud: nothing changed anywhere
     assert np.array_equal(cm.table["points_a"], cm.table["points_b"])
     assert np.allclose(cm.table["kl"][valid], 0.0) and np.allclose(cm.table["fv"][valid], 0.0, atol=1e-12)
+
+
+def test_withheld_and_noise_points_are_in_no_cell():
+    # the same scene, once with withheld and noise points: by default the epochs are equal
+    xyz, labels = airborne_like(6000, seed=3)
+    rng = np.random.default_rng(9)
+    noise = np.column_stack([rng.uniform(0, 40, (200, 2)), rng.uniform(30, 80, 200)])
+    withheld = np.r_[np.zeros(6000 + 100, bool), np.ones(100, bool)]
+    noisy = PointCloud(np.vstack([xyz, noise]), np.r_[labels, np.full(100, 18), np.full(100, 2)],
+                       crs="EPSG:2154", withheld=withheld)
+    clean = PointCloud(xyz, labels, crs="EPSG:2154")
+    pipe = ls.Pipeline(progress=False)
+    cmap = changes(clean, noisy, cell=20.0, min_points=200, pipeline=pipe)
+    valid = cmap.table["valid"]
+    assert valid.sum() >= 3 and np.array_equal(cmap.table["points_a"], cmap.table["points_b"])
+    for key in ("bhattacharyya", "emd_info", "fv", "l1"):  # the same points, the same computation:
+        assert np.all(cmap.table[key][valid] == 0.0), key   # exactly 0 on any CPU
+    kept = changes(clean, noisy, cell=20.0, min_points=200, pipeline=ls.Pipeline(progress=False, keep_noise=True))
+    assert kept.table["points_b"].sum() == len(noisy) and np.all(kept.table["l1"][kept.table["valid"]] > 0)

@@ -160,7 +160,8 @@ def test_compare_refuses_archives_made_with_different_methods(tmp_path, epoch1_a
     default = epoch1_archive
     for name, options, what in (("optimal.h5", ["--strategy", "optimal"], "strategy"),
                                 ("k.h5", ["--k", "10,20"], "scale values"),
-                                ("paper.h5", ["--weights", "none"], "weights")):
+                                ("paper.h5", ["--weights", "none"], "weights"),
+                                ("noise.h5", ["--keep-noise"], "keep noise")):
         other = _archive(tmp_path, name, *options)
         proc = run("compare", default, other)
         assert proc.returncode == 2, proc.stderr

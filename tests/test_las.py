@@ -1,5 +1,7 @@
 """LAS/LAZ output (SPEC 8): LAS 1.4 originals kept bit for bit, older versions upgraded with
-every value kept, saliency dimensions added once, a user's own dimensions never replaced."""
+every value kept, saliency dimensions added once, a user's own dimensions never replaced; withheld
+and noise points left out of the run but kept in the file."""
+import contextlib
 import datetime
 
 import laspy
@@ -8,7 +10,7 @@ import pytest
 
 import lidar_sig as ls
 from command_line import run
-from conftest import DATA, IGN, IGN_FILES, airborne_like, need_data
+from conftest import DATA, IGN, IGN_FILES, NOISY, airborne_like, need_data, noisy_las
 from lidar_sig.errors import LidarSigWarning
 from lidar_sig.io.las import SALIENCY_DIMS, write_las
 
@@ -285,3 +287,66 @@ def test_cli_refuses_when_even_the_prefixed_names_are_taken(tmp_path):
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and "user.laz" in lines[0] and "lidar_sig_Cl" in lines[0] and "rename" in lines[0]
     assert list(out.parent.iterdir()) == []
+
+
+@pytest.mark.parametrize("version,point_format", [("1.4", 6), ("1.2", 1)])
+def test_withheld_and_noise_points_are_left_out_by_default_and_kept_on_request(tmp_path, version, point_format):
+    path = tmp_path / "noisy.las"
+    scene = noisy_las(path, version=version, point_format=point_format)
+    n_left_out = sum(NOISY.values())
+    cloud = ls.read(path)
+    result = ls.Pipeline(progress=False).run(cloud)
+    # the scene's saliency and signature are those of the scene alone: the others are absent
+    clean = ls.Pipeline(progress=False).run(ls.PointCloud(cloud.xyz[scene], cloud.labels[scene]))
+    np.testing.assert_allclose(result.saliency.values[scene], clean.saliency.values, rtol=0, atol=1e-12)
+    assert np.isnan(result.saliency.values[~scene]).all() and (result.saliency.geom_class[~scene] == 0).all()
+    assert np.array_equal(result.signature.counts, clean.signature.counts)
+    totals = result.signature.class_totals
+    assert np.array_equal(totals, clean.signature.class_totals) and totals[7] == totals[18] == 0
+    assert result.metadata["n_excluded"] == n_left_out and result.metadata["n_points"] == len(cloud)
+    assert result.signature.n_undefined == clean.signature.n_undefined  # left-out points are not "undefined"
+    # every point is still in the output, the left-out ones undefined
+    out = tmp_path / "out.las"
+    with pytest.warns(LidarSigWarning, match="as LAS 1.4") if version != "1.4" else contextlib.nullcontext():
+        result.write(out)
+    las = laspy.read(out)
+    assert len(las.points) == len(cloud)
+    assert np.array_equal(np.asarray(las.classification), cloud.labels)
+    assert np.isnan(np.asarray(las["Cl"])[~scene]).all() and (np.asarray(las["GeomClass"])[~scene] == 0).all()
+    assert np.isfinite(np.asarray(las["Cl"])[scene]).mean() > 0.95
+    # keep_noise uses every point: noise classes in the class totals, noise points defined
+    kept = ls.Pipeline(progress=False, keep_noise=True).run(cloud)
+    assert kept.metadata["n_excluded"] == 0 and kept.metadata["keep_noise"] is True
+    totals = kept.signature.class_totals
+    assert totals[7] == NOISY[7] and totals[18] == NOISY[18] and totals.sum() == len(cloud)
+    assert totals[2] == clean.signature.class_totals[2] + NOISY["withheld"]  # withheld ground points
+    assert kept.saliency.defined[~scene].mean() > 0.5
+
+
+def test_cli_summary_says_how_many_points_were_left_out(tmp_path):
+    path = tmp_path / "noisy.laz"
+    noisy_las(path)
+    default = run("saliency", path, "-o", tmp_path / "a.laz")
+    assert default.returncode == 0, default.stderr
+    assert f"{sum(NOISY.values())} withheld or noise points left out" in default.stdout
+    kept = run("saliency", path, "-o", tmp_path / "b.laz", "--keep-noise")
+    assert kept.returncode == 0, kept.stderr
+    assert "left out" not in kept.stdout
+    assert np.isfinite(np.asarray(laspy.read(tmp_path / "b.laz")["Cl"])[-NOISY[18]:]).any()
+    info = run("info", path)
+    assert f"withheld: {NOISY['withheld']} points" in info.stdout, info.stderr
+
+
+def test_noise_codes_follow_the_class_table():
+    # a labelled cloud of any format: 7 and 18 are noise in the ASPRS tables, 7 a shrub in Vaihingen's
+    xyz, labels = airborne_like(2000, seed=4)
+    labels = labels.copy()
+    labels[:100] = 7
+    cloud = ls.PointCloud(xyz, labels)
+    for classes, left_out in (("asprs", 100), ("paper", 100), ("isprs-vaihingen", 0)):
+        result = ls.Pipeline(scales=ls.knn(10, 20), classes=classes, progress=False).run(cloud)
+        assert result.metadata["n_excluded"] == left_out, classes
+        assert np.isnan(result.saliency.values[:100]).all() == bool(left_out), classes
+    assert ls.Pipeline(scales=ls.knn(10, 20), progress=False).run(ls.PointCloud(xyz)).metadata["n_excluded"] == 0
+    with pytest.raises(ls.LidarSigError, match="every point.*keep_noise"):
+        ls.Pipeline(progress=False).run(ls.PointCloud(xyz, np.full(len(xyz), 18)))

@@ -67,6 +67,18 @@ def test_bhattacharyya_matches_opencv():
     assert bhattacharyya(ha, ha) == pytest.approx(0.0, abs=1e-7)
 
 
+@pytest.mark.parametrize("hist", [np.ones(7), np.arange(1.0, 7.0)])
+def test_bhattacharyya_of_a_histogram_with_itself_is_exactly_zero(hist):
+    # 1 - sum sqrt(h h) is a few 1e-16 for these (not 0), which a square root lifts to 1e-8;
+    # the distance of equal inputs is 0 exactly on every CPU (a sum of zero terms)
+    assert bhattacharyya(hist, hist) == 0.0
+    assert bhattacharyya(hist, 2 * hist) == 0.0  # the same shape: normalized alike, exactly
+    # the other form of the same quantity, for two different histograms
+    other = hist + np.arange(len(hist)) ** 2
+    p, q = hist / hist.sum(), other / other.sum()
+    assert bhattacharyya(hist, other) == pytest.approx(np.sqrt(1 - np.sum(np.sqrt(p * q))), rel=1e-9)
+
+
 def test_compare_identity_and_ranges():
     xyz, labels = airborne_like(3000, seed=1)
     xyz2, labels2 = airborne_like(3000, seed=2)
@@ -153,3 +165,20 @@ def test_opencv_gaussian_blur_equals_scipy_gaussian_filter():
     for sigma in (0.8, 1.5, 3.0):
         ref = gaussian_filter(img, sigma, truncate=3.5, mode="reflect")
         assert np.abs(gaussian_blur(img, sigma) - ref).max() < 1e-12
+
+
+def test_comparing_clouds_leaves_them_unchanged():
+    # one cloud unlabelled: both are compared as one class, but the caller's clouds keep theirs
+    xyz, labels = airborne_like(1500, seed=5)
+    xyz2, _ = airborne_like(1500, seed=6)
+    pipe = ls.Pipeline(scales=ls.knn(10, 20), progress=False)
+    labelled, bare = ls.PointCloud(xyz.copy(), labels.copy()), ls.PointCloud(xyz2.copy())
+    unlabelled_archive = pipe.run(ls.PointCloud(xyz2)).signature
+    for run in (lambda: ls.compare_sources(labelled, bare, pipe),
+                lambda: ls.compare_sources(bare, labelled, pipe),
+                lambda: ls.compare_sources(labelled, unlabelled_archive, pipe),
+                lambda: ls.report(labelled, bare, pipe)):
+        out = run()
+        assert labelled.labels is not None and np.array_equal(labelled.labels, labels)
+        assert np.array_equal(labelled.xyz, xyz) and np.array_equal(bare.xyz, xyz2) and bare.labels is None
+    assert out is not None and ls.compare_sources(labelled, bare, pipe).metrics["kl"] is None

@@ -5,8 +5,15 @@ import sys
 import textwrap
 
 import laspy
+import numpy as np
+import pytest
 
-from conftest import ROOT, SAMPLES
+import lidar_sig as ls
+from lidar_sig.neighbors import NeighborIndex
+from lidar_sig.plugins import Descriptor
+from lidar_sig.plugins.descriptors.c3dcm import C3DCM
+
+from conftest import ROOT, SAMPLES, airborne_like
 
 PLUGIN = '''
 """A third-party descriptor: C3DCM eigenvalues squared (sharper saliency)."""
@@ -70,3 +77,51 @@ def test_unknown_descriptor_on_command_line_lists_plugins(tmp_path):
                 "--descriptor", "nope")
     assert proc.returncode == 2
     assert "available: c3dcm, t3dvt, t3dvt-get" in proc.stderr
+
+
+class Ascending(Descriptor):
+    """C3DCM's eigenvalues given in ascending order, as numpy.linalg.eigvalsh returns them."""
+
+    name = "ascending"
+
+    def eigenvalues(self, batch):
+        return C3DCM().eigenvalues(batch)[..., ::-1]
+
+
+class Negative(Descriptor):
+    """C3DCM's eigenvalues with the smallest set to -offset times the largest."""
+
+    name = "negative"
+
+    def __init__(self, offset):
+        self.offset = offset
+
+    def eigenvalues(self, batch):
+        ev = C3DCM().eigenvalues(batch)
+        ev[..., 2] = -self.offset * ev[..., 0]
+        return ev
+
+
+@pytest.fixture(scope="module")
+def batch():
+    xyz, _ = airborne_like(2000, seed=8)
+    index = NeighborIndex(xyz - xyz.mean(axis=0), "knn", np.array([10, 20]))
+    return index.query(index.blocks()[0])
+
+
+def test_a_plugin_giving_ascending_eigenvalues_gets_the_saliency_of_descending_ones(batch):
+    expected = C3DCM().saliency(batch)
+    got = Ascending().saliency(batch)
+    assert np.isfinite(expected).all()
+    np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12)
+    assert (got >= 0).all()  # inside the triangle: no negative Cl or Cs
+
+
+def test_round_off_negative_eigenvalues_are_zero_and_clearly_negative_ones_refused(batch):
+    zero = C3DCM().eigenvalues(batch)
+    zero[..., 2] = 0.0
+    from lidar_sig.saliency import saliency_from_eigenvalues
+
+    np.testing.assert_allclose(Negative(1e-12).saliency(batch), saliency_from_eigenvalues(zero), atol=1e-12)
+    with pytest.raises(ls.LidarSigError, match="'negative'.*negative eigenvalue"):
+        Negative(0.1).saliency(batch)

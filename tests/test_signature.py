@@ -141,11 +141,17 @@ def test_user_class_tables_from_toml_and_json(tmp_path):
                   ' {"name": "ground", "codes": [2], "color": [120, 120, 120]}]}')
     assert class_table(str(js)) == table
     assert len(ISPRS_VAIHINGEN) == 10 and ISPRS_VAIHINGEN.index(np.array([8]))[0] == 8
+    assert table.noise == () and ISPRS_VAIHINGEN.noise == ()  # noise codes only where declared
+    noisy = tmp_path / "noisy.toml"
+    noisy.write_text('name = "ign"\nnoise = [7, 18]\n' + toml.read_text().split("\n", 1)[1])
+    assert class_table(str(noisy)).noise == (7, 18) and class_table(str(noisy)) != table
 
 
 @pytest.mark.parametrize("text", ['name = "x"\n', '[[class]]\nname = "a"\ncodes = [1]\ncolor = [1, 2]\n',
                                   "not toml at all [[[", '[[class]]\nname="a"\ncodes=[1]\ncolor=[1,2,3]\n'
-                                  '[[class]]\nname="b"\ncodes=[1]\ncolor=[1,2,3]\n'])
+                                  '[[class]]\nname="b"\ncodes=[1]\ncolor=[1,2,3]\n',
+                                  'noise = 7\n[[class]]\nname="a"\ncodes=[1]\ncolor=[1,2,3]\n',
+                                  'noise = [0]\n[[class]]\nname="a"\ncodes=[1]\ncolor=[1,2,3]\n'])
 def test_bad_class_tables_name_the_file(tmp_path, text):
     from lidar_sig.classes import class_table
 

@@ -68,14 +68,14 @@ def test_get_on_gable_ridge_is_line_type():
     pts = _height_field(lambda x, y: 6 - 0.5 * np.abs(y))
     cl = cl_get_of_cloud(pts, "radius", np.array([0.25, 0.35, 0.45]))
     ridge = (pts[:, 1] == 0) & (np.abs(pts[:, 0]) < 2)
-    assert np.all(cl[ridge] > 0.9)
+    assert np.all(cl[ridge] > 0.9)  # at every scale
 
 
 def test_get_on_pyramid_apex_is_corner():
     pts = _height_field(lambda x, y: 6 - 0.5 * np.maximum(np.abs(x), np.abs(y)))
     cl = cl_get_of_cloud(pts, "radius", np.array([0.25, 0.35, 0.45]))
     apex = (pts[:, 0] == 0) & (pts[:, 1] == 0)
-    assert 1 - cl[apex][0] > 0.8
+    assert np.all(1 - cl[apex] > 0.8)  # at every scale
 
 
 @pytest.mark.parametrize("slope,threshold", [(0.5, 0.0), (1.5, None)])
@@ -140,6 +140,42 @@ def test_get_threshold_leaves_flat_ground_undefined():
     scales = np.array([0.8, 1.0, 1.2])
     loose = cl_get_of_cloud(pts, "radius", scales, threshold=0.0)
     strict = cl_get_of_cloud(pts, "radius", scales, threshold=1e-6)
-    assert np.isfinite(loose).mean() > 0.5     # round-off decides line or corner
+    assert np.isfinite(loose).any(axis=1).mean() > 0.5  # round-off decides line or corner
     assert np.isnan(strict).all()              # the threshold leaves them undefined: no corners
     assert T3DVTGET(get_threshold=1e-6).params()["get_threshold"] == 1e-6
+
+
+def test_get_leaves_a_point_without_voting_neighbours_undefined():
+    # a point 20 m above a steep pyramid roof: no other point within the spheres (T3DVT
+    # undefined), but its cylinders hold the roof below, whose GET reads a corner there
+    pts = _height_field(lambda x, y: 6 - 1.5 * np.maximum(np.abs(x), np.abs(y)))
+    pts = np.vstack([pts, [1.03, 0.52, 6 - 1.5 * 1.03 + 20.0]])
+    scales = ls.radii(0.25, 0.35, 0.45, units="metric")
+    res = ls.Pipeline(descriptor=T3DVTGET(), scales=scales, progress=False).run(ls.PointCloud(pts))
+    assert np.isnan(res.saliency.values[-1]).all() and res.saliency.geom_class[-1] == 0
+    assert res.metadata["n_undefined"] == 1 and res.signature.n_points == len(pts) - 1
+
+
+def test_optimal_scale_get_takes_cl_get_at_the_chosen_scale(scene):
+    # under Optimal-scale, GET is read at the scale chosen for the point (SPEC 3, step 3: "like
+    # any saliency"); the per-scale cl_GET comes from one run per scale (a scale's cylinders
+    # are the same alone as among others)
+    cloud = ls.PointCloud(scene)
+    pipe = ls.Pipeline(descriptor="t3dvt-get", strategy="optimal", progress=False)
+    res = pipe.run(cloud)
+    plain = ls.Pipeline(descriptor="t3dvt", strategy="optimal", progress=False).run(cloud)
+    pick = plain.saliency.optimal_scale
+    assert np.array_equal(res.saliency.optimal_scale, pick) and (pick >= 0).all()
+    xyz = cloud.metric_xyz()
+    threshold = pipe.descriptor.get_threshold
+    cl = np.column_stack([cl_get_of_cloud(xyz, "knn", np.array([k]), threshold=threshold).ravel()
+                          for k in pipe.scales.values])
+    at = cl[np.arange(len(xyz)), pick]
+    corner = at < 0.5  # cp_GET > cl_GET; False where GET is undefined at that scale
+    expected = plain.saliency.values.copy()
+    expected[corner] = np.column_stack([at[corner], np.zeros(int(corner.sum())), 1.0 - at[corner]])
+    np.testing.assert_allclose(res.saliency.values, expected, rtol=0, atol=1e-9)
+    # the scene has points where the mean over the scales and the chosen scale disagree
+    defined = ~np.isnan(cl)
+    mean = np.where(defined, cl, 0.0).sum(axis=1) / np.maximum(defined.sum(axis=1), 1)
+    assert (((mean < 0.5) & defined.any(axis=1)) != corner).sum() > 10

@@ -18,7 +18,7 @@ from lidar_sig.tiling.execute import executor
 from lidar_sig.tiling.run import run_set
 
 from command_line import run as lidar_sig_cli
-from conftest import DATA, IGN, IGN_FILES, SAMPLES, airborne_like, need_data
+from conftest import DATA, IGN, IGN_FILES, NOISY, SAMPLES, airborne_like, need_data, noisy_las
 
 # Points tied at the same distance from a query can be listed in another order in a tile's
 # voxel grid than in the whole cloud's: the covariance then sums the same terms in another
@@ -123,6 +123,30 @@ def test_a_local_dask_cluster_gives_the_same_results_as_the_local_run(tmp_path, 
     assert np.array_equal(run.signature.counts, ign_set.signature.counts)
     for a, b in zip(run.sources, ign_set.sources):
         assert np.array_equal(run.saliency_of(a).values, ign_set.saliency_of(b).values, equal_nan=True)
+
+
+@pytest.mark.parametrize("keep_noise", [False, True])
+def test_withheld_and_noise_points_are_left_out_of_tiles_as_of_the_single_block(tmp_path, keep_noise):
+    path = tmp_path / "noisy.laz"
+    scene = noisy_las(path, n=6000)
+    cloud = ls.read(path)
+    pipe = ls.Pipeline(progress=False, keep_noise=keep_noise)
+    single = pipe.run(cloud)
+    assert single.metadata["n_excluded"] == (0 if keep_noise else sum(NOISY.values()))
+    tiled, stats = saliency_in_tiles(pipe, cloud, 15.0)
+    assert_same_saliency(tiled, single.saliency)
+    assert stats["n_excluded"] == single.metadata["n_excluded"]
+    run = run_set(pipe, [path], work=tmp_path / "work", tile_size=15.0)
+    assert run.complete and run.tiling.shape[0] > 2
+    assert_same_saliency(run.saliency_of(run.sources[0]), single.saliency)
+    for key in ("counts", "egeom_counts", "class_totals"):
+        assert np.array_equal(getattr(run.signature, key), getattr(single.signature, key)), key
+    for key in ("n_points", "n_undefined", "n_excluded", "n_duplicates"):
+        assert run.signature.metadata[key] == single.metadata[key], key
+    out = tmp_path / "out.laz"
+    assert run.write_points(run.sources[0], out)
+    las = laspy.read(out)
+    assert len(las.points) == len(cloud) and np.isnan(np.asarray(las["Cl"])[~scene]).all() != keep_noise
 
 
 def test_a_file_cut_off_mid_file_is_named_the_others_written_and_resume_completes_the_set(tmp_path, ign_set):

@@ -40,15 +40,18 @@ class Binned:
 
 def bin_points(epoch, grid, classes, labelled):
     """The :class:`Binned` points of ``epoch`` on ``grid`` (sets the epoch's ``cells``); class
-    codes are indexed in ``classes``, all one class unless ``labelled``."""
+    codes are indexed in ``classes``, all one class unless ``labelled``. Points the run left out
+    (withheld and noise, ``epoch.kept``) are in no cell: their cell index is ``n_cells``."""
     n_cells, n_classes = grid.n_cells, len(classes)
     epoch.cells = grid.cell_of(epoch.cloud.xyz[:, :2])
+    if epoch.kept is not None:
+        epoch.cells = np.where(epoch.kept, epoch.cells, n_cells)
     codes = epoch.cloud.labels if labelled else np.zeros(len(epoch.cloud), np.int64)
     index = classes.index(codes)
     order = np.argsort(epoch.cells, kind="stable")
     starts = np.searchsorted(epoch.cells[order], np.arange(n_cells + 1))
-    counts = np.bincount(epoch.cells * n_classes + index, minlength=n_cells * n_classes)
-    undefined = np.bincount(epoch.cells, weights=~epoch.saliency.defined, minlength=n_cells)
+    counts = np.bincount(epoch.cells * n_classes + index, minlength=(n_cells + 1) * n_classes)[:n_cells * n_classes]
+    undefined = np.bincount(epoch.cells, weights=~epoch.saliency.defined, minlength=n_cells + 1)[:n_cells]
     return Binned(order, starts, counts.reshape(n_cells, n_classes), undefined)
 
 

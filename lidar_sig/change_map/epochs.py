@@ -15,13 +15,15 @@ from ..errors import LidarSigError
 @dataclass
 class Epoch:
     """One epoch of a change map: its name, cloud, per-point saliency (SPEC 1), the run's
-    statistics and, once binned, the flat cell index of each point."""
+    statistics, the points the run used (``kept``, :meth:`Pipeline.kept`; None for all) and,
+    once binned, the flat cell index of each point."""
 
     name: str
     cloud: object
     saliency: object
     metadata: dict = field(default_factory=dict)
     cells: np.ndarray = None
+    kept: np.ndarray = None
 
 
 def read_epoch(source, *, columns=None):
@@ -59,8 +61,12 @@ def read_epoch(source, *, columns=None):
             raise LidarSigError(f"has {'no ' if c.labels is None else ''}class labels unlike {first.path}; "
                                 "give tiles of one epoch that are all labelled or all unlabelled", path=c.path)
     labels = None if first.labels is None else np.concatenate([c.labels for c in clouds])
+    withheld = None
+    if any(c.withheld is not None for c in clouds):
+        withheld = np.concatenate([c.withheld if c.withheld is not None else np.zeros(len(c), bool) for c in clouds])
     name = str(source) if not isinstance(source, (list, tuple)) else f"{first.path} (+{len(clouds) - 1} tiles)"
-    return PointCloud(np.vstack([c.xyz for c in clouds]), labels, path=name, crs=first.crs, units=first.units)
+    return PointCloud(np.vstack([c.xyz for c in clouds]), labels, path=name, crs=first.crs, units=first.units,
+                      withheld=withheld)
 
 
 def check_same_crs(clouds, names):

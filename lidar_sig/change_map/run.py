@@ -81,7 +81,7 @@ def changes(a, b, *, cell=CELL, pipeline=None, min_points=MIN_POINTS, score=None
     epochs = []
     for cloud, name in zip(clouds, names):
         sal, stats = pipeline.saliency(cloud)
-        epochs.append(Epoch(name, cloud, sal, stats))
+        epochs.append(Epoch(name, cloud, sal, stats, kept=pipeline.kept(cloud)))
     classes = pipeline.classes if labelled else UNLABELED
     if not isinstance(frame, Frame):
         raise LidarSigError(f"frame must be a lidar_sig.Frame, got {frame!r}")

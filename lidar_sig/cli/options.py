@@ -16,7 +16,8 @@ from ..signature import RENDERINGS
 
 # Method options: None when not given, so that a command can tell what the user asked for (an
 # archive compared with a cloud brings its own method).
-METHOD_OPTIONS = ("descriptor", "strategy", "radii", "units", "k", "weights", "max_neighbors", "classes")
+METHOD_OPTIONS = ("descriptor", "strategy", "radii", "units", "k", "weights", "max_neighbors", "classes",
+                  "keep_noise")
 
 
 def number_list(text, option):
@@ -58,6 +59,10 @@ def pipeline_options(func):
         click.option("--classes", default=None,
                      help="Class table for the augmented signature: asprs, paper, isprs-vaihingen, "
                           "or a .toml/.json file (see docs/method.md) [default: asprs]."),
+        click.option("--keep-noise", is_flag=True, default=None,
+                     help="Use withheld points (LAS flag) and noise classes (ASPRS 7, 18) too; by default "
+                          "they are left out of neighbourhoods, signatures and class shares, and undefined "
+                          "in per-point outputs."),
         click.option("-q", "--quiet", is_flag=True, help="No progress bars or summaries."),
         click.option("-v", "--verbose", is_flag=True,
                      help="Print the parameters and timing of each step on stderr."),
@@ -78,7 +83,7 @@ def pipeline_options(func):
 
 
 def make_pipeline(descriptor=None, strategy=None, radii=None, units=None, k=None, weights=None,
-                  max_neighbors=None, classes=None, quiet=False):
+                  max_neighbors=None, classes=None, keep_noise=None, quiet=False):
     """A Pipeline from command-line option values (None: the default)."""
     if radii is not None and k is not None:
         raise LidarSigError("give either --radii or --k, not both")
@@ -95,7 +100,8 @@ def make_pipeline(descriptor=None, strategy=None, radii=None, units=None, k=None
         scales = knn(*[int(v) for v in values])
     extra = {} if max_neighbors is None else {"max_neighbors": max_neighbors}
     return Pipeline(descriptor or "c3dcm", strategy or "multiscale", scales, weights=weights or "area",
-                    classes=classes or "asprs", progress=False if quiet else None, **extra)
+                    classes=classes or "asprs", progress=False if quiet else None,
+                    keep_noise=bool(keep_noise), **extra)
 
 
 overwrite_option = click.option("--overwrite", is_flag=True, help="Replace an existing output file.")

@@ -5,7 +5,7 @@ from ..reporting.sections import scales_text
 
 
 def run_summary(source, result):
-    """One line: points, method, scales, units, undefined, capped and duplicate counts."""
+    """One line: points, method, scales, units, undefined, capped, duplicate and left-out counts."""
     m = result.metadata
     text = (f"{source}: {m['n_points']:,} points, {m['descriptor']} {m['strategy']}, {scales_text(m)}, "
             f"{m['weights']} weights, units {m['units']}; {m['n_undefined']:,} undefined")
@@ -15,6 +15,8 @@ def run_summary(source, result):
         text += f", {m['n_capped']:,} neighbourhoods capped at {m['max_neighbors']}"
     if m["n_duplicates"]:
         text += f", {m['n_duplicates']:,} duplicate points (one location each)"
+    if m.get("n_excluded"):
+        text += f", {m['n_excluded']:,} withheld or noise points left out"
     return text
 
 

@@ -30,10 +30,11 @@ def run_tiles(pipeline, sources, tiling, work, *, outputs=(), resume=False, quie
         resumed = sum(bool(s.get("resumed")) for s in run.tile_stats.values())
         nx, ny = run.tiling.shape
         lost = f" ({len(run.failed_sources)} missing)" if run.failed_sources else ""
+        excluded = sum(run.excluded.values())
         click.echo(f"set of {len(run.sources)} file{'s' if len(run.sources) != 1 else ''}{lost}: {n:,} points in {len(run.tile_stats)} tile{'s' if len(run.tile_stats) != 1 else ''} of "
                    f"{run.tiling.size:.4g} m ({nx} x {ny} grid"
                    + (f", {resumed} reused" if resumed else "") + f"), {recomputed:,} points recomputed with "
-                   "a wider halo")
+                   "a wider halo" + (f"; {excluded:,} withheld or noise points left out" if excluded else ""))
         click.echo(f"{run.execution}: {run.seconds:.1f} s, {n / max(run.seconds, 1e-9):,.0f} points/s")
     return run
 

@@ -9,10 +9,11 @@ from __future__ import annotations
 import hashlib
 import io
 import json
+from dataclasses import replace
 
 import numpy as np
 
-from ..classes import ClassTable
+from ..classes import BUILTIN, ClassTable
 from ..errors import LidarSigError, as_path
 from ..saliency import LN3
 from ..signature import METHOD_KEYS, Frame, Signature
@@ -22,7 +23,8 @@ FORMAT = "lidar_sig signature archive"
 FORMAT_VERSION = 2
 # Root attributes copied from the signature's metadata, as text and as integers.
 _TEXT_ATTRS = ("descriptor", "strategy", "scales", "scale_kind", "scale_units", "weights", "units", "crs")
-_INT_ATTRS = ("n_points", "n_undefined", "n_capped", "n_duplicates", "max_neighbors", "min_neighbors")
+_INT_ATTRS = ("n_points", "n_undefined", "n_capped", "n_duplicates", "n_excluded", "max_neighbors",
+              "min_neighbors")
 HDF5_EXTENSIONS = (".h5", ".hdf5")
 _GZIP = {"compression": "gzip", "compression_opts": 4, "shuffle": True}
 
@@ -79,8 +81,9 @@ def write_archive(path, signature, *, saliency=None, labels=None, sources=(), re
                 if key in meta:
                     f.attrs[key] = int(meta[key])
             if "resolved_scales" in meta:
-                f.attrs["resolved_scales"] = np.asarray(meta["resolved_scales"], dtype=np.float64)
-                f.attrs["resolved_scales_units"] = "neighbours" if meta.get("scale_kind") == "knn" else "metres"
+                knn = meta.get("scale_kind") == "knn"  # neighbour counts are whole numbers
+                f.attrs["resolved_scales"] = np.asarray(meta["resolved_scales"], dtype=np.int64 if knn else np.float64)
+                f.attrs["resolved_scales_units"] = "neighbours" if knn else "metres"
             if "metres_per_unit" in meta:
                 f.attrs["metres_per_unit"] = np.asarray(meta["metres_per_unit"], dtype=np.float64)
             f.attrs["descriptor_params"] = json.dumps(meta.get("descriptor_params", {}))
@@ -130,6 +133,8 @@ def _write_signature(g, sig, render):
              "label codes of all classes, concatenated")
     _dataset(c, "code_offsets", np.cumsum([0] + [len(cs) for cs in codes]).astype(np.int64),
              "class k has codes[code_offsets[k]:code_offsets[k+1]]")
+    _dataset(c, "noise_codes", np.array(classes.noise, dtype=np.int64),
+             "label codes of noise points, left out of the run unless keep_noise")
 
 
 def saliency_histograms(sig, bins=50):
@@ -223,6 +228,10 @@ def _read_signature(f, path):
     groups = [tuple(int(v) for v in codes[offsets[k]:offsets[k + 1]]) for k in range(len(names))]
     classes = ClassTable(str(c.attrs["table"]), names=tuple(names[:-1]), codes=tuple(groups[:-1]),
                          colors=tuple(colors[:-1]))
+    if "noise_codes" in c:
+        classes = replace(classes, noise=tuple(int(v) for v in c["noise_codes"][()]))
+    elif classes.name in BUILTIN and replace(BUILTIN[classes.name], noise=()) == classes:
+        classes = BUILTIN[classes.name]  # an archive from before noise codes were recorded
     frame = Frame(_int_attr(g.attrs, "frame_size", damaged), _int_attr(g.attrs, "frame_margin", damaged))
     counts = g["counts"]
     expected = (len(classes), frame.size, frame.size)
@@ -245,6 +254,12 @@ def _read_signature(f, path):
         meta.update(_method(f.attrs))
     except (ValueError, TypeError, AttributeError):
         raise damaged("its method record is not readable") from None
+    if meta.get("scale_kind") == "knn" and isinstance(meta.get("resolved_scales"), list):
+        # k values as whole numbers, as the pipeline gives them (earlier archives stored floats)
+        try:
+            meta["resolved_scales"] = [int(v) for v in meta["resolved_scales"]]
+        except (TypeError, ValueError):
+            raise damaged("its resolved scales are not numbers") from None
     return Signature(counts, frame, classes, egeom.astype(np.int64), n_undefined, meta,
                      None if totals is None else totals.astype(np.int64))
 
@@ -289,7 +304,8 @@ def archive_summary(path):
     lines = [f"{path}: {FORMAT} v{attrs['format_version']} (lidar_sig {attrs.get('lidar_sig_version', '?')})",
              f"  descriptor {m.get('descriptor', '?')}, strategy {m.get('strategy', '?')}, "
              f"{attrs.get('scales', '?')}, {m.get('weights', '?')} weights",
-             f"  signature: {sig.n_points:,} points, {sig.n_undefined:,} undefined, frame {sig.frame.size} px, "
+             f"  signature: {sig.n_points:,} points, {sig.n_undefined:,} undefined, "
+             f"{int(m.get('n_excluded', 0)):,} withheld or noise points left out, frame {sig.frame.size} px, "
              f"class table {sig.classes.name!r}",
              f"  per-point datasets: {'yes, ' + format(n_rows, ',') + ' points' if has_points else 'no'}"]
     for name, count in zip(sig.classes.class_names, sig.class_totals):

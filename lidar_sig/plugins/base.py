@@ -1,15 +1,22 @@
 """Base classes of the two plugin kinds."""
 from __future__ import annotations
 
+import numpy as np
+
+from ..errors import LidarSigError
 from ..saliency import saliency_from_eigenvalues
+
+#: Negative eigenvalues down to this share of a tensor's largest eigenvalue (in magnitude) are
+#: round-off, set to 0 (SPEC 1); a more negative one is an error of the descriptor.
+ROUND_OFF = 1e-6
 
 
 class Descriptor:
     """Local geometric descriptor: a neighbourhood batch -> per-scale saliency (SPEC 3).
 
     Subclasses set ``name`` and ``summary`` and give either ``eigenvalues(batch)``, returning
-    the (B, S, 3) eigenvalues (descending, >= 0, NaN where undefined) of the tensor at each
-    scale, or override ``saliency(batch)`` directly.
+    the (B, S, 3) eigenvalues (in any order, >= 0 up to round-off, NaN where undefined) of the
+    tensor at each scale, or override ``saliency(batch)`` directly.
     """
 
     name = ""
@@ -19,8 +26,9 @@ class Descriptor:
         raise NotImplementedError(f"descriptor {self.name!r} gives neither eigenvalues nor saliency")
 
     def saliency(self, batch):
-        """(B, S, 3) saliency maps (Cl, Cs, Cp) per scale; NaN rows where undefined."""
-        return saliency_from_eigenvalues(self.eigenvalues(batch))
+        """(B, S, 3) saliency maps (Cl, Cs, Cp) per scale; NaN rows where undefined. The
+        eigenvalues are sorted descending and round-off negatives set to 0 first (SPEC 1)."""
+        return saliency_from_eigenvalues(descending(self.eigenvalues(batch), self.name))
 
     def params(self):
         """Parameters recorded in result metadata."""
@@ -31,8 +39,10 @@ class Descriptor:
         and the resolved scales; for descriptors that need cloud-wide passes. ``progress`` is
         the pipeline's progress setting (None: on a terminal only)."""
 
-    def refine(self, batch, saliency):
-        """Adjust the strategy's combined (B, 3) saliency of a block; identity by default."""
+    def refine(self, batch, saliency, pick=None):
+        """Adjust the strategy's combined (B, 3) saliency of a block, given the strategy's
+        chosen scale index per point (``pick``, -1 where undefined; None when the strategy
+        chooses none, as Multiscale); identity by default."""
         return saliency
 
 
@@ -46,3 +56,23 @@ class Strategy:
     def combine(self, per_scale):
         """Return ((B, 3) saliency, (B,) chosen scale index or None)."""
         raise NotImplementedError
+
+
+def descending(ev, name):
+    """Eigenvalues (..., 3) sorted l0 >= l1 >= l2 with round-off negatives set to 0 (SPEC 1);
+    LidarSigError naming descriptor ``name`` when they are not (..., 3) or clearly negative
+    (below -ROUND_OFF times the tensor's largest magnitude). NaN rows stay NaN."""
+    ev = np.asarray(ev, dtype=np.float64)
+    if ev.ndim < 1 or ev.shape[-1] != 3:
+        raise LidarSigError(f"descriptor {name!r} gave eigenvalues of shape {ev.shape}, not three per tensor; "
+                            "fix the descriptor's eigenvalues()")
+    ev = -np.sort(-ev, axis=-1)  # descending; NaN sorts last either way
+    with np.errstate(invalid="ignore"):
+        scale = np.abs(ev).max(axis=-1, keepdims=True)
+        wrong = ev < -ROUND_OFF * scale
+    if wrong.any():
+        at = np.argwhere(wrong)[0]
+        raise LidarSigError(f"descriptor {name!r} gave a negative eigenvalue ({ev[tuple(at)]:.6g} where the "
+                            f"largest is {scale[tuple(at[:-1])][0]:.6g}): a tensor's eigenvalues must be >= 0 "
+                            "(SPEC 1); fix the descriptor's eigenvalues()")
+    return np.maximum(ev, 0.0)  # NaN stays NaN

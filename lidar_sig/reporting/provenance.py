@@ -57,6 +57,8 @@ def provenance(sides, tags, render):
     row("neighbourhoods capped", [f"{int(m.get('n_capped', 0)):,} (at {int(m.get('max_neighbors', 0))} neighbours)"
                                   for m in metas])
     row("duplicate points (one location each)", [f"{int(m.get('n_duplicates', 0)):,}" for m in metas])
+    row("withheld or noise points (left out)",
+        [f"{int(m.get('n_excluded', 0)):,}" + (" (kept: keep_noise)" if m.get("keep_noise") else "") for m in metas])
     row("descriptor", [page.esc(f"{m.get('descriptor', '?')} {_params(m.get('descriptor_params'))}".strip())
                        for m in metas])
     row("strategy", [page.esc(m.get("strategy", "?")) for m in metas])

@@ -375,10 +375,15 @@ def saliency_in_tiles(pipeline, cloud, tile_size, *, halo=None):
     """Per-point Saliency of an in-memory ``cloud`` computed tile by tile (``tile_size`` metres):
     the same as ``pipeline.saliency(cloud)``, one tile's block in memory at a time besides the
     cloud. Returns ``(saliency, stats)`` with the summed tile statistics, ``n_recomputed``
-    among them (core points recomputed with a wider halo)."""
+    among them (core points recomputed with a wider halo). Withheld and noise points are left
+    out as ``pipeline.saliency`` leaves them out (``n_excluded``)."""
     from ..saliency import Saliency
 
     check_tileable(pipeline)
+    kept = pipeline.kept(cloud)
+    if kept is not None:  # the others as if absent, then undefined
+        sal, totals = saliency_in_tiles(pipeline, cloud.subset(kept), tile_size, halo=halo)
+        return Saliency.of_kept(sal.values, sal.optimal_scale, kept), {**totals, "n_excluded": int((~kept).sum())}
     xyz = cloud.metric_xyz()
     ctx = context_of(cloud.xyz.min(axis=0), cloud.xyz.max(axis=0), cloud.units.factors, pipeline, len(cloud))
     tiling = Tiling(ctx.lo, ctx.hi, float(tile_size))
@@ -404,4 +409,5 @@ def saliency_in_tiles(pipeline, cloud, tile_size, *, halo=None):
         for k in ("n_points", "n_locations", "n_capped", "n_recomputed"):
             totals[k] = totals.get(k, 0) + int(r.stats[k])
     totals["n_tiles"] = len(tiling.tiles())
+    totals["n_excluded"] = 0
     return Saliency.from_values(values, chosen), totals

@@ -32,6 +32,7 @@ class SetRun:
     failed_sources: dict = field(default_factory=dict)
     failed_tiles: dict = field(default_factory=dict)
     sha256: dict = field(default_factory=dict)
+    excluded: dict = field(default_factory=dict)  # source id -> withheld or noise points left out
     seconds: float = 0.0
     execution: str = ""
 
@@ -60,12 +61,16 @@ class SetRun:
     def values_file(self, source):
         """A file of ``source``'s per-point (Cl, Cs, Cp) and chosen scale index (records of
         POINT_VALUES, in its point order), gathered from the tile results one tile at a time;
-        None when a tile holding some of its points failed."""
+        None when a tile holding some of its points failed. Points left out of the run
+        (withheld and noise) are undefined: NaN, -1."""
         path = Path(self.plan.work) / "points" / f"s{source.id}.bin"
         path.parent.mkdir(parents=True, exist_ok=True)
-        with open(path, "wb") as fh:
-            fh.truncate(source.n_points * POINT_VALUES.itemsize)
-        found = 0
+        undefined = np.zeros(min(source.n_points, 1 << 20), POINT_VALUES)
+        undefined["values"], undefined["chosen"] = np.nan, -1
+        with open(path, "wb") as fh:  # written in pieces: memory stays small for any file
+            for start in range(0, source.n_points, len(undefined)):
+                undefined[:min(len(undefined), source.n_points - start)].tofile(fh)
+        found = self.excluded.get(source.id, 0)
         for ij, stats in self.tile_stats.items():
             if source.id not in stats["sources"]:
                 continue
@@ -129,11 +134,12 @@ def sum_signatures(run):
             totals += r["class_totals"]
         n_undefined += run.tile_stats[ij]["n_undefined"]
     stats = {k: sum(s[k] for s in run.tile_stats.values()) for k in ("n_points", "n_locations", "n_capped")}
+    n_excluded = sum(run.excluded.values())
     pipe = plan.pipeline
     metadata = {"lidar_sig_version": __version__, "source": ", ".join(s.name for s in run.sources),
                 "scales": pipe.scales.describe(), "crs": next((s.crs for s in run.sources if s.crs), None),
-                "n_points": stats["n_points"], "n_undefined": n_undefined, "n_capped": stats["n_capped"],
-                "n_duplicates": stats["n_points"] - stats["n_locations"],
+                "n_points": stats["n_points"] + n_excluded, "n_undefined": n_undefined, "n_capped": stats["n_capped"],
+                "n_duplicates": stats["n_points"] - stats["n_locations"], "n_excluded": n_excluded,
                 "resolved_scales": list(run.ctx.scales), "units": next(s.units for s in run.sources if s.error is None),
                 "metres_per_unit": list(run.ctx.factors), **pipe.method()}
     return Signature(counts.reshape(shape), pipe.frame, plan.classes, egeom, n_undefined, metadata, totals)

@@ -1,7 +1,8 @@
 """A set of LAS/LAZ files processed in tiles: staging, the set's context, tiles, reduce.
 
 1. **Staging**: each file is read once, in chunks, and its points filed by plan-view cell in the
-   work folder (:mod:`lidar_sig.tiling.sources`); one task per file part.
+   work folder (:mod:`lidar_sig.tiling.sources`); one task per file part. Withheld and noise
+   points are counted and left out here (unless ``keep_noise``), as in the single-block run.
 2. **Context**: the set's extent, scales and (with area weights) the area-weight cap, from a
    pass of small tasks over the tiles (:class:`lidar_sig.tiling.core.SetContext`).
 3. **Tiles**: one task per processing tile computes its core points' saliency with a checked
@@ -98,11 +99,12 @@ def run_set(pipeline, inputs, *, work, tile_size=None, backend=None, resume=Fals
     # 1. staging
     records = {}
     todo = []
+    noise_codes = pipeline.noise_codes()
     for s in good:
         for part, (first, stop) in enumerate(s.parts(backend.workers)):
-            info = staged(work, s, part, first, stop, cells) if resume else None
+            info = staged(work, s, part, first, stop, cells, noise_codes) if resume else None
             if info is None:
-                todo.append((str(work), s, part, first, stop, cells))
+                todo.append((str(work), s, part, first, stop, cells, noise_codes))
             else:
                 records[(s.id, part)] = info
     for (_, s, part, *_), info, err in progress(backend.run(stage_task, todo), total=len(todo),
@@ -116,17 +118,21 @@ def run_set(pipeline, inputs, *, work, tile_size=None, backend=None, resume=Fals
     for (sid, part), info in records.items():
         if part == 0:
             run.sha256[info["path"]] = info["sha256"]
+        run.excluded[sid] = run.excluded.get(sid, 0) + info["n_excluded"]
     if not staged_ok:
         return run
 
-    # 2. the set's context
+    # 2. the set's context, from the points staged (withheld and noise points left out)
     lo = np.min([r["lo"] for r in records.values()], axis=0)
     hi = np.max([r["hi"] for r in records.values()], axis=0)
-    n_points = sum(r["n"] for r in records.values())
+    n_points = sum(r["n"] - r["n_excluded"] for r in records.values())
     need = pipeline.min_points()
     if n_points < need:
-        raise LidarSigError(f"the set holds {n_points} points, fewer than the largest scale needs ({need}); "
-                            "use a larger set or smaller scales")
+        left_out = sum(run.excluded.values())
+        raise LidarSigError(f"the set holds {n_points} points"
+                            + (f" besides {left_out:,} withheld or noise points" if left_out else "")
+                            + f", fewer than the largest scale needs ({need}); use a larger set or smaller scales"
+                            + (" (--keep-noise uses every point)" if left_out else ""))
     ctx = context_of(lo, hi, factors, pipeline, n_points)
     tiling = Tiling(ctx.lo, ctx.hi, float(tile_size))
     labelled = any(r["labelled"] for r in records.values())

@@ -7,8 +7,12 @@ plan-view cell (a square of the tile size, in the files' coordinate units) in a 
 a processing tile then loads the few cells its block touches. A point's identifier packs its
 file (``source``) and its index in the file: ``source << ID_BITS | index``.
 
+Withheld and noise points (``noise_codes``, :func:`lidar_sig.cloud.kept_points`) are counted
+and not staged: the tiles never see them, as the single-block run does not.
+
 A part is staged completely or not at all: its cell files are written in a folder of their
-own, and the part's record (points, bounds, labels, the file's size and time) is written last.
+own, and the part's record (points, those left out, bounds of the others, labels, the file's
+size and time, the rule that left points out) is written last.
 """
 from __future__ import annotations
 
@@ -21,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..cloud import kept_points
 from ..errors import LidarSigError, reason
 from ..io.las import LAS_EXTENSIONS
 
@@ -161,29 +166,37 @@ def file_identity(path):
     return [st.st_size, st.st_mtime_ns]
 
 
-def staged(work, source, part, start, stop, cells):
-    """The record of a part staged from the file as it is now on the grid ``cells``, or None."""
+def staged(work, source, part, start, stop, cells, noise_codes=None):
+    """The record of a part staged from the file as it is now on the grid ``cells``, leaving
+    out the same points (``noise_codes``, as for :func:`stage_part`), or None."""
     rec = part_record(work, source.id, part)
     if not rec.is_file():
         return None
     info = json.loads(rec.read_text())
     if (info.get("identity") != file_identity(source.path) or info.get("path") != source.path
-            or info.get("range") != [start, stop] or info.get("grid") != cells.record()):
+            or info.get("range") != [start, stop] or info.get("grid") != cells.record()
+            or info.get("noise_codes", "?") != _codes_record(noise_codes)):
         return None
     return info
 
 
-def stage_part(work, source, part, start, stop, cells):
+def _codes_record(noise_codes):
+    return None if noise_codes is None else sorted(int(c) for c in noise_codes)
+
+
+def stage_part(work, source, part, start, stop, cells, noise_codes=None):
     """Read points [start, stop) of ``source`` (its part number ``part``) in chunks and append
-    each to its cell's file; return the part's record. Raises LidarSigError naming the file
-    when it cannot be read."""
+    each to its cell's file, except those withheld or of a class in ``noise_codes`` (None
+    stages every point; :meth:`Pipeline.noise_codes`); return the part's record, which counts
+    them (``n_excluded``) and bounds the others (``lo``, ``hi``). Raises LidarSigError naming
+    the file when it cannot be read."""
     import laspy
 
     out = part_dir(work, source.id, part)
     shutil.rmtree(out, ignore_errors=True)  # an interrupted earlier attempt
     out.mkdir(parents=True)
     lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
-    n = 0
+    n = n_excluded = 0
     labelled = False
     occupied = set()
     try:
@@ -201,17 +214,23 @@ def stage_part(work, source, part, start, stop, cells):
                 rec["label"] = np.asarray(chunk.classification)[:take]
                 rec["id"] = (np.int64(source.id) << ID_BITS) | np.arange(start + n, start + n + take)
                 labelled |= bool(rec["label"].any())
+                n += take
+                kept = kept_points(rec["label"], np.asarray(chunk.withheld)[:take], noise_codes)
+                if kept is not None:
+                    n_excluded += int((~kept).sum())
+                    rec, xyz = rec[kept], xyz[kept]
+                if not len(rec):
+                    continue
                 lo, hi = np.minimum(lo, xyz.min(axis=0)), np.maximum(hi, xyz.max(axis=0))
                 ci, cj = cells.of(rec["x"], rec["y"])
                 order = np.lexsort((cj, ci))
                 ci, cj, rec = ci[order], cj[order], rec[order]
                 breaks = np.flatnonzero((np.diff(ci) != 0) | (np.diff(cj) != 0)) + 1
-                for s, e in zip(np.r_[0, breaks], np.r_[breaks, take]):
+                for s, e in zip(np.r_[0, breaks], np.r_[breaks, len(rec)]):
                     key = (int(ci[s]), int(cj[s]))
                     occupied.add(key)
                     with open(out / f"c{key[0]}_{key[1]}.bin", "ab") as fh:
                         rec[s:e].tofile(fh)
-                n += take
     except LidarSigError:
         raise
     except OSError as exc:  # the work folder's disk (full, read-only), not the input, failed
@@ -226,7 +245,7 @@ def stage_part(work, source, part, start, stop, cells):
         raise LidarSigError(f"holds {start + n:,} points but its header says {source.n_points:,}; the file is "
                             "truncated", path=source.path)
     info = {"path": source.path, "identity": file_identity(source.path), "range": [start, stop], "n": n,
-            "grid": cells.record(),
+            "n_excluded": n_excluded, "noise_codes": _codes_record(noise_codes), "grid": cells.record(),
             "lo": lo.tolist(),
             "hi": hi.tolist(), "labelled": labelled, "cells": sorted(occupied)}
     if part == 0:

@@ -32,9 +32,9 @@ class Plan:
 
     def key(self):
         """Changes whenever a tile's result would: the set's files as staged (path, size, time,
-        points), its context, the method and the tiling."""
+        points), its context, the method, the points left out and the tiling."""
         return json.dumps([self.staged, self.ctx.key(), self.pipeline.method(), self.classes.name,
-                           self.pipeline.frame.size, self.tiling.size], default=str)
+                           self.pipeline.noise_codes(), self.pipeline.frame.size, self.tiling.size], default=str)
 
     def _raw(self, bounds):
         """Plan-view ``bounds`` (x0, y0, x1, y1 in centred metres) in the files' coordinates."""
@@ -65,9 +65,10 @@ def result_path(work, ij):
     return Path(work) / "tiles" / f"{tile_name(*ij)}.npz"
 
 
-def stage_task(work, source, part, start, stop, cells):
-    """Stage one part of one file (a task)."""
-    return stage_part(work, source, part, start, stop, cells)
+def stage_task(work, source, part, start, stop, cells, noise_codes):
+    """Stage one part of one file (a task), leaving out withheld and noise points
+    (``noise_codes``, None for none)."""
+    return stage_part(work, source, part, start, stop, cells, noise_codes)
 
 
 def second_task(plan, ij):

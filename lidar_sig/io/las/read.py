@@ -17,7 +17,8 @@ LAS_EXTENSIONS = (".las", ".laz")
 
 
 def read_las(path):
-    """Read a LAS/LAZ file; labels are the ASPRS classification codes."""
+    """Read a LAS/LAZ file; labels are the ASPRS classification codes, ``withheld`` the
+    withheld flag (every point format has it)."""
     try:
         las = laspy.read(path)
     except Exception as exc:  # laspy and lazrs raise many kinds on damaged input
@@ -39,7 +40,7 @@ def read_las(path):
         labels = None  # class 0 "created, never classified" everywhere: an unlabeled cloud
     crs, units = las_units(las.header, path=path)
     return PointCloud(xyz, labels, source=las, path=str(path), previous_outputs=lidar_sig_dims(las),
-                      crs=crs, units=units)
+                      crs=crs, units=units, withheld=np.asarray(las.withheld))
 
 
 def _records_in_file(path, header):

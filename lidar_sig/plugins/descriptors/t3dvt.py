@@ -10,8 +10,9 @@ class T3DVT(Descriptor):
     """Ball-tensor voting for unoriented points with Gaussian decay, then anisotropic diffusion.
 
     The voting tensor T = sum mu (I - u u^T) / sum mu lives in the normal space (trace 2,
-    Gaussian decay mu = exp(-d^2 / sigma^2), sigma the scale radius or, for k-nearest scales,
-    the distance to the k-th neighbour). Diffusion D = sum_j exp(-w_j / delta) e_j e_j^T turns
+    mu = w_q exp(-d^2 / sigma^2): a Gaussian decay, sigma the scale radius or, for k-nearest
+    scales, the distance to the k-th neighbour, times the neighbour's area weight w_q, 1 with
+    ``weights="none"``). Diffusion D = sum_j exp(-w_j / delta) e_j e_j^T turns
     it into a tangent-space tensor; the saliency comes from D's eigenvalues, so a plane is
     surface-type and a line line-type.
 

@@ -1,4 +1,6 @@
 """T3DVT-GET: tensor voting modified by the 2D gradient energy tensor of the height field."""
+import warnings
+
 import numpy as np
 
 from ...get import line_saliency_of_index
@@ -14,9 +16,12 @@ class T3DVTGET(T3DVT):
     """T3DVT whose saliency becomes a corner (cl_GET, 0, cp_GET) where GET says so (SPEC 3).
 
     GET is computed on cylindrical neighbourhoods (horizontal distance <= r, or the k nearest in
-    plan view) at the run's scales, its line/corner saliency averaged over the scales where it
-    is defined, and wherever cp_GET > cl_GET the point's saliency is replaced by
-    (cl_GET, 0, cp_GET). GET assumes z is up: results are invariant to rotations about z only.
+    plan view) at the run's scales; its line/corner saliency cl_GET is combined over the scales
+    like the voting saliency: under Multiscale the mean over the scales where GET is defined,
+    under Optimal-scale its value at the point's chosen scale. Wherever cp_GET > cl_GET the
+    point's saliency is replaced by (cl_GET, 0, cp_GET), if the voting saliency is defined (a
+    point without enough neighbours in its spheres stays undefined, whatever GET says). GET
+    assumes z is up: results are invariant to rotations about z only.
 
     Parameters
     ----------
@@ -40,14 +45,25 @@ class T3DVTGET(T3DVT):
         return {**super().params(), "get_threshold": self.get_threshold}
 
     def prepare(self, xyz, kind, scales, *, max_neighbors, min_neighbors, progress=None):
-        """Per-point cl_GET averaged over scales, for the whole cloud (input order)."""
+        """(N, S) cl_GET per point (input order) and scale, for the whole cloud."""
         self.cl_get = cl_get_of_cloud(xyz, kind, scales, max_neighbors=max_neighbors,
                                       min_neighbors=min_neighbors, threshold=self.get_threshold,
                                       progress=progress)
 
-    def refine(self, batch, saliency):
-        cl = self.cl_get[batch.ids]
-        corner = (1.0 - cl) > cl  # cp_GET > cl_GET; False where NaN
+    def refine(self, batch, saliency, pick=None):
+        """Corners where cl_GET, at the chosen scale (``pick``, Optimal-scale) or averaged over
+        the scales (``pick`` None, Multiscale), says cp_GET > cl_GET."""
+        per_scale = self.cl_get[batch.ids]
+        if pick is None:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)  # no scale defined: NaN
+                cl = np.nanmean(per_scale, axis=1)
+        else:
+            cl = np.take_along_axis(per_scale, np.maximum(pick, 0)[:, None], axis=1)[:, 0]
+            cl[pick < 0] = np.nan
+        # cp_GET > cl_GET (False where GET is undefined), and only where the voting saliency is
+        # defined: a point with too few neighbours in its spheres stays undefined (SPEC 1)
+        corner = ((1.0 - cl) > cl) & ~np.isnan(saliency).any(axis=1)
         out = saliency.copy()
         out[corner] = np.column_stack([cl[corner], np.zeros(int(corner.sum())), 1.0 - cl[corner]])
         return out
@@ -55,13 +71,13 @@ class T3DVTGET(T3DVT):
 
 def cl_get_of_cloud(xyz, kind, scales, *, max_neighbors=512, min_neighbors=3, threshold=0.0,
                     progress=False):
-    """cl_GET per point (input order), the mean over the scales where GET is defined; NaN if none.
+    """(N, S) cl_GET per point (input order) and scale; NaN where GET is undefined.
 
     Cylindrical neighbourhoods: the neighbour search runs on (x, y, 0).
     """
     flat = np.column_stack([xyz[:, 0], xyz[:, 1], np.zeros(len(xyz))])
     index = NeighborIndex(flat, kind, scales, max_neighbors=max_neighbors, min_neighbors=min_neighbors)
     cl = line_saliency_of_index(index, xyz[index.order, 2], threshold=threshold, progress=progress)
-    out = np.empty(len(xyz))
+    out = np.empty_like(cl)
     out[index.order] = cl
     return out
