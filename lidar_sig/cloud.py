@@ -9,6 +9,14 @@ import numpy as np
 from .crs import Units, units_of
 from .errors import LidarSigError
 
+#: Largest coordinate accepted, in metres (after the CRS's unit): 1e9 m. Real coordinates stay
+#: far below it (geocentric ECEF up to 6.4e6 m, UTM northings up to 1e7 m, national grids
+#: alike); at 1e9 m float64 still resolves 1.2e-7 m (2**-23), four orders below the millimetre
+#: of the closest neighbours, and the voxel indices of the neighbour search (extent / voxel
+#: side) stay far inside int64. Beyond it the precision goes (at 1e16 m points 1 m apart are
+#: one location), and a LAS file could not hold such a cloud in its 32-bit integers either.
+MAX_COORDINATE = 1e9
+
 
 @dataclass
 class PointCloud:
@@ -66,9 +74,10 @@ class PointCloud:
             raise LidarSigError(
                 f"{int(bad.sum())} points have NaN or infinite coordinates (first at index "
                 f"{int(np.argmax(bad))}); remove them before running", path=self.path)
-        self.xyz = xyz
         if self.units is None:
             self.units = units_of(self.crs, path=self.path)
+        check_magnitude(xyz, self.units.factors, path=self.path)
+        self.xyz = xyz
         if self.labels is not None:
             self.labels = _class_codes(self.labels, xyz.shape[0], self.path)
 
@@ -80,6 +89,24 @@ class PointCloud:
         search and the kernels see (small numbers, so UTM-sized offsets cost no precision)."""
         centre = (self.xyz.min(axis=0) + self.xyz.max(axis=0)) / 2.0
         return (self.xyz - centre) * np.asarray(self.units.factors)
+
+
+def check_magnitude(xyz, factors, *, path=None, start=0):
+    """Refuse finite (N, 3) coordinates beyond :data:`MAX_COORDINATE` metres (``factors``:
+    metres per unit of x, y and z) with a LidarSigError naming how many, the first and the fix;
+    ``start`` is the index in the file of the first row (a chunk of a file)."""
+    far = np.abs(xyz) * np.asarray(factors) > MAX_COORDINATE
+    if not far.any():
+        return
+    rows = far.any(axis=1)
+    first = int(np.argmax(rows))
+    axis = int(np.argmax(far[first]))
+    count = int(rows.sum())
+    raise LidarSigError(
+        f"{count:,} point{'s have' if count > 1 else ' has'} a coordinate beyond {MAX_COORDINATE:g} m "
+        f"(first at index {start + first}: {'xyz'[axis]} = {xyz[first, axis]:.6g}), too far to measure "
+        "neighbours in; remove such points or correct the coordinates (for LAS, the header's scale "
+        "and offset)", path=path)
 
 
 def _class_codes(labels, n, path):

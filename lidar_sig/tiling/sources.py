@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..cloud import MAX_COORDINATE, check_magnitude
 from ..errors import LidarSigError, reason
 from ..io.las import LAS_EXTENSIONS
 
@@ -103,6 +104,12 @@ def scan(files):
                 crs, units = las_units(h, path=f)
                 if int(h.point_count) == 0:
                     raise LidarSigError("holds no points; leave it out of the set", path=f)
+                reach = float(np.max(np.abs([h.mins, h.maxs]) * np.asarray(units.factors)))
+                if not reach <= MAX_COORDINATE:  # NaN too: the set's extent comes from the headers
+                    sources.append(Source(i, str(f), error=f"its header's bounds reach {reach:.6g} m, beyond "
+                                          f"{MAX_COORDINATE:g} m; correct the coordinates (the header's "
+                                          "scale and offset)"))
+                    continue
                 sources.append(Source(i, str(f), int(h.point_count), tuple(map(float, h.mins)),
                                       tuple(map(float, h.maxs)), tuple(units.factors), crs,
                                       units.describe()))
@@ -196,6 +203,7 @@ def stage_part(work, source, part, start, stop, cells):
                     break
                 xyz = np.column_stack([np.asarray(chunk.x)[:take], np.asarray(chunk.y)[:take],
                                        np.asarray(chunk.z)[:take]])
+                check_magnitude(xyz, source.factors, path=source.path, start=start + n)
                 rec = np.empty(take, RECORD)
                 rec["x"], rec["y"], rec["z"] = xyz[:, 0], xyz[:, 1], xyz[:, 2]
                 rec["label"] = np.asarray(chunk.classification)[:take]
