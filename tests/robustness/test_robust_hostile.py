@@ -71,3 +71,83 @@ def test_huge_coordinates_in_a_set_of_tiles_fail_their_file(tmp_path):
     run_ = ls.run_set(ls.Pipeline(progress=False), [lies], work=tmp_path / "w2")
     assert "1e+09 m" in run_.failed_sources[str(lies)] and "index 0" in run_.failed_sources[str(lies)]
 
+
+# -- item 2: archives whose parts disagree with their totals ------------------------------------
+
+@pytest.fixture(scope="module")
+def archive(tmp_path_factory):
+    """A small labelled archive (300 points, k 10), without per-point datasets."""
+    path = tmp_path_factory.mktemp("archive") / "intact.h5"
+    labels = RNG.choice([2, 6], len(SMALL))
+    ls.Pipeline(scales=ls.knn(10), progress=False).run(SMALL, labels=labels).write(path, points=False)
+    return path
+
+
+def _edited(archive, tmp_path, name, edit):
+    import h5py
+
+    path = tmp_path / name
+    path.write_bytes(archive.read_bytes())
+    with h5py.File(path, "r+") as f:
+        edit(f)
+    return path
+
+
+def _zero(dataset):
+    def edit(f):
+        f[dataset][...] = 0
+    return edit
+
+
+DISAGREEING = {
+    "zero Egeom histogram": ("signature/egeom_histogram", "Egeom histogram"),
+    "zero count raster": ("signature/counts", "count raster"),
+    "zero class totals": ("signature/class_totals", "class totals"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(DISAGREEING))
+def test_archive_whose_parts_disagree_is_refused_when_loaded(archive, tmp_path, case):
+    dataset, named = DISAGREEING[case]
+    path = _edited(archive, tmp_path, "a.h5", _zero(dataset))
+    with pytest.raises(ls.LidarSigError, match=named) as caught:
+        ls.load_signature(path)
+    assert str(caught.value).startswith(f"{path}: ") and "make it again" in str(caught.value)
+
+
+def test_archive_whose_recorded_totals_disagree_is_refused(archive, tmp_path):
+    for attr, value in (("n_points", 299), ("n_undefined", 7)):
+        path = _edited(archive, tmp_path, f"{attr}.h5", lambda f: f.attrs.__setitem__(attr, value))
+        with pytest.raises(ls.LidarSigError, match=attr):
+            ls.load_signature(path)
+    path = _edited(archive, tmp_path, "undefined.h5", lambda f: f["signature"].attrs.__setitem__("n_undefined", 5))
+    with pytest.raises(ls.LidarSigError, match="undefined"):
+        ls.load_signature(path)
+
+
+def test_intact_archive_still_loads_and_compares_exactly(archive):
+    sig = ls.load_signature(archive)
+    assert sig.n_points == len(SMALL) and int(sig.egeom_counts.sum()) == len(SMALL)
+    # exact: a signature compared with itself gives distances of exactly 0 on every CPU
+    metrics = ls.compare(sig, ls.load_signature(archive))
+    assert metrics["l1"] == 0 and metrics["kl"] == 0
+
+
+@pytest.mark.parametrize("dataset", ["signature/egeom_histogram", "signature/counts"])
+def test_compare_and_info_refuse_a_zeroed_archive_in_one_line(archive, tmp_path, dataset):
+    # a zeroed Egeom histogram: compare ended with a traceback, info said nothing; a zeroed count
+    # raster: compare compared an empty signature, exit 0
+    path = _edited(archive, tmp_path, "zeroed.h5", _zero(dataset))
+    for args in (("compare", path, archive), ("info", path)):
+        assert_one_line_error(run(*args), "zeroed.h5", "make it again")
+
+
+def test_archive_lacking_a_part_says_which_in_our_words(archive, tmp_path):
+    # the message pasted h5py's: archive lacks "Unable to synchronously open object (object
+    # 'counts' doesn't exist)"
+    path = _edited(archive, tmp_path, "a.h5", lambda f: f["signature"].__delitem__("counts"))
+    with pytest.raises(ls.LidarSigError) as caught:
+        ls.load_signature(path)
+    message = str(caught.value)
+    assert "signature/counts" in message and "make it again" in message
+    assert "Unable" not in message and "synchronously" not in message and "doesn't exist" not in message
