@@ -4,12 +4,19 @@ messages that said the wrong thing or nothing.
 Each is refused in one line naming the file or option and the fix (exit status 2, or a
 LidarSigError in Python), no traceback, nothing written.
 """
+import os
+import signal
 import struct
+import subprocess
+import sys
+import time
 
+import laspy
 import numpy as np
 import pytest
 
 import lidar_sig as ls
+from conftest import SAMPLES
 from lidar_sig.crs import Units
 from robustness.helpers import assert_one_line_error, leftovers, run, write_las
 
@@ -151,3 +158,84 @@ def test_archive_lacking_a_part_says_which_in_our_words(archive, tmp_path):
     message = str(caught.value)
     assert "signature/counts" in message and "make it again" in message
     assert "Unable" not in message and "synchronously" not in message and "doesn't exist" not in message
+
+
+# -- item 3: a signal once the output has replaced the old one -----------------------------------
+
+def _interruptible():
+    # a background job starts with SIGINT ignored: give the child a terminal's disposition
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
+def test_signal_once_the_output_is_in_place_is_said_or_comes_too_late(tmp_path, signum):
+    # the interpreter's shutdown (0.15 to 0.4 s, after the command had ended) ran no handler: a
+    # signal then ended the process by itself, status -2 or -15 and no message, although the new
+    # output had replaced the old one
+    out = tmp_path / "o.las"
+    out.write_bytes(b"previous")
+    before = os.stat(out).st_ino
+    proc = subprocess.Popen([sys.executable, "-m", "lidar_sig", "saliency", SAMPLES / "epoch1.laz", "-o", out,
+                             "--overwrite", "-q"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            stdin=subprocess.DEVNULL, preexec_fn=_interruptible)
+    end = time.monotonic() + 120
+    while proc.poll() is None and os.stat(out).st_ino == before and time.monotonic() < end:
+        time.sleep(0.001)
+    proc.send_signal(signum)  # nothing is sent once the process has ended
+    _, err = proc.communicate(timeout=60)
+    assert len(laspy.read(out).points) == 41507 and not leftovers(tmp_path)
+    if proc.returncode == 0:  # the process had ended before the signal
+        assert err == ""
+    else:
+        assert proc.returncode == 128 + signum, (proc.returncode, err)
+        lines = err.strip().splitlines()
+        assert len(lines) == 1 and signal.Signals(signum).name in lines[0] and "whole" in lines[0], err
+
+
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
+def test_signal_as_the_command_ends_is_one_line_and_its_status(signum):
+    # the signal comes right after the command has printed its lines (the moment the shutdown
+    # used to fill): said, status 128 + the signal, no traceback
+    code = ("import os, sys\n"
+            "import lidar_sig.cli\n"
+            "command = lidar_sig.cli.main\n"
+            "def ended(argv=None):\n"
+            "    status = command(argv)\n"
+            f"    os.kill(os.getpid(), {int(signum)})\n"
+            "    return status\n"
+            "lidar_sig.cli.main = ended\n"
+            "sys.argv = ['lidar-sig', 'plugins']\n"
+            "from lidar_sig.__main__ import main\n"
+            "main()\n"
+            "print('main returned')\n")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
+                          stdin=subprocess.DEVNULL, preexec_fn=_interruptible)
+    assert_one_line_error(proc, f"interrupted ({signal.Signals(signum).name})", "whole", status=128 + signum)
+    assert "c3dcm" in proc.stdout and "main returned" not in proc.stdout
+
+
+def test_main_in_this_process_puts_the_callers_signal_handlers_back(capsys):
+    from lidar_sig.__main__ import main
+
+    before = [signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)]
+    assert main(["plugins"]) == 0
+    assert [signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)] == before
+    assert "c3dcm" in capsys.readouterr().out
+
+
+def test_interrupt_after_an_output_was_written_names_it(tmp_path, monkeypatch, capsys):
+    # the line said "outputs not written, earlier ones left as they were" of an output in place
+    import lidar_sig.cli.saliency
+    from lidar_sig.cli import main
+    from lidar_sig.errors import Interrupted
+
+    def signalled(*args, **kwargs):  # SIGTERM while the summary is printed, after the write
+        raise Interrupted(signal.SIGTERM)
+
+    monkeypatch.setattr(lidar_sig.cli.saliency, "echo_run", signalled)
+    src = write_las(tmp_path / "c.las", SMALL)
+    out = tmp_path / "o.las"
+    assert main(["saliency", str(src), "-o", str(out), "--k", "10"]) == 128 + signal.SIGTERM
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and "SIGTERM" in lines[0] and f"written whole before it: {out}" in lines[0], lines
+    assert len(laspy.read(out).points) == len(SMALL)
