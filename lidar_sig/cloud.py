@@ -7,7 +7,7 @@ from typing import Any
 import numpy as np
 
 from .crs import Units, units_of
-from .errors import LidarSigError
+from .errors import LidarSigError, counted
 
 #: Largest coordinate accepted, in metres (after the CRS's unit): 1e9 m. Real coordinates stay
 #: far below it (geocentric ECEF up to 6.4e6 m, UTM northings up to 1e7 m, national grids
@@ -72,7 +72,7 @@ class PointCloud:
         bad = ~np.isfinite(xyz).all(axis=1)
         if bad.any():
             raise LidarSigError(
-                f"{int(bad.sum())} points have NaN or infinite coordinates (first at index "
+                f"{_have(int(bad.sum()))} NaN or infinite coordinates (first at index "
                 f"{int(np.argmax(bad))}); remove them before running", path=self.path)
         if self.units is None:
             self.units = units_of(self.crs, path=self.path)
@@ -103,10 +103,14 @@ def check_magnitude(xyz, factors, *, path=None, start=0):
     axis = int(np.argmax(far[first]))
     count = int(rows.sum())
     raise LidarSigError(
-        f"{count:,} point{'s have' if count > 1 else ' has'} a coordinate beyond {MAX_COORDINATE:g} m "
+        f"{_have(count)} a coordinate beyond {MAX_COORDINATE:g} m "
         f"(first at index {start + first}: {'xyz'[axis]} = {xyz[first, axis]:.6g}), too far to measure "
         "neighbours in; remove such points or correct the coordinates (for LAS, the header's scale "
         "and offset)", path=path)
+
+
+def _have(count):
+    return f"{counted(count, 'point')} {'has' if count == 1 else 'have'}"
 
 
 def _class_codes(labels, n, path):
@@ -115,7 +119,8 @@ def _class_codes(labels, n, path):
 
     values = np.asarray(labels)
     if values.shape != (n,):
-        raise LidarSigError(f"labels must have one value per point: {values.shape} for {n} points", path=path)
+        raise LidarSigError(f"labels must have one value per point: {values.shape} for {counted(n, 'point')}",
+                            path=path)
     if values.dtype.kind not in "iuf" or (values.dtype.kind == "f" and not np.all(np.isfinite(values))):
         raise LidarSigError(f"labels must be class codes (whole numbers), got {values.dtype} values", path=path)
     if values.dtype.kind == "f" and not np.all(values == np.round(values)):

@@ -13,7 +13,7 @@ import json
 import numpy as np
 
 from ..classes import ClassTable
-from ..errors import LidarSigError, as_path
+from ..errors import LidarSigError, as_path, counted
 from ..saliency import LN3
 from ..signature import METHOD_KEYS, Frame, Signature
 from .atomic import atomic_output
@@ -276,16 +276,16 @@ def _check_totals(counts, egeom, totals, n_undefined, attrs, damaged):
     n_points and n_undefined say the same."""
     n_defined = int(counts.sum())
     if int(egeom.sum()) != n_defined:
-        raise damaged(f"its Egeom histogram counts {int(egeom.sum()):,} points but its count raster "
+        raise damaged(f"its Egeom histogram counts {counted(int(egeom.sum()), 'point')} but its count raster "
                       f"{n_defined:,}")
     n_all = n_defined + n_undefined
     if totals is not None and (int(totals.sum()) != n_all or np.any(totals < counts.sum(axis=(1, 2)))):
-        raise damaged(f"its class totals ({int(totals.sum()):,} points) disagree with its count raster "
-                      f"({n_defined:,} points) and its {n_undefined:,} undefined points")
+        raise damaged(f"its class totals ({counted(int(totals.sum()), 'point')}) disagree with its count raster "
+                      f"({counted(n_defined, 'point')}) and its {counted(n_undefined, 'undefined point')}")
     for name, value in (("n_points", n_all), ("n_undefined", n_undefined)):
         if name in attrs and _int_attr(attrs, name, damaged) != value:
             raise damaged(f"its {name} attribute ({int(attrs[name]):,}) disagrees with its signature "
-                          f"({n_defined:,} points with a saliency, {n_undefined:,} undefined)")
+                          f"({counted(n_defined, 'point')} with a saliency, {n_undefined:,} undefined)")
 
 
 def _int_attr(attrs, name, damaged):
@@ -330,7 +330,7 @@ def archive_summary(path):
     lines = [f"{path}: {FORMAT} v{attrs['format_version']} (lidar_sig {attrs.get('lidar_sig_version', '?')})",
              f"  descriptor {m.get('descriptor', '?')}, strategy {m.get('strategy', '?')}, "
              f"{attrs.get('scales', '?')}, {m.get('weights', '?')} weights",
-             f"  signature: {sig.n_points:,} points, {sig.n_undefined:,} undefined, frame {sig.frame.size} px, "
+             f"  signature: {counted(sig.n_points, 'point')}, {sig.n_undefined:,} undefined, frame {sig.frame.size} px, "
              f"class table {sig.classes.name!r}",
              f"  per-point datasets: {'yes, ' + format(n_rows, ',') + ' points' if has_points else 'no'}"]
     for name, count in zip(sig.classes.class_names, sig.class_totals):
@@ -345,7 +345,7 @@ def archive_summary(path):
         try:
             t = json.loads(attrs["tiling"])
             lines.append(f"  tiling: {t['tiles'][0]} x {t['tiles'][1]} tiles of {t['tile_size_m']:.4g} m, "
-                         f"{t['n_recomputed']:,} points recomputed with a wider halo")
+                         f"{counted(t['n_recomputed'], 'point')} recomputed with a wider halo")
         except (ValueError, TypeError, KeyError, IndexError):
             lines.append("  tiling: unreadable (the record is not the JSON lidar_sig writes)")
     return lines

@@ -27,7 +27,7 @@ import time
 import numpy as np
 
 from ..classes import UNLABELED
-from ..errors import LidarSigError, as_path
+from ..errors import LidarSigError, as_path, counted
 from ..neighbors import area_cap
 from ..progress import progress
 from .core import SetContext, Tiling, check_tile_size, check_tileable, context_of, tile_name
@@ -125,7 +125,7 @@ def run_set(pipeline, inputs, *, work, tile_size=None, backend=None, resume=Fals
     n_points = sum(r["n"] for r in records.values())
     need = pipeline.min_points()
     if n_points < need:
-        raise LidarSigError(f"the set holds {n_points} points, fewer than the largest scale needs ({need}); "
+        raise LidarSigError(f"the set holds {counted(n_points, 'point')}, fewer than the largest scale needs ({need}); "
                             "use a larger set or smaller scales")
     ctx = context_of(lo, hi, factors, pipeline, n_points)
     tiling = Tiling(ctx.lo, ctx.hi, float(tile_size))

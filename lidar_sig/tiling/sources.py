@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from ..cloud import MAX_COORDINATE, check_magnitude
-from ..errors import LidarSigError, reason
+from ..errors import LidarSigError, counted, reason
 from ..io.las import LAS_EXTENSIONS
 
 #: Bits of a point identifier that hold its index in its file (files up to 10^12 points).
@@ -228,10 +228,10 @@ def stage_part(work, source, part, start, stop, cells):
                                 "--work-dir", path=out.parent.parent) from None
         raise LidarSigError(f"cannot be read ({reason(exc)})", path=source.path) from None
     except Exception as exc:  # laspy and lazrs raise many kinds on damaged input
-        raise LidarSigError(f"cannot be read as LAS/LAZ after {start + n:,} points ({reason(exc)}); check "
+        raise LidarSigError(f"cannot be read as LAS/LAZ after {counted(start + n, 'point')} ({reason(exc)}); check "
                             "that the file is complete", path=source.path) from None
     if n != stop - start:
-        raise LidarSigError(f"holds {start + n:,} points but its header says {source.n_points:,}; the file is "
+        raise LidarSigError(f"holds {counted(start + n, 'point')} but its header says {source.n_points:,}; the file is "
                             "truncated", path=source.path)
     info = {"path": source.path, "identity": file_identity(source.path), "range": [start, stop], "n": n,
             "grid": cells.record(),

@@ -239,3 +239,103 @@ def test_interrupt_after_an_output_was_written_names_it(tmp_path, monkeypatch, c
     lines = capsys.readouterr().err.strip().splitlines()
     assert len(lines) == 1 and "SIGTERM" in lines[0] and f"written whole before it: {out}" in lines[0], lines
     assert len(laspy.read(out).points) == len(SMALL)
+
+
+# -- item 4: messages --------------------------------------------------------------------------
+
+def test_ragged_text_file_says_which_line_has_how_many_columns(tmp_path):
+    # numpy's advice came through: "... use `usecols` to select a subset and avoid this error"
+    src = tmp_path / "ragged.xyz"
+    src.write_text("# x y z\n1 2 3\n4 5 6\n\n7 8\n1 1 1\n")
+    with pytest.raises(ls.LidarSigError) as caught:
+        ls.read(src)
+    message = str(caught.value)
+    assert "ragged.xyz" in message and "line 5 has 2 columns" in message and "3" in message
+    assert "usecols" not in message
+
+
+@pytest.mark.parametrize("content", [bytes(np.random.default_rng(7).integers(0, 256, 5000, dtype=np.uint8)), b""],
+                         ids=["random bytes", "empty file"])
+def test_pcd_that_is_not_pcd_is_said_so(tmp_path, content):
+    # it was "holds no points (no positions)"
+    pytest.importorskip("open3d", reason="PCD files are read through Open3D (the formats extra)")
+    src = tmp_path / "noise.pcd"
+    src.write_bytes(content)
+    with pytest.raises(ls.LidarSigError, match="not a PCD file") as caught:
+        ls.read(src)
+    assert "noise.pcd" in str(caught.value) and "no positions" not in str(caught.value)
+
+
+def test_saliency_of_an_empty_folder_names_the_folder_not_the_output(tmp_path):
+    # it said "o.laz: a set of tiles writes one file per input: give a folder as -o"
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    proc = run("saliency", empty, "-o", tmp_path / "o.laz")
+    assert_one_line_error(proc, str(empty), "holds no")
+    assert "o.laz" not in proc.stderr and sorted(p.name for p in tmp_path.iterdir()) == ["empty"]
+
+
+def test_no_defined_saliency_at_k_speaks_of_points_not_metres():
+    # "every neighbourhood at k 2 (= 2 m) holds fewer than 3 points"
+    with pytest.raises(ls.LidarSigError, match="no point has a defined saliency") as caught:
+        ls.Pipeline(scales=ls.knn(2), progress=False).run(SMALL)
+    message = str(caught.value)
+    assert "k 2" in message and " m)" not in message and "= 2" not in message
+
+
+@pytest.mark.parametrize("option", ["--descriptor", "--strategy", "--classes"])
+def test_empty_name_options_are_refused_with_their_choices(tmp_path, option):
+    # they silently took the defaults
+    choices = {"--descriptor": "c3dcm", "--strategy": "multiscale", "--classes": "asprs"}[option]
+    proc = run("signature", SAMPLES / "epoch1.laz", "-o", tmp_path / "s.h5", option, "")
+    assert_one_line_error(proc, option, choices)
+    assert not list(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("fractions, named", [("1,,0.5", "empty"), ("0.5,0.5", "0.5")])
+def test_fractions_with_an_empty_item_or_twice_the_same_are_refused(tmp_path, fractions, named):
+    # "1,,0.5" ran as 1,0.5; "0.5,0.5" computed 0.5 twice
+    proc = run("resilience", SAMPLES / "epoch1.laz", "--fractions", fractions)
+    assert_one_line_error(proc, "--fractions", named)
+    with pytest.raises(ls.LidarSigError, match="0.5"):
+        ls.resilience(SMALL, fractions=(0.5, 0.5))
+
+
+def test_counts_of_one_are_singular():
+    # "1 points have NaN ...", "holds 1 distinct locations", "1 duplicate points", ...
+    from lidar_sig.cli.summaries import run_summary
+    from lidar_sig.errors import counted
+
+    assert (counted(1, "point"), counted(2, "point"), counted(12345, "class", "classes")) == \
+        ("1 point", "2 points", "12,345 classes")
+    xyz = SMALL.copy()
+    xyz[3] = np.nan
+    with pytest.raises(ls.LidarSigError, match="1 point has NaN"):
+        ls.PointCloud(xyz)
+    with pytest.raises(ls.LidarSigError, match=r"holds 1 distinct location \(3 points\)"):
+        ls.Pipeline(scales=ls.knn(2), progress=False).run(np.ones((3, 3)))
+    with pytest.raises(ls.LidarSigError, match=r"holds 1 point,"):
+        ls.Pipeline(scales=ls.knn(2), progress=False).run(np.ones((1, 3)))
+
+    class Result:
+        metadata = {"n_points": 1, "descriptor": "c3dcm", "strategy": "multiscale", "scale_kind": "knn",
+                    "resolved_scales": [10], "weights": "area", "units": "metre", "n_undefined": 1,
+                    "n_capped": 1, "max_neighbors": 512, "n_duplicates": 1}
+
+    line = run_summary("c.las", Result())
+    assert "1 point," in line and "1 neighbourhood capped" in line and "1 duplicate point " in line
+
+
+@pytest.mark.parametrize("command, option", [
+    ("signature", "--columns"), ("signature", "--report"), ("signature", "--plots"), ("signature", "--png"),
+    ("signature", "--sg"), ("signature", "--work-dir"), ("signature", "--scheduler"), ("resilience", "--plot")])
+def test_other_empty_option_values_are_refused(tmp_path, capsys, command, option):
+    # each was taken as not given: no report, the default work folder, local workers, ...
+    # (in this process: the command line stops while parsing, before any work)
+    from lidar_sig.cli import main
+
+    out = ["-o", str(tmp_path / "s.h5")] if command == "signature" else []
+    assert main([command, str(SAMPLES / "epoch1.laz"), *out, option, ""]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and f"{option} is empty" in lines[0], lines
+    assert not list(tmp_path.iterdir())
