@@ -95,9 +95,10 @@ def check_magnitude(xyz, factors, *, path=None, start=0):
     """Refuse finite (N, 3) coordinates beyond :data:`MAX_COORDINATE` metres (``factors``:
     metres per unit of x, y and z) with a LidarSigError naming how many, the first and the fix;
     ``start`` is the index in the file of the first row (a chunk of a file)."""
-    far = np.abs(xyz) * np.asarray(factors) > MAX_COORDINATE
-    if not far.any():
-        return
+    factors = np.asarray(factors, dtype=np.float64)
+    if np.all(np.maximum(-xyz.min(axis=0), xyz.max(axis=0)) * factors <= MAX_COORDINATE):
+        return  # the usual case, without an (N, 3) temporary
+    far = np.abs(xyz) * factors > MAX_COORDINATE
     rows = far.any(axis=1)
     first = int(np.argmax(rows))
     axis = int(np.argmax(far[first]))
