@@ -7,7 +7,15 @@ from typing import Any
 import numpy as np
 
 from .crs import Units, units_of
-from .errors import LidarSigError
+from .errors import LidarSigError, counted
+
+#: Largest coordinate accepted, in metres (after the CRS's unit): 1e9 m. Real coordinates stay
+#: far below it (geocentric ECEF up to 6.4e6 m, UTM northings up to 1e7 m, national grids
+#: alike); at 1e9 m float64 still resolves 1.2e-7 m (2**-23), four orders below the millimetre
+#: of the closest neighbours, and the voxel indices of the neighbour search (extent / voxel
+#: side) stay far inside int64. Beyond it the precision goes (at 1e16 m points 1 m apart are
+#: one location), and a LAS file could not hold such a cloud in its 32-bit integers either.
+MAX_COORDINATE = 1e9
 
 
 @dataclass
@@ -69,11 +77,12 @@ class PointCloud:
         bad = ~np.isfinite(xyz).all(axis=1)
         if bad.any():
             raise LidarSigError(
-                f"{int(bad.sum())} points have NaN or infinite coordinates (first at index "
+                f"{_have(int(bad.sum()))} NaN or infinite coordinates (first at index "
                 f"{int(np.argmax(bad))}); remove them before running", path=self.path)
-        self.xyz = xyz
         if self.units is None:
             self.units = units_of(self.crs, path=self.path)
+        check_magnitude(xyz, self.units.factors, path=self.path)
+        self.xyz = xyz
         if self.labels is not None:
             self.labels = _class_codes(self.labels, xyz.shape[0], self.path)
         if self.withheld is not None:
@@ -101,13 +110,37 @@ class PointCloud:
         return (self.xyz - centre) * np.asarray(self.units.factors)
 
 
+def check_magnitude(xyz, factors, *, path=None, start=0):
+    """Refuse finite (N, 3) coordinates beyond :data:`MAX_COORDINATE` metres (``factors``:
+    metres per unit of x, y and z) with a LidarSigError naming how many, the first and the fix;
+    ``start`` is the index in the file of the first row (a chunk of a file)."""
+    factors = np.asarray(factors, dtype=np.float64)
+    if np.all(np.maximum(-xyz.min(axis=0), xyz.max(axis=0)) * factors <= MAX_COORDINATE):
+        return  # the usual case, without an (N, 3) temporary
+    far = np.abs(xyz) * factors > MAX_COORDINATE
+    rows = far.any(axis=1)
+    first = int(np.argmax(rows))
+    axis = int(np.argmax(far[first]))
+    count = int(rows.sum())
+    raise LidarSigError(
+        f"{_have(count)} a coordinate beyond {MAX_COORDINATE:g} m "
+        f"(first at index {start + first}: {'xyz'[axis]} = {xyz[first, axis]:.6g}), too far to measure "
+        "neighbours in; remove such points or correct the coordinates (for LAS, the header's scale "
+        "and offset)", path=path)
+
+
+def _have(count):
+    return f"{counted(count, 'point')} {'has' if count == 1 else 'have'}"
+
+
 def _class_codes(labels, n, path):
     """Labels as int64 class codes: one whole number per point, from 0 to 2**31 - 1."""
     from .classes import MAX_CODE
 
     values = np.asarray(labels)
     if values.shape != (n,):
-        raise LidarSigError(f"labels must have one value per point: {values.shape} for {n} points", path=path)
+        raise LidarSigError(f"labels must have one value per point: {values.shape} for {counted(n, 'point')}",
+                            path=path)
     if values.dtype.kind not in "iuf" or (values.dtype.kind == "f" and not np.all(np.isfinite(values))):
         raise LidarSigError(f"labels must be class codes (whole numbers), got {values.dtype} values", path=path)
     if values.dtype.kind == "f" and not np.all(values == np.round(values)):

@@ -1,4 +1,4 @@
-"""Errors a user can cause and fix.
+"""Errors a user can cause and fix, and the wording of counts in messages.
 
 The command line turns a :class:`LidarSigError` into one line on stderr and exit status 2;
 anything else is a bug and keeps its traceback.
@@ -63,6 +63,12 @@ def as_path(value, what):
         return Path(value)
     got = "an empty path" if isinstance(value, str) else ("None" if value is None else f"a {type(value).__name__}")
     raise LidarSigError(f"{what} takes a file path, got {got}")
+
+
+def counted(n, noun, plural=None):
+    """``n`` and the noun, singular for one: "1 point", "2 points", "12,345 classes" (``plural``
+    for nouns that do not take an s)."""
+    return f"{n:,} {noun if n == 1 else plural or noun + 's'}"
 
 
 def reason(exc):

@@ -12,7 +12,7 @@ from . import __version__
 from .classes import UNLABELED, class_table
 from .cloud import PointCloud, kept_points
 from .compile import announce_compilation
-from .errors import LidarSigError, LidarSigWarning
+from .errors import LidarSigError, LidarSigWarning, counted
 from .io.open3d import from_open3d, is_open3d
 from .neighbors import WEIGHTS, NeighborIndex, unique_points
 from .plugins import get_descriptor, get_strategy
@@ -179,10 +179,10 @@ class Pipeline:
         need = self.min_points()
         if n_locations < need:
             what = f"k = {need}" if self.scales.kind == "knn" else f"{need} neighbours per point"
-            where = (f"{n_locations} distinct locations ({n} points)" if n_locations < n
-                     else f"{n} points")
+            where = (f"{counted(n_locations, 'distinct location')} ({counted(n, 'point')})" if n_locations < n
+                     else counted(n, "point"))
             if n_excluded:
-                where += f" besides {n_excluded:,} withheld or noise points"
+                where += f" besides {counted(n_excluded, 'withheld or noise point')}"
             raise LidarSigError(f"holds {where}, fewer than the largest scale needs ({what}); use a "
                                 "larger cloud or smaller scales"
                                 + (" (keep_noise=True, --keep-noise, uses every point)" if n_excluded else ""),
@@ -248,10 +248,13 @@ class Pipeline:
         n = len(cloud)
         n_undefined = int(np.isnan(values).any(axis=1).sum())
         if n_undefined == n:
+            # k counts points; normalized radii are also said in metres
+            metres = f" (= {_fmt(scales)} m)" if self.scales.units == "normalized" else ""
+            larger = "a larger k" if self.scales.kind == "knn" else "larger radii"
             raise LidarSigError(
-                f"no point has a defined saliency: every neighbourhood at {self.scales.describe()} "
-                f"(= {_fmt(scales)} m) holds fewer than {self.min_neighbors} points; "
-                "use larger scales", path=cloud.path)
+                f"no point has a defined saliency: every neighbourhood at {self.scales.describe()}{metres} "
+                f"holds fewer than the {self.min_neighbors} points a saliency needs; use {larger}",
+                path=cloud.path)
         if n_capped > CAPPED_WARNING * m:
             warnings.warn(
                 f"{cloud.path or 'the cloud'}: {n_capped:,} of {m:,} neighbourhoods hold more than {self.max_neighbors} "

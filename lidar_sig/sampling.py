@@ -53,6 +53,22 @@ class Resilience:
         return out
 
 
+def check_fractions(fractions, what="fractions"):
+    """``fractions`` as a tuple of floats if there is at least one, each in (0, 1] and none
+    twice (it would be computed twice); else a LidarSigError naming ``what``."""
+    try:
+        values = tuple(float(f) for f in fractions)
+    except (TypeError, ValueError):
+        raise LidarSigError(f"{what} must be numbers in (0, 1], got {fractions!r}") from None
+    if not values or not all(0.0 < f <= 1.0 for f in values):
+        raise LidarSigError(f"{what} must be in (0, 1], got {', '.join(f'{f:g}' for f in values) or 'none'}")
+    twice = sorted({f for f in values if values.count(f) > 1})
+    if twice:
+        raise LidarSigError(f"{what} gives {', '.join(f'{f:g}' for f in twice)} more than once; give each "
+                            "fraction once")
+    return values
+
+
 def resilience(cloud, pipeline=None, *, fractions=DEFAULT_FRACTIONS, repeats=3, seed=0, render="smooth",
                progress=None):
     """Compare ``cloud`` with ``repeats`` uniform random subsamples at each of ``fractions``.
@@ -65,9 +81,7 @@ def resilience(cloud, pipeline=None, *, fractions=DEFAULT_FRACTIONS, repeats=3, 
 
     pipeline = pipeline or Pipeline()
     cloud = as_point_cloud(cloud)
-    fractions = tuple(float(f) for f in fractions)
-    if not fractions or not all(0.0 < f <= 1.0 for f in fractions):
-        raise LidarSigError(f"fractions must be in (0, 1], got {fractions}")
+    fractions = check_fractions(fractions)
     if int(repeats) < 1:
         raise LidarSigError(f"repeats must be at least 1, got {repeats}")
     seed = whole_number(seed, "the seed")

@@ -9,6 +9,7 @@ import warnings
 import click
 
 from ..errors import Interrupted, LidarSigError, LidarSigWarning
+from ..io.atomic import recording_outputs
 from ..progress import say
 
 
@@ -22,8 +23,9 @@ def show_note(message, category, filename, lineno, file=None, line=None, _shown=
 
 class _Group(click.Group):
     def invoke(self, ctx):
+        written = []
         try:
-            with warnings.catch_warnings():
+            with warnings.catch_warnings(), recording_outputs() as written:
                 warnings.simplefilter("always", LidarSigWarning)
                 warnings.showwarning = show_note
                 return super().invoke(ctx)
@@ -32,10 +34,18 @@ class _Group(click.Group):
             ctx.exit(2)
         except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM as Interrupted
             signum = exc.signum if isinstance(exc, Interrupted) else signal.SIGINT
-            name = signal.Signals(signum).name
-            click.echo(f"lidar-sig: interrupted ({name}); outputs not written, earlier ones left as they were",
-                       err=True)
+            click.echo(f"lidar-sig: interrupted ({signal.Signals(signum).name}); {_outputs_left(written)}", err=True)
             ctx.exit(128 + signum)
+
+
+def _outputs_left(written):
+    """What an interrupted run leaves: the outputs it renamed into place (whole), and that the
+    others were not written (their temporary files removed, earlier files as they were)."""
+    if not written:
+        return "outputs not written, earlier ones left as they were"
+    names = ", ".join(map(str, written[-3:]))
+    done = names if len(written) <= 3 else f"{len(written):,} outputs (the last {names})"
+    return f"written whole before it: {done}; any other output not written, earlier ones left as they were"
 
 
 @click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})

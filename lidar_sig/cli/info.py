@@ -4,6 +4,7 @@ from pathlib import Path
 import click
 import numpy as np
 
+from ..errors import counted
 from ..io import HDF5_EXTENSIONS, archive_summary, read
 from .group import cli
 from .options import columns_option
@@ -19,7 +20,7 @@ def info(path, columns):
         return
     cloud = read(path, columns=columns)
     lo, hi = cloud.xyz.min(axis=0), cloud.xyz.max(axis=0)
-    click.echo(f"{path}: {len(cloud):,} points")
+    click.echo(f"{path}: {counted(len(cloud), 'point')}")
     click.echo("  bounds " + ", ".join(f"{a} {l:.2f} .. {h:.2f}" for a, l, h in zip("xyz", lo, hi)))
     las = cloud.source
     if las is not None and hasattr(las, "header"):

@@ -21,26 +21,50 @@ METHOD_OPTIONS = ("descriptor", "strategy", "radii", "units", "k", "weights", "m
 
 
 def number_list(text, option):
-    """Comma-separated finite numbers of an option value; refuses empty or non-finite lists."""
+    """Comma-separated finite numbers of an option value; refuses empty lists, empty items
+    ("1,,2") and non-finite numbers."""
+    items = text.split(",")
+    if not text.strip():
+        raise LidarSigError(f"{option} needs at least one value, got {text!r}")
+    if not all(v.strip() for v in items):
+        raise LidarSigError(f"{option} has an empty item in {text!r}; separate the values by single commas "
+                            "(e.g. 1,0.5)")
     try:
-        values = [float(v) for v in text.split(",") if v.strip()]
+        values = [float(v) for v in items]
     except ValueError:
         raise LidarSigError(f"{option} must be comma-separated numbers, got {text!r}") from None
-    if not values:
-        raise LidarSigError(f"{option} needs at least one value, got {text!r}")
     if not all(math.isfinite(v) for v in values):
         raise LidarSigError(f"{option} must be finite numbers, got {text!r}")
     return values
+
+
+def not_empty(what):
+    """A click callback refusing an empty value, naming the option and what it takes (``what``:
+    text, or a function giving it, called only then): an empty --descriptor used to mean the
+    default, an empty --report no report."""
+    def check(ctx, param, value):
+        if value is not None and not value.strip():
+            raise LidarSigError(f"{param.opts[0]} is empty; give {what() if callable(what) else what}")
+        return value
+    return check
+
+
+def _registered(kind):
+    def names():
+        from ..plugins import available
+
+        return "one of " + ", ".join(available(kind))
+    return names
 
 
 def pipeline_options(func):
     """Decorate a command with the method options; it receives ``pipeline`` (built from them)
     and ``method_given`` (the names of those the user gave)."""
     opts = [
-        click.option("--descriptor", default=None,
+        click.option("--descriptor", default=None, callback=not_empty(_registered("descriptor")),
                      help="Local geometric descriptor: c3dcm, t3dvt, t3dvt-get or a plugin (see "
                           "`lidar-sig plugins`) [default: c3dcm]."),
-        click.option("--strategy", default=None,
+        click.option("--strategy", default=None, callback=not_empty(_registered("strategy")),
                      help="Scale strategy: multiscale or optimal [default: multiscale]."),
         click.option("--k", "k", default=None,
                      help="k-nearest scales, comma-separated [default: 20,30,40 for multiscale, "
@@ -57,6 +81,7 @@ def pipeline_options(func):
         click.option("--max-neighbors", default=None, type=click.IntRange(3, 100_000),
                      help="Cap of a spherical neighbourhood, nearest first [default: 512]."),
         click.option("--classes", default=None,
+                     callback=not_empty("one of asprs, paper, isprs-vaihingen or a .toml/.json file"),
                      help="Class table for the augmented signature: asprs, paper, isprs-vaihingen, "
                           "or a .toml/.json file (see docs/method.md) [default: asprs]."),
         click.option("--keep-noise", is_flag=True, default=None,
@@ -115,7 +140,8 @@ render_option = click.option(
 def _columns(ctx, param, value):
     from ..io import parse_columns
 
-    return parse_columns(value) if value else None
+    value = not_empty("the columns, e.g. x,y,z,-,label")(ctx, param, value)
+    return parse_columns(value) if value is not None else None
 
 
 columns_option = click.option(
@@ -126,9 +152,9 @@ columns_option = click.option(
 
 def report_options(func):
     """Decorate a command with ``--report FILE.html`` and ``--plots DIR``."""
-    func = click.option("--plots", default=None, metavar="DIR",
+    func = click.option("--plots", default=None, metavar="DIR", callback=not_empty("a folder"),
                         help="Also write every figure of the report as a PNG file in DIR.")(func)
-    return click.option("--report", default=None, metavar="FILE.html",
+    return click.option("--report", default=None, metavar="FILE.html", callback=not_empty("a file name"),
                         help="Write an HTML report with the figures (one self-contained file).")(func)
 
 
@@ -168,7 +194,7 @@ def tiling_options(func):
                           "points per tile, from the files' density]."),
         click.option("--workers", type=click.IntRange(1, 1024), default=None,
                      help="Local worker processes for a set of tiles [default: all cores]."),
-        click.option("--scheduler", default=None, metavar="ADDRESS",
+        click.option("--scheduler", default=None, metavar="ADDRESS", callback=not_empty("an address"),
                      help="Run the tiles on this dask.distributed scheduler (e.g. tcp://host:8786) instead "
                           "of local processes; needs the dask extra."),
     ]
@@ -184,7 +210,7 @@ def tiling_options(func):
 
 def resume_options(func):
     """``--resume`` and ``--work-dir`` for commands that write a set's results."""
-    func = click.option("--work-dir", default=None, metavar="DIR",
+    func = click.option("--work-dir", default=None, metavar="DIR", callback=not_empty("a folder"),
                         help="Scratch folder of a tiled run (staged points, finished tiles); every worker "
                              "must see it at this path [default: OUT/.lidar-sig-work for saliency, "
                              "OUT.work for signature].")(func)

@@ -3,12 +3,12 @@ import json
 
 import click
 
-from ..errors import LidarSigError
+from ..errors import LidarSigError, counted
 from ..io import check_output, read
 from ..metrics import METRIC_KEYS, METRIC_NAMES
-from ..sampling import DEFAULT_FRACTIONS, plot_resilience, resilience
+from ..sampling import DEFAULT_FRACTIONS, check_fractions, plot_resilience, resilience
 from .group import cli
-from .options import columns_option, number_list, overwrite_option, pipeline_options, render_option
+from .options import columns_option, not_empty, number_list, overwrite_option, pipeline_options, render_option
 
 
 @cli.command("resilience")
@@ -20,7 +20,8 @@ from .options import columns_option, number_list, overwrite_option, pipeline_opt
 @click.option("--seed", default=0, show_default=True, type=click.IntRange(0),
               help="Seed of the random subsamples.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object on stdout.")
-@click.option("--plot", default=None, help="Also draw every metric against the fraction as a PNG file.")
+@click.option("--plot", default=None, callback=not_empty("a file name"),
+              help="Also draw every metric against the fraction as a PNG file.")
 @render_option
 @overwrite_option
 @columns_option
@@ -28,9 +29,7 @@ from .options import columns_option, number_list, overwrite_option, pipeline_opt
 def resilience_command(source, fractions, repeats, seed, as_json, plot, render, overwrite, columns, pipeline,
                        method_given, quiet):
     """Compare SOURCE with uniform random subsamples of itself, fraction by fraction."""
-    values = number_list(fractions, "--fractions")
-    if not all(0.0 < f <= 1.0 for f in values):
-        raise LidarSigError(f"--fractions must be in (0, 1], got {fractions!r}")
+    values = check_fractions(number_list(fractions, "--fractions"), "--fractions")
     if plot:
         if not plot.lower().endswith(".png"):
             raise LidarSigError("the plot is written as .png", path=plot)
@@ -43,7 +42,7 @@ def resilience_command(source, fractions, repeats, seed, as_json, plot, render, 
         click.echo(json.dumps(result.to_dict()))
         return
     keys = [k for k in METRIC_KEYS if result.to_dict()["metrics"][k] is not None]
-    click.echo(f"{source}: {result.repeats} random subsamples per fraction (seed {result.seed}), "
+    click.echo(f"{source}: {counted(result.repeats, 'random subsample')} per fraction (seed {result.seed}), "
                f"{result.render} rendering; mean ± standard deviation against the full cloud")
     header = f"{'fraction':>8} {'points':>10} " + " ".join(f"{METRIC_NAMES[k]:>17}" for k in keys)
     click.echo(header)

@@ -48,10 +48,11 @@ def saliency(sources, output, overwrite, columns, tiling, resume, work_dir, pipe
 def _saliency_of_set(sources, output, overwrite, tiling, resume, work_dir, pipeline, quiet):
     from ..tiling.sources import expand, scan
 
+    files = expand(sources)  # the inputs first: an empty folder is named, not the output
     outdir = Path(output)
     if outdir.suffix.lower() in CLOUD_EXTENSIONS or (outdir.exists() and not outdir.is_dir()):
         raise LidarSigError("a set of tiles writes one file per input: give a folder as -o", path=output)
-    outputs = {s.path: output_name(outdir, s) for s in scan(expand(sources))}
+    outputs = {s.path: output_name(outdir, s) for s in scan(files)}
     inputs = {Path(p).resolve(): p for p in outputs}
     seen = {}
     for src, path in outputs.items():

@@ -10,8 +10,8 @@ from ..comparison import report as ls_report
 from ..reporting import SIGNATURE_PLOTS
 from ..signature import RENDERINGS
 from .group import cli
-from .options import (check_report_outputs, columns_option, overwrite_option, pipeline_options, render_option,
-                      report_options, resume_options, tiling_options, write_report)
+from .options import (check_report_outputs, columns_option, not_empty, overwrite_option, pipeline_options,
+                      render_option, report_options, resume_options, tiling_options, write_report)
 from .summaries import echo_run
 from .tiles import finish, is_set, run_tiles
 
@@ -20,8 +20,10 @@ from .tiles import finish, is_set, run_tiles
 @click.argument("sources", nargs=-1, required=True)
 @click.option("-o", "--output", default=None,
               help="Signature archive (.h5) or image of the augmented semantic signature Sas (.png).")
-@click.option("--png", "png_output", default=None, help="Also write Sas as PNG (with an .h5 output).")
-@click.option("--sg", "sg_output", default=None, help="Also write the geometric signature Sg as PNG.")
+@click.option("--png", "png_output", default=None, callback=not_empty("a file name"),
+              help="Also write Sas as PNG (with an .h5 output).")
+@click.option("--sg", "sg_output", default=None, callback=not_empty("a file name"),
+              help="Also write the geometric signature Sg as PNG.")
 @click.option("--no-points", is_flag=True, help="Leave the per-point datasets out of the archive.")
 @report_options
 @render_option

@@ -3,6 +3,7 @@ from pathlib import Path
 
 import click
 
+from ..errors import counted
 from ..io import LAS_EXTENSIONS
 from ..tiling.execute import executor
 from ..tiling.run import run_set
@@ -31,10 +32,11 @@ def run_tiles(pipeline, sources, tiling, work, *, outputs=(), resume=False, quie
         nx, ny = run.tiling.shape
         lost = f" ({len(run.failed_sources)} missing)" if run.failed_sources else ""
         excluded = sum(run.excluded.values())
-        click.echo(f"set of {len(run.sources)} file{'s' if len(run.sources) != 1 else ''}{lost}: {n:,} points in {len(run.tile_stats)} tile{'s' if len(run.tile_stats) != 1 else ''} of "
-                   f"{run.tiling.size:.4g} m ({nx} x {ny} grid"
-                   + (f", {resumed} reused" if resumed else "") + f"), {recomputed:,} points recomputed with "
-                   "a wider halo" + (f"; {excluded:,} withheld or noise points left out" if excluded else ""))
+        click.echo(f"set of {counted(len(run.sources), 'file')}{lost}: {counted(n, 'point')} in "
+                   f"{counted(len(run.tile_stats), 'tile')} of {run.tiling.size:.4g} m ({nx} x {ny} grid"
+                   + (f", {resumed} reused" if resumed else "") + f"), {counted(recomputed, 'point')} recomputed "
+                   "with a wider halo"
+                   + (f"; {counted(excluded, 'withheld or noise point')} left out" if excluded else ""))
         click.echo(f"{run.execution}: {run.seconds:.1f} s, {n / max(run.seconds, 1e-9):,.0f} points/s")
     return run
 
@@ -49,7 +51,7 @@ def finish(run, work, written, not_written=()):
     for line in not_written:
         click.echo(f"lidar-sig: not written: {line}", err=True)
     without = " (computed without the missing files' points)" if run.failed_sources and written else ""
-    click.echo(f"lidar-sig: {len(written)} outputs written{without}; the run is incomplete (work kept in {work}): "
+    click.echo(f"lidar-sig: {counted(len(written), 'output')} written{without}; the run is incomplete (work kept in {work}): "
                "fix or replace the files above and run the same command with --resume", err=True)
     raise click.exceptions.Exit(1)
 

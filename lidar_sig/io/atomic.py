@@ -11,7 +11,8 @@
 - Errors of the file system (no space left, read-only or immutable folder, permission) become a
   :class:`LidarSigError` naming the output and the fix.
 - Several outputs of one command can be committed together (:func:`output_group`): all
-  renamed at the end, none if anything failed.
+  renamed at the end, none if anything failed. :func:`recording_outputs` lists those renamed
+  into place, for a run interrupted after some of them.
 - The file gets the mode an ordinary ``open(path, "w")`` would give it: 0666 less the umask for
   a new file (0644 under umask 022), the old mode for a file being overwritten.
 """
@@ -35,6 +36,8 @@ _HOST = socket.gethostname().replace(".", "-")[:32] or "host"
 _PENDING = contextvars.ContextVar("lidar_sig_pending_outputs", default=None)
 # Signals received while held by the innermost deferred_signals block (None outside one)
 _RECEIVED = contextvars.ContextVar("lidar_sig_received_signals", default=None)
+# Outputs renamed into place inside the innermost recording_outputs block (None outside one)
+_WRITTEN = contextvars.ContextVar("lidar_sig_written_outputs", default=None)
 _REASONS = {
     errno.ENOSPC: "no space left on the device; free some space or write elsewhere",
     errno.EDQUOT: "the disk quota is exceeded; free some space or write elsewhere",
@@ -162,11 +165,26 @@ def _commit(items):
     for _, path, overwrite in items:
         if path.exists() and not overwrite:  # appeared while we were working
             raise LidarSigError("output already exists; pass --overwrite to replace it", path=path)
+    written = _WRITTEN.get()
     with deferred_signals():
         for tmp, path, _ in items:
             with os_errors(path):
                 os.chmod(tmp, _output_mode(path))
                 os.replace(tmp, path)
+            if written is not None:
+                written.append(path)
+
+
+@contextlib.contextmanager
+def recording_outputs():
+    """Yield a list that gets each output renamed into place inside the block, in order: what
+    a run interrupted after some outputs can say it wrote (whole)."""
+    written = []
+    token = _WRITTEN.set(written)
+    try:
+        yield written
+    finally:
+        _WRITTEN.reset(token)
 
 
 @contextlib.contextmanager

@@ -14,7 +14,7 @@ from dataclasses import replace
 import numpy as np
 
 from ..classes import BUILTIN, ClassTable
-from ..errors import LidarSigError, as_path
+from ..errors import LidarSigError, as_path, counted
 from ..saliency import LN3
 from ..signature import METHOD_KEYS, Frame, Signature
 from .atomic import atomic_output
@@ -77,6 +77,10 @@ def write_archive(path, signature, *, saliency=None, labels=None, sources=(), re
             for key in _TEXT_ATTRS:
                 if meta.get(key) is not None:
                     f.attrs[key] = str(meta[key])
+            # the totals the loader checks the parts against come from the parts themselves (a
+            # sum of signatures keeps the metadata of its first term)
+            meta["n_points"] = int(signature.class_totals.sum())
+            meta["n_undefined"] = int(signature.n_undefined)
             for key in _INT_ATTRS:
                 if key in meta:
                     f.attrs[key] = int(meta[key])
@@ -204,8 +208,9 @@ def load_signature(path):
     with _open(path) as f:
         try:
             return _read_signature(f, path)
-        except KeyError as exc:
-            raise LidarSigError(f"archive lacks {exc}; it is damaged or incomplete", path=path) from None
+        except KeyError:  # a part looked up without _part (the library's sentence says nothing more)
+            raise LidarSigError(f"archive lacks a part lidar_sig writes; it is damaged or incomplete: {_AGAIN}",
+                                path=path) from None
         except (OSError, TypeError, ValueError, IndexError) as exc:
             if isinstance(exc, LidarSigError):
                 raise LidarSigError(str(exc).removeprefix(f"{path}: "), path=path) from None
@@ -213,19 +218,33 @@ def load_signature(path):
                                 "it is damaged", path=path) from None
 
 
+#: The fix of a damaged archive.
+_AGAIN = "make it again (lidar-sig signature CLOUD -o OUT.h5)"
+
+
+def _part(group, name, path):
+    """``group[name]`` (a dataset or group), or a LidarSigError naming the part that is missing."""
+    if name not in group:
+        where = f"{group.name.strip('/')}/{name}".lstrip("/")
+        raise LidarSigError(f"archive lacks {where}; it is damaged or incomplete: {_AGAIN}", path=path)
+    return group[name]
+
+
 def _read_signature(f, path):
     def damaged(what):
-        return LidarSigError(f"{what}; the archive is damaged or was edited by hand", path=path)
+        return LidarSigError(f"{what}; the archive is damaged or was edited by hand: {_AGAIN}", path=path)
 
-    g = f["signature"]
-    c = g["classes"]
-    names = [n.decode() if isinstance(n, bytes) else str(n) for n in c["names"][()]]
-    colors = [tuple(int(v) for v in row) for row in c["colors"][()]]
-    codes, offsets = c["codes"][()], c["code_offsets"][()]
+    g = _part(f, "signature", path)
+    c = _part(g, "classes", path)
+    names = [n.decode() if isinstance(n, bytes) else str(n) for n in _part(c, "names", path)[()]]
+    colors = [tuple(int(v) for v in row) for row in _part(c, "colors", path)[()]]
+    codes, offsets = _part(c, "codes", path)[()], _part(c, "code_offsets", path)[()]
     if len(colors) != len(names) or len(offsets) != len(names) + 1 or np.any(np.diff(offsets) < 0) \
             or offsets[0] != 0 or offsets[-1] != len(codes):
         raise damaged("its class table is inconsistent (names, colours and codes do not match)")
     groups = [tuple(int(v) for v in codes[offsets[k]:offsets[k + 1]]) for k in range(len(names))]
+    if "table" not in c.attrs:
+        raise damaged("its class table has no name (attribute table of signature/classes)")
     classes = ClassTable(str(c.attrs["table"]), names=tuple(names[:-1]), codes=tuple(groups[:-1]),
                          colors=tuple(colors[:-1]))
     if "noise_codes" in c:
@@ -233,13 +252,13 @@ def _read_signature(f, path):
     elif classes.name in BUILTIN and replace(BUILTIN[classes.name], noise=()) == classes:
         classes = BUILTIN[classes.name]  # an archive from before noise codes were recorded
     frame = Frame(_int_attr(g.attrs, "frame_size", damaged), _int_attr(g.attrs, "frame_margin", damaged))
-    counts = g["counts"]
+    counts = _part(g, "counts", path)
     expected = (len(classes), frame.size, frame.size)
     if counts.shape != expected or counts.dtype.kind not in "iu":
         raise damaged(f"its count raster has shape {counts.shape} ({counts.dtype}), not {expected} integers "
                       "as its frame and class table say")
     counts = counts[()].astype(np.int64)
-    egeom = g["egeom_histogram"][()]
+    egeom = _part(g, "egeom_histogram", path)[()]
     if egeom.ndim != 1 or not len(egeom) or egeom.dtype.kind not in "iu":
         raise damaged("its Egeom histogram is not a list of counts")
     totals = g["class_totals"][()] if "class_totals" in g else None
@@ -249,6 +268,7 @@ def _read_signature(f, path):
     if counts.min(initial=0) < 0 or egeom.min(initial=0) < 0 or n_undefined < 0 \
             or (totals is not None and totals.min(initial=0) < 0):
         raise damaged("it holds negative counts")
+    _check_totals(counts, egeom, totals, n_undefined, f.attrs, damaged)
     meta = {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in f.attrs.items()}
     try:
         meta.update(_method(f.attrs))
@@ -264,7 +284,28 @@ def _read_signature(f, path):
                      None if totals is None else totals.astype(np.int64))
 
 
+def _check_totals(counts, egeom, totals, n_undefined, attrs, damaged):
+    """The parts of an archive agree with each other and with its recorded totals: the count
+    raster and the Egeom histogram hold the same (defined) points; the class totals hold those
+    and the undefined ones, each class at least its points in the raster; the root attributes
+    n_points and n_undefined say the same."""
+    n_defined = int(counts.sum())
+    if int(egeom.sum()) != n_defined:
+        raise damaged(f"its Egeom histogram counts {counted(int(egeom.sum()), 'point')} but its count raster "
+                      f"{n_defined:,}")
+    n_all = n_defined + n_undefined
+    if totals is not None and (int(totals.sum()) != n_all or np.any(totals < counts.sum(axis=(1, 2)))):
+        raise damaged(f"its class totals ({counted(int(totals.sum()), 'point')}) disagree with its count raster "
+                      f"({counted(n_defined, 'point')}) and its {counted(n_undefined, 'undefined point')}")
+    for name, value in (("n_points", n_all), ("n_undefined", n_undefined)):
+        if name in attrs and _int_attr(attrs, name, damaged) != value:
+            raise damaged(f"its {name} attribute ({int(attrs[name]):,}) disagrees with its signature "
+                          f"({counted(n_defined, 'point')} with a saliency, {n_undefined:,} undefined)")
+
+
 def _int_attr(attrs, name, damaged):
+    if name not in attrs:
+        raise damaged(f"it lacks the attribute {name}")
     value = attrs[name]
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
         raise damaged(f"its {name} is not a whole number ({value!r})")
@@ -304,7 +345,7 @@ def archive_summary(path):
     lines = [f"{path}: {FORMAT} v{attrs['format_version']} (lidar_sig {attrs.get('lidar_sig_version', '?')})",
              f"  descriptor {m.get('descriptor', '?')}, strategy {m.get('strategy', '?')}, "
              f"{attrs.get('scales', '?')}, {m.get('weights', '?')} weights",
-             f"  signature: {sig.n_points:,} points, {sig.n_undefined:,} undefined, "
+             f"  signature: {counted(sig.n_points, 'point')}, {sig.n_undefined:,} undefined, "
              f"{int(m.get('n_excluded', 0)):,} withheld or noise points left out, frame {sig.frame.size} px, "
              f"class table {sig.classes.name!r}",
              f"  per-point datasets: {'yes, ' + format(n_rows, ',') + ' points' if has_points else 'no'}"]
@@ -320,7 +361,7 @@ def archive_summary(path):
         try:
             t = json.loads(attrs["tiling"])
             lines.append(f"  tiling: {t['tiles'][0]} x {t['tiles'][1]} tiles of {t['tile_size_m']:.4g} m, "
-                         f"{t['n_recomputed']:,} points recomputed with a wider halo")
+                         f"{counted(t['n_recomputed'], 'point')} recomputed with a wider halo")
         except (ValueError, TypeError, KeyError, IndexError):
             lines.append("  tiling: unreadable (the record is not the JSON lidar_sig writes)")
     return lines

@@ -97,6 +97,10 @@ def read_open3d(path):
     becomes the one-line error of a damaged file, instead of lines of its own on the terminal.
     """
     o3d = _open3d(path)
+    if Path(path).suffix.lower() == ".pcd" and not _pcd_header(path):
+        # Open3D reads anything as a PCD file without points
+        raise LidarSigError("is not a PCD file (it does not start with a PCD header: VERSION, FIELDS, ...); "
+                            "check the file", path=path)
     with c_output() as printed:
         pc = o3d.t.io.read_point_cloud(str(path))
     problems = [line.strip() for line in printed[0].splitlines() if line.strip()]
@@ -106,6 +110,20 @@ def read_open3d(path):
     cloud = from_open3d(pc, path=str(path))
     cloud.previous_outputs = parse_marker(_header_comments(path))
     return cloud
+
+
+def _pcd_header(path):
+    """Whether the file starts as a PCD file does: comment lines (#), then VERSION or FIELDS."""
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(4096)
+    except OSError:
+        return True  # the reader says what is wrong
+    for line in head.split(b"\n"):
+        line = line.strip()
+        if line and not line.startswith(b"#"):
+            return line.split()[0].upper() in (b"VERSION", b"FIELDS")
+    return False
 
 
 @contextlib.contextmanager

@@ -18,7 +18,7 @@ import warnings
 import numpy as np
 
 from ..cloud import PointCloud
-from ..errors import LidarSigError, LidarSigWarning
+from ..errors import LidarSigError, LidarSigWarning, counted
 from .atomic import atomic_output
 from .fields import marker, parse_marker
 from .table import cloudcompare_name, plain_name, point_table
@@ -44,32 +44,34 @@ def read_text(path, columns=None):
     that is not numeric is a header, a ``.pts`` point-count line is skipped."""
     try:
         with open(path, encoding="utf-8") as fh:
-            raw = [ln for ln in fh if ln.strip()]
+            raw = [(number, ln) for number, ln in enumerate(fh, 1) if ln.strip()]
     except UnicodeDecodeError:
         raise LidarSigError("is not a text point cloud (binary content)", path=path) from None
-    comments = [ln.strip().lstrip("#/ ") for ln in raw if ln.lstrip().startswith(("#", "//"))]
-    lines = [ln for ln in raw if not ln.lstrip().startswith(("#", "//"))]
+    comments = [ln.strip().lstrip("#/ ") for _, ln in raw if ln.lstrip().startswith(("#", "//"))]
+    rows = [(number, ln) for number, ln in raw if not ln.lstrip().startswith(("#", "//"))]
     if columns is None:  # a commented header naming x, y and z (as this module writes) sets the layout
         named = [words for words in (c.replace(",", " ").split() for c in comments)
                  if {"x", "y", "z"} <= {w.lower() for w in words}]
         columns = tuple(_name(w) for w in named[0]) if named else None
-    if lines and not _numeric(lines[0]):
-        lines = lines[1:]  # header line
-    if lines and len(lines[0].replace(",", " ").split()) == 1:
-        lines = lines[1:]  # .pts point count
-    if not lines:
+    if rows and not _numeric(rows[0][1]):
+        rows = rows[1:]  # header line
+    if rows and len(rows[0][1].replace(",", " ").split()) == 1:
+        rows = rows[1:]  # .pts point count
+    if not rows:
         raise LidarSigError("the file holds no points; give a file with points", path=path)
+    lines = [ln for _, ln in rows]
     n_cols = len(lines[0].replace(",", " ").split())
     layout = tuple(columns) if columns else LAYOUTS.get(n_cols)
     if layout is None:
-        raise LidarSigError(f"has {n_cols} columns; name them with --columns (e.g. x,y,z,-,label)", path=path)
+        raise LidarSigError(f"has {counted(n_cols, 'column')}; name them with --columns (e.g. x,y,z,-,label)",
+                            path=path)
     if len(layout) != n_cols:
-        raise LidarSigError(f"has {n_cols} columns but --columns names {len(layout)}", path=path)
+        raise LidarSigError(f"has {counted(n_cols, 'column')} but --columns names {len(layout)}", path=path)
+    delimiter = "," if "," in lines[0] else None
     try:
-        data = np.loadtxt(lines, delimiter="," if "," in lines[0] else None, ndmin=2)
-    except ValueError as exc:
-        raise LidarSigError(f"cannot parse the columns ({str(exc).splitlines()[0][:120]}); every line needs "
-                            f"{n_cols} numbers", path=path) from None
+        data = np.loadtxt(lines, delimiter=delimiter, ndmin=2)
+    except ValueError:
+        raise LidarSigError(_unparsed(rows, n_cols, delimiter), path=path) from None
     col = {name: data[:, k] for k, name in enumerate(layout) if name != "-"}
     labels = None
     if "label" in col:
@@ -101,6 +103,21 @@ def write_text(path, cloud, fields, *, overwrite=False):
         np.savetxt(tmp, np.column_stack(cols), fmt=fmt, delimiter=",", header=header, comments="")
     if note:
         warnings.warn(note, LidarSigWarning, stacklevel=4)  # the caller of Result.write
+
+
+def _unparsed(rows, n_cols, delimiter):
+    """Why numbered ``rows`` (line number, text) are not a table of ``n_cols`` numbers: the first
+    line with another number of columns, or the first value that is not a number."""
+    first = rows[0][0]
+    for number, line in rows:
+        values = [v.strip() for v in line.split(delimiter)] if delimiter else line.split()
+        if len(values) != n_cols:
+            return (f"line {number} has {counted(len(values), 'column')}, line {first} has {n_cols}; give "
+                    "every line the same columns")
+        for value in values:
+            if not _numeric(value):
+                return f"line {number} holds {value[:40]!r}, not a number; every value must be a number"
+    return f"cannot read its lines as {counted(n_cols, 'column')} of numbers; check the file"
 
 
 def _name(word):

@@ -28,7 +28,7 @@ import time
 import numpy as np
 
 from ..classes import UNLABELED
-from ..errors import LidarSigError, as_path
+from ..errors import LidarSigError, as_path, counted
 from ..neighbors import area_cap
 from ..progress import progress
 from .core import SetContext, Tiling, check_tile_size, check_tileable, context_of, tile_name
@@ -129,8 +129,8 @@ def run_set(pipeline, inputs, *, work, tile_size=None, backend=None, resume=Fals
     need = pipeline.min_points()
     if n_points < need:
         left_out = sum(run.excluded.values())
-        raise LidarSigError(f"the set holds {n_points} points"
-                            + (f" besides {left_out:,} withheld or noise points" if left_out else "")
+        raise LidarSigError(f"the set holds {counted(n_points, 'point')}"
+                            + (f" besides {counted(left_out, 'withheld or noise point')}" if left_out else "")
                             + f", fewer than the largest scale needs ({need}); use a larger set or smaller scales"
                             + (" (--keep-noise uses every point)" if left_out else ""))
     ctx = context_of(lo, hi, factors, pipeline, n_points)

@@ -25,8 +25,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..cloud import kept_points
-from ..errors import LidarSigError, reason
+from ..cloud import MAX_COORDINATE, check_magnitude, kept_points
+from ..errors import LidarSigError, counted, reason
 from ..io.las import LAS_EXTENSIONS
 
 #: Bits of a point identifier that hold its index in its file (files up to 10^12 points).
@@ -108,6 +108,12 @@ def scan(files):
                 crs, units = las_units(h, path=f)
                 if int(h.point_count) == 0:
                     raise LidarSigError("holds no points; leave it out of the set", path=f)
+                reach = float(np.max(np.abs([h.mins, h.maxs]) * np.asarray(units.factors)))
+                if not reach <= MAX_COORDINATE:  # NaN too: the set's extent comes from the headers
+                    sources.append(Source(i, str(f), error=f"its header's bounds reach {reach:.6g} m, beyond "
+                                          f"{MAX_COORDINATE:g} m; correct the coordinates (the header's "
+                                          "scale and offset)"))
+                    continue
                 sources.append(Source(i, str(f), int(h.point_count), tuple(map(float, h.mins)),
                                       tuple(map(float, h.maxs)), tuple(units.factors), crs,
                                       units.describe()))
@@ -209,6 +215,7 @@ def stage_part(work, source, part, start, stop, cells, noise_codes=None):
                     break
                 xyz = np.column_stack([np.asarray(chunk.x)[:take], np.asarray(chunk.y)[:take],
                                        np.asarray(chunk.z)[:take]])
+                check_magnitude(xyz, source.factors, path=source.path, start=start + n)
                 rec = np.empty(take, RECORD)
                 rec["x"], rec["y"], rec["z"] = xyz[:, 0], xyz[:, 1], xyz[:, 2]
                 rec["label"] = np.asarray(chunk.classification)[:take]
@@ -239,10 +246,10 @@ def stage_part(work, source, part, start, stop, cells, noise_codes=None):
                                 "--work-dir", path=out.parent.parent) from None
         raise LidarSigError(f"cannot be read ({reason(exc)})", path=source.path) from None
     except Exception as exc:  # laspy and lazrs raise many kinds on damaged input
-        raise LidarSigError(f"cannot be read as LAS/LAZ after {start + n:,} points ({reason(exc)}); check "
+        raise LidarSigError(f"cannot be read as LAS/LAZ after {counted(start + n, 'point')} ({reason(exc)}); check "
                             "that the file is complete", path=source.path) from None
     if n != stop - start:
-        raise LidarSigError(f"holds {start + n:,} points but its header says {source.n_points:,}; the file is "
+        raise LidarSigError(f"holds {counted(start + n, 'point')} but its header says {source.n_points:,}; the file is "
                             "truncated", path=source.path)
     info = {"path": source.path, "identity": file_identity(source.path), "range": [start, stop], "n": n,
             "n_excluded": n_excluded, "noise_codes": _codes_record(noise_codes), "grid": cells.record(),

@@ -2,7 +2,8 @@
 
 The run ends with one line and exit status 128 + the signal, leaves no temporary file and no
 partial output, and a previous output stays as it was. (A SIGKILL cannot be caught: its
-leftover is tested in test_robust_outputs.)
+leftover is tested in test_robust_outputs; a signal once the outputs are in place, in
+test_robust_hostile.)
 
 Each signal is sent when the child has reached a known stage, not after a fixed delay: once a
 given number of the step lines `--verbose` prints as each step ends (the signal then lands in
@@ -110,7 +111,7 @@ def test_signal_during_the_write_leaves_the_previous_output(tmp_path, signum, na
 
 # For each command, how many step lines to wait for before SIGTERM, and where the signal lands
 # (the sample's LAZ write takes 0.03 s: too short to aim at; the write is the test above; once
-# a command's outputs are complete: test_signal_after_the_command_ended_ends_the_process_quietly).
+# a command's outputs are complete: test_robust_hostile).
 STAGES = {
     "saliency": {0: "starting", 1: "neighbourhoods", 2: "saliency", 3: "signature or write"},
     "signature": {0: "starting", 1: "neighbourhoods", 2: "saliency", 3: "signature", 4: "write"},
@@ -130,16 +131,22 @@ def test_sigterm_at_any_moment_leaves_a_whole_output_or_none(tmp_path, command, 
     assert not leftovers(tmp_path), err
     # compare writes no file: it has finished when its table is printed whole
     finished = out.exists() or (command == "compare" and "L1 " in stdout)
-    if proc.returncode == 0 or (proc.returncode == -signal.SIGTERM and finished):
-        # finished before the signal (or was shutting down, once the interpreter had put the
-        # default handlers back): the output is whole
+    if finished:
+        # finished before the signal (status 0), or the signal came once the output was in
+        # place (143, said so): the output is whole
         if command == "saliency":
             assert len(laspy.read(out).points) == 41507
         elif command == "signature":
             import lidar_sig as ls
 
             assert ls.load_signature(out).n_points == 41507
-        assert "Traceback" not in err and said(err) == []
+        assert "Traceback" not in err
+        if proc.returncode == 0:
+            assert said(err) == []
+        else:  # the signal came once the output was in place: said, the output whole
+            assert proc.returncode == 128 + signal.SIGTERM, err
+            lines = said(err)
+            assert len(lines) == 1 and "whole" in lines[0], err
     elif proc.returncode == -signal.SIGTERM:
         # killed by the signal itself while Python was still starting, before the command line
         # could install its handler: nothing had been opened for writing yet
@@ -169,18 +176,3 @@ def test_signal_while_starting_is_one_line(tmp_path, signum):
     assert_interrupted(proc, signum, read)
     assert not os.listdir(tmp_path)
 
-
-@pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGINT])
-def test_signal_after_the_command_ended_ends_the_process_quietly(signum):
-    # a signal between the end of the command (its outputs complete, its lines printed) and the
-    # end of the interpreter used to raise at the top level: a traceback after a finished run
-    code = ("import os, signal, sys, time\n"
-            "from lidar_sig.__main__ import main\n"
-            "status = main(['plugins'])\n"
-            f"os.kill(os.getpid(), {int(signum)})\n"
-            "time.sleep(5)\n"
-            "sys.exit(status)\n")
-    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
-                          stdin=subprocess.DEVNULL, preexec_fn=_interruptible)
-    assert proc.returncode == -signum, (proc.returncode, proc.stderr)
-    assert proc.stderr == "" and "c3dcm" in proc.stdout

@@ -10,7 +10,7 @@ import numpy as np
 
 from ...cloud import PointCloud
 from ...crs import las_units
-from ...errors import LidarSigError, LidarSigWarning, reason
+from ...errors import LidarSigError, LidarSigWarning, counted, reason
 from .dims import lidar_sig_dims
 
 LAS_EXTENSIONS = (".las", ".laz")
@@ -27,12 +27,12 @@ def read_las(path):
     if len(las.points) == 0:
         raise LidarSigError("the file holds no points; give a file with points", path=path)
     if len(las.points) != las.header.point_count:
-        raise LidarSigError(f"holds {len(las.points)} points but its header says "
+        raise LidarSigError(f"holds {counted(len(las.points), 'point')} but its header says "
                             f"{las.header.point_count}; the file is truncated", path=path)
     records = _records_in_file(path, las.header)
     if records is not None and records > las.header.point_count:
-        warnings.warn(f"{path}: the header counts {las.header.point_count:,} points but the file holds "
-                      f"{records:,} point records; only the header's {las.header.point_count:,} are read (fix the "
+        warnings.warn(f"{path}: the header counts {counted(las.header.point_count, 'point')} but the file holds "
+                      f"{counted(records, 'point record')}; only the header's {las.header.point_count:,} are read (fix the "
                       "header's point count to use them all)", LidarSigWarning, stacklevel=3)
     xyz = np.column_stack([np.asarray(las.x), np.asarray(las.y), np.asarray(las.z)])
     labels = np.asarray(las.classification, dtype=np.int64)
