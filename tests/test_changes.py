@@ -333,3 +333,26 @@ def test_an_epoch_given_as_a_folder_of_tiles_is_joined_before_the_saliency(tmp_p
     # same points, saliency across the tile edge as in the whole cloud: nothing changed anywhere
     assert np.array_equal(cm.table["points_a"], cm.table["points_b"])
     assert np.allclose(cm.table["kl"][valid], 0.0) and np.allclose(cm.table["fv"][valid], 0.0, atol=1e-12)
+
+
+def test_cells_are_admitted_by_their_points_with_defined_saliency():
+    # issue 16: spherical scales leave the points of a sparse cell undefined; a cell whose points
+    # were all undefined was compared, raising a ValueError from its empty Egeom histogram
+    def cloud(seed, dense=3000):
+        rng = np.random.default_rng(seed)
+        side = 10.0 if dense > 100 else 0.3
+        near = np.column_stack([rng.uniform(0, side, (dense, 2)), 0.05 * rng.standard_normal(dense)])
+        g = np.arange(0, 8, 2.0) + 1.0  # 16 points 2 m apart, more than the largest radius
+        gx, gy = np.meshgrid(g, g)
+        sparse = np.column_stack([gx.ravel() + 11, gy.ravel(), np.zeros(gx.size)])
+        xyz = np.vstack([near, sparse]) + [770_000.0, 6_277_000.0, 0.0]
+        return PointCloud(xyz, np.full(len(xyz), 2), crs="EPSG:2154")
+
+    pipeline = ls.Pipeline(scales=ls.radii(0.5, 0.6), progress=False)
+    cm = changes(cloud(0), cloud(1), cell=10, min_points=10, pipeline=pipeline)
+    t = cm.table
+    assert t["points_a"][1] == 16 and t["defined_a"][1] == 0 and not t["valid"][1]
+    assert t["valid"][0] and t["defined_a"][0] == 3000
+    # 16 points in the sparse cell pass a count of all points, none has a defined saliency
+    with pytest.raises(LidarSigError, match="10 points with defined saliency"):
+        changes(cloud(0, 8), cloud(1, 8), cell=10, min_points=10, pipeline=pipeline)

@@ -11,7 +11,8 @@ import numpy as np
 from ..metrics import METRIC_KEYS, compare
 from ..signature import Frame, Signature
 
-#: Fewest points of a cell, in each epoch, for a signature worth comparing (docs/changes.md).
+#: Fewest points with defined saliency in a cell, in each epoch, for a signature worth comparing
+#: (docs/changes.md).
 MIN_POINTS = 1000
 #: Frame of the per-cell signatures: 64 px (2 px margin) instead of 512 (docs/changes.md).
 CELL_FRAME = Frame(64, 2)
@@ -19,7 +20,8 @@ CELL_FRAME = Frame(64, 2)
 #: the score.
 CELL_FIELDS = (("row", np.int32), ("col", np.int32), ("x_min", np.float64), ("y_min", np.float64),
                ("x_max", np.float64), ("y_max", np.float64), ("points_a", np.int64), ("points_b", np.int64),
-               ("undefined_a", np.float64), ("undefined_b", np.float64), ("valid", bool))
+               ("defined_a", np.int64), ("defined_b", np.int64), ("undefined_a", np.float64),
+               ("undefined_b", np.float64), ("valid", bool))
 
 
 @dataclass
@@ -48,7 +50,7 @@ def bin_points(epoch, grid, classes, labelled):
     order = np.argsort(epoch.cells, kind="stable")
     starts = np.searchsorted(epoch.cells[order], np.arange(n_cells + 1))
     counts = np.bincount(epoch.cells * n_classes + index, minlength=n_cells * n_classes)
-    undefined = np.bincount(epoch.cells, weights=~epoch.saliency.defined, minlength=n_cells)
+    undefined = np.bincount(epoch.cells[~epoch.saliency.defined], minlength=n_cells)
     return Binned(order, starts, counts.reshape(n_cells, n_classes), undefined)
 
 
@@ -66,7 +68,9 @@ def cell_metrics(grid, epochs, classes, labelled, *, min_points=MIN_POINTS, rend
 
     Each epoch's points are binned by cell; a cell's signature is built from its points'
     saliency (computed on the whole epoch) in ``frame``, and every metric of
-    :func:`lidar_sig.metrics.compare` is computed where both epochs hold ``min_points``. The
+    :func:`lidar_sig.metrics.compare` is computed where both epochs hold ``min_points`` points
+    with defined saliency (the signatures leave the others out: a cell of points all undefined,
+    e.g. spherical scales on a sparse cell, has no signature to compare). The
     table's ``score`` is left NaN for the ranking to fill
     (:func:`lidar_sig.change_map.result.score_values`). Returns ``(table, classes_a, classes_b)``.
     """
@@ -80,8 +84,9 @@ def cell_metrics(grid, epochs, classes, labelled, *, min_points=MIN_POINTS, rend
     for tag, b in zip("ab", binned):
         n = np.diff(b.starts)
         table[f"points_{tag}"] = n
+        table[f"defined_{tag}"] = n - b.undefined
         table[f"undefined_{tag}"] = b.undefined / np.maximum(n, 1)
-    table["valid"] = (table["points_a"] >= min_points) & (table["points_b"] >= min_points)
+    table["valid"] = (table["defined_a"] >= min_points) & (table["defined_b"] >= min_points)
     for k in METRIC_KEYS + ("score",):
         table[k] = np.nan
     cells = np.flatnonzero(table["valid"])

@@ -40,8 +40,9 @@ class ChangeMap:
     table : numpy structured array
         One record per cell of the grid, row-major (row 0 north): ``row``, ``col``, cell bounds
         ``x_min, y_min, x_max, y_max`` (CRS coordinates), ``points_a``, ``points_b``,
-        ``undefined_a``, ``undefined_b`` (share of the cell's points with undefined saliency),
-        ``valid`` (both epochs hold ``min_points`` or more), the metrics of
+        ``defined_a``, ``defined_b`` (those with defined saliency), ``undefined_a``,
+        ``undefined_b`` (share of the cell's points with undefined saliency), ``valid`` (both
+        epochs hold ``min_points`` points with defined saliency or more), the metrics of
         :data:`lidar_sig.metrics.METRIC_KEYS` and ``score``; metrics are NaN where ``valid`` is
         False.
     classes_a, classes_b : (cells, C) int64

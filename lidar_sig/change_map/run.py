@@ -88,6 +88,10 @@ def changes(a, b, *, cell=CELL, pipeline=None, min_points=MIN_POINTS, score=None
     with step("change map", cells=grid.n_cells, cell=f"{cell:g} m", frame=f"{frame.size} px") as s:
         table, classes_a, classes_b = cell_metrics(grid, epochs, classes, labelled, min_points=min_points,
                                                    render=render, frame=frame, progress=s)
+    if not table["valid"].any():  # the points are there, their saliency is not
+        raise LidarSigError(f"no cell of {cell:g} m holds {min_points:,} points with defined saliency in both "
+                            f"epochs (at most {int(np.minimum(table['defined_a'], table['defined_b']).max()):,}); "
+                            "use a larger cell size (--cell), a smaller minimum (--min-points) or larger scales")
     table["score"] = score_values(table, score)
     method = {k: epochs[0].metadata[k] for k in ("descriptor", "strategy", "scale_kind", "scale_values",
                                                  "scale_units", "weights") if k in epochs[0].metadata}
