@@ -11,20 +11,24 @@ and the two AHN3 crops of Delft joined (../shared/data/ahn3_delft). For each blo
   registration, as a second survey would differ);
 - **edited**: the block against its edited copy (benchmarks/edited_epoch.py: a building removed,
   the vegetation of a cell removed, a box building added, 80% kept, moved by (0.3, -0.2,
-  0.05) m; the vegetation class is 5 in IGN, 1 in AHN3), with 25 m cells.
+  0.05) m; the vegetation class is 5 in IGN, 1 in AHN3), with 25 m cells;
+- **sparse** (IGN only): two independent thinnings of the block to 0.3 points/m², the second
+  with classes 3, 4, 5 put in class 1 (another survey's scheme), without options and with
+  ``--class-map 1,3,4,5=vegetation-or-other``.
 
 Every run uses the change map's defaults (cell and fewest points chosen from the densities, 95%
 confidence). Printed: compared cells, the share of significant cells per metric (for the edited
 pairs: the edited cells found significant, and the share of the other cells), the ranks of the
 edited cells, and the time of the level-of-detection step against the change map's total.
 
-    python benchmarks/change_noise.py [--seeds 0 1] [--blocks ign ahn3]
+    python benchmarks/change_noise.py [--seeds 0 1 2] [--blocks ign ahn3]
 """
 from __future__ import annotations
 
 import argparse
 import sys
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -85,14 +89,16 @@ def shares(cm):
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1], help="seeds of the unchanged pairs")
+    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2], help="seeds of the unchanged pairs")
     parser.add_argument("--blocks", nargs="+", choices=sorted(BLOCKS), default=["ign", "ahn3"])
     args = parser.parse_args()
     import lidar_sig as ls
     from edited_epoch import edit
     from lidar_sig.change_map import read_epoch
+    from lidar_sig.errors import LidarSigWarning
     from lidar_sig.metrics import METRIC_KEYS, METRIC_NAMES
 
+    warnings.simplefilter("ignore", LidarSigWarning)  # the sparse pair's scheme warning is the point
     pipeline = ls.Pipeline(progress=False)
     header = "| block | pair | cells | " + " | ".join(METRIC_NAMES[k] for k in METRIC_KEYS) + " |"
     rows, notes = [], []
@@ -131,6 +137,21 @@ def main():
                               for e, c in zip(edits, cells))
             notes.append(f"{title}, edited: ranks by {METRIC_NAMES[cm.score]}: {ranks}; "
                          f"{cm.n_significant} significant cells")
+            notes.append(f"{title}, edited: z of the edited cells ({', '.join(edits)}): " + "; ".join(
+                f"{METRIC_NAMES[k]} " + "/".join(f"{cm.levels[k].z[c]:.1f}" for c in cells) for k in METRIC_KEYS))
+        if key == "ign":  # the sparse pair of two class schemes (tests/test_changes.py, must-show 3)
+            a, b = sparse_pair(block)
+            for name, options in (("sparse, two schemes", {}),
+                                  ("sparse, --class-map 1,3,4,5=vegetation-or-other",
+                                   {"class_map": "1,3,4,5=vegetation-or-other"})):
+                cm = ls.changes(a, b, pipeline=pipeline, **options)
+                values, n = shares(cm), int(cm.table["valid"].sum())
+                rows.append(f"| {title} | {name} | {n} | "
+                            + " | ".join(f"{values[k]:.3f}" if k in values else "n/a" for k in METRIC_KEYS) + " |")
+                notes.append(f"{title}, {name}: {n} cells of {cm.cell:g} m (min {cm.min_points:,} points, densities "
+                             + ", ".join(f"{d:.2f}" for d in cm.density) + f" points/m²), ranked by "
+                             f"{METRIC_NAMES[cm.score]}; survey factors exp(beta): " + ", ".join(
+                                 f"{METRIC_NAMES[k]} {np.exp(cm.levels[k].beta):.2f}" for k in METRIC_KEYS))
     print(header)
     print("|" + "---|" * (3 + len(METRIC_KEYS)))
     for row in rows:

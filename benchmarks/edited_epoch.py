@@ -183,6 +183,8 @@ def main(argv=None):
     parser.add_argument("--folder", default=str(IGN), help="the tiles of epoch 1 (default: the six IGN tiles)")
     parser.add_argument("--vegetation", type=int, default=HIGH_VEGETATION,
                         help="class code of the vegetation removed (5 for IGN, 1 for AHN3)")
+    parser.add_argument("--second", action="store_true",
+                        help="also write epoch3.laz: epoch 2 edited again in other cells (a series)")
     args = parser.parse_args(argv)
     one, two, edits = edited_epochs(Path(args.folder), vegetation=args.vegetation)
     out = Path(args.out)
@@ -191,6 +193,12 @@ def main(argv=None):
     print(f"epoch 1: {len(one):,} points, epoch 2: {len(two):,} points")
     for name, (x, y) in edits.items():
         print(f"{name}: cell centred at ({x:.1f}, {y:.1f})")
+    if args.second:
+        three, again = edit(two, seed=14, vegetation=args.vegetation, avoid=list(edits.values()), name="second edit")
+        write_las(three, out / "epoch3.laz")
+        print(f"epoch 3: {len(three):,} points")
+        for name, (x, y) in again.items():
+            print(f"{name} (epoch 2 to 3): cell centred at ({x:.1f}, {y:.1f})")
 
 
 if __name__ == "__main__":
