@@ -45,36 +45,49 @@ def class_scheme_warnings(totals_a, totals_b, class_names, names, *,
 
 def parse_class_map(value):
     """{class name: sorted codes} from a class map given as text (``"1,3,4,5=vegetation"``,
-    several joined by ``;``), a list of such texts, a dict {name: codes}, or a ``.toml`` /
-    ``.json`` file of such a dict; a LidarSigError naming the value and the fix otherwise.
+    several joined by ``;``), a dict {name: codes}, a ``.toml`` / ``.json`` file of such a
+    dict, or a list of any of these; a LidarSigError naming the value and the fix otherwise.
     None or empty: no map."""
     if value is None:
         return {}
-    if isinstance(value, dict):
-        return _checked({k: v for k, v in value.items()}, repr(value))
-    if isinstance(value, (str, Path)) and str(value).lower().endswith((".toml", ".json")):
-        return _checked(_read_file(Path(value)), str(value))
-    texts = [value] if isinstance(value, str) else value
-    if not isinstance(texts, (list, tuple)) or not all(isinstance(t, str) for t in texts):
-        raise LidarSigError(f"a class map is text like {EXAMPLE!r}, a dict {{name: [codes]}} or a .toml/.json "
-                            f"file, got a {type(value).__name__}")
+    items = list(value) if isinstance(value, (list, tuple)) else [value]
     merged = {}
-    for text in texts:
-        for part in (p.strip() for p in text.split(";")):
-            if not part:
-                continue
-            codes, sep, name = part.partition("=")
-            if not sep or not name.strip():
-                raise LidarSigError(f"class map {part!r}: write the codes, '=' and the merged class's name, as "
-                                    f"in {EXAMPLE}")
-            if not re.fullmatch(r"\s*\d+(\s*,\s*\d+)*\s*", codes):
-                raise LidarSigError(f"class map {part!r}: the codes before '=' must be whole numbers separated "
-                                    f"by commas, as in {EXAMPLE}")
-            name = name.strip()
+    for item in items:
+        if isinstance(item, dict):
+            part = _checked(dict(item), repr(item))
+        elif isinstance(item, (str, Path)) and str(item).lower().endswith((".toml", ".json")):
+            part = _checked(_read_file(Path(item)), str(item))
+        elif isinstance(item, str):
+            part = _checked(_parse_text(item), item)
+        else:
+            raise LidarSigError(f"a class map is text like {EXAMPLE!r}, a dict {{name: [codes]}} or a .toml/.json "
+                                f"file, got a {type(item).__name__}")
+        for name in part:
             if name in merged:
-                raise LidarSigError(f"class map {part!r}: {name!r} is given twice; list all its codes once")
-            merged[name] = [int(c) for c in codes.split(",")]
-    return _checked(merged, "; ".join(texts))
+                raise LidarSigError(f"class map: {name!r} is given twice; list all its codes once")
+        merged.update(part)
+    return _checked(merged, "; ".join(map(str, items))) if merged else {}
+
+
+def _parse_text(text):
+    merged = {}
+    for part in (p.strip() for p in text.split(";")):
+        if not part:
+            continue
+        codes, sep, name = part.partition("=")
+        if not sep or not name.strip():
+            raise LidarSigError(f"class map {part!r}: write the codes, '=' and the merged class's name, as in "
+                                f"{EXAMPLE}")
+        if not re.fullmatch(r"\s*\d+(\s*,\s*\d+)*\s*", codes):
+            raise LidarSigError(f"class map {part!r}: the codes before '=' must be whole numbers separated by "
+                                f"commas, as in {EXAMPLE}")
+        name = name.strip()
+        if name in merged:
+            raise LidarSigError(f"class map {part!r}: {name!r} is given twice; list all its codes once")
+        merged[name] = [int(c) for c in codes.split(",")]
+    if not merged:
+        raise LidarSigError(f"class map {text!r}: give at least one merged class, as in {EXAMPLE}")
+    return merged
 
 
 def _read_file(path):

@@ -541,3 +541,12 @@ def test_the_map_has_coordinates_a_north_arrow_and_a_legend_of_significance():
     assert (ticks.max(axis=2) < 60).any()
     assert image.shape[0] > lay.legend_y + 100 and (image[lay.legend_y:].max(axis=2) < 60).sum() > 500
     assert FADED < ALPHA
+
+
+def test_a_class_map_file_given_on_the_command_line_is_read(tmp_path):
+    from lidar_sig.class_schemes import parse_class_map
+
+    (tmp_path / "veg.toml").write_text("vegetation = [3, 5]\n")
+    assert parse_class_map([str(tmp_path / "veg.toml"), "9=water"]) == {"vegetation": [3, 5], "water": [9]}
+    with pytest.raises(LidarSigError, match="'vegetation' is given twice"):
+        parse_class_map([str(tmp_path / "veg.toml"), "4=vegetation"])

@@ -16,9 +16,9 @@ from .options import columns_option, overwrite_option, pipeline_options, render_
 @click.option("-o", "--output", default=None, metavar="FILE.tif",
               help="GeoTIFF: the score, its level of detection, significant (0/1) and every metric per cell "
                    "(needs rasterio: pip install lidar-sig[geo]).")
-@click.option("--cell", default=AUTO, show_default=True,
+@click.option("--cell", default=AUTO, show_default=True, metavar="METRES|auto",
               help="Cell side in metres, or auto: chosen from the epochs' densities.")
-@click.option("--min-points", default=AUTO, show_default=True,
+@click.option("--min-points", default=AUTO, show_default=True, metavar="N|auto",
               help="Fewest points with defined saliency of a cell in each epoch for it to be compared, or auto: "
                    "a fifth of a full cell.")
 @click.option("--score", type=click.Choice(METRIC_KEYS), default=None,
