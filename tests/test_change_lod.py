@@ -147,3 +147,26 @@ def test_a_series_of_three_epochs_puts_each_edit_in_its_interval(block, edited, 
             assert when[row, col] == interval, (interval, name)
     compared = when != -9999.0
     assert (when[compared] > 0).sum() <= 6 + 0.05 * compared.sum()  # the edits, and few others
+
+
+def test_resampling_draws_per_cell_so_that_results_do_not_depend_on_the_processing_order():
+    from conftest import airborne_like
+    from lidar_sig.change_map import Grid, bin_points, compute_epoch, null_metrics
+    from lidar_sig.change_map.cells import cell_table
+    from lidar_sig.classes import ASPRS
+    from lidar_sig.cloud import PointCloud
+
+    epochs = [compute_epoch(PointCloud(airborne_like(6000, seed=s)[0], airborne_like(6000, seed=s)[1]))
+              for s in (0, 1)]
+    grid = Grid.covering(np.vstack([e.cloud.xyz[:, :2] for e in epochs]), 10.0)
+    binned = [bin_points(e, grid, ASPRS, True) for e in epochs]
+    table = cell_table(grid, binned, 100)
+    full = null_metrics(table, binned, ASPRS)
+    valid = np.flatnonzero(table["valid"])
+    assert len(valid) >= 8 and np.isfinite(full[valid]).all()
+    part = table.copy()
+    part["valid"][valid[::2]] = False  # half the cells, processed without the others
+    half = null_metrics(part, binned, ASPRS)
+    assert np.array_equal(half[valid[1::2]], full[valid[1::2]])  # same draws, exactly
+    other = null_metrics(table, binned, ASPRS, seed=18)
+    assert not np.array_equal(other[valid], full[valid])

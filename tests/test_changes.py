@@ -498,6 +498,8 @@ def test_three_epochs_give_a_series_computed_once_per_epoch(tmp_path, monkeypatc
         assert names[0].startswith("interval 1 (") and names[14].startswith("interval 2 (")
         assert np.array_equal(src.read(len(names)) == -9999.0, ~valid.reshape(src.shape))
         assert src.tags()["epoch_3"]
+    html = series.report().html()
+    assert "Interval 1 (" in html and "Interval 2 (" in html and html.count("data:image/png;base64,") == 3
     info = series.to_dict(2)
     assert [i["interval"] for i in info["intervals"]] == [1, 2] and len(info["intervals"][0]["top"]) == 2
     assert sum(info["when"]["cells"].values()) == valid.sum()
