@@ -137,15 +137,7 @@ def changes(a, b, *more, cell=AUTO, pipeline=None, min_points=AUTO, score=None, 
     classes = table_of_classes if labelled else UNLABELED
     with step("binning", epochs=len(epochs), cells=grid.n_cells):
         binned = [bin_points(e, grid, classes, labelled, frame) for e in epochs]
-    schemes = [[] for _ in range(len(epochs) - 1)]  # per interval
-    if labelled:
-        given = score is not None
-        consequence = ("delta_KL and L1 measure the classification schemes as much as the land" +
-                       ("" if given else f"; the cells are ranked by {METRIC_NAMES[LABEL_FREE_SCORE]}, which does "
-                        "not depend on the labels (--class-map merges codes to compare the classes)"))
-        for k in range(len(epochs) - 1):
-            schemes[k] = class_scheme_warnings(binned[k].classes.sum(axis=0), binned[k + 1].classes.sum(axis=0),
-                                             classes.class_names, names[k:k + 2], consequence=consequence)
+    schemes = _scheme_warnings(binned, classes, names, ranked_by=score) if labelled else [[]] * (len(epochs) - 1)
     score = score or (SCORE if labelled and not any(schemes) else LABEL_FREE_SCORE)
     method = {k: epochs[0].metadata[k] for k in ("descriptor", "strategy", "scale_kind", "scale_values",
                                                  "scale_units", "weights") if k in epochs[0].metadata}
@@ -194,6 +186,18 @@ def _interval(k, epochs, binned, grid, classes, min_points, cell, render, frame,
                    warnings=notes, timings=timings)
     cm.rank_by(score)
     return cm
+
+
+def _scheme_warnings(binned, classes, names, *, ranked_by=None):
+    """Per interval, the warnings that its two epochs' class codes barely overlap
+    (:func:`lidar_sig.class_schemes.class_scheme_warnings`), saying what the ranking then is."""
+    consequence = "delta_KL and L1 measure the classification schemes as much as the land"
+    if ranked_by is None:
+        consequence += (f"; the cells are ranked by {METRIC_NAMES[LABEL_FREE_SCORE]}, which does not depend on the "
+                        "labels (--class-map merges codes to compare the classes)")
+    return [class_scheme_warnings(binned[k].classes.sum(axis=0), binned[k + 1].classes.sum(axis=0),
+                                  classes.class_names, names[k:k + 2], consequence=consequence)
+            for k in range(len(binned) - 1)]
 
 
 def _is_auto(value):
