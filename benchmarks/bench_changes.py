@@ -1,12 +1,15 @@
-"""Cost of the change map against the saliency it needs (issue 13, must-show 4).
+"""Cost of the change map against the saliency it needs (issue 13, must-show 4; issue 17,
+must-show 5).
 
 Epoch A is FILE (default the 640,510-point AHN3 crop); epoch B is made from it in memory: moved
 by (0.3, -0.2, 0.05) m, the building points (class 6) of one 25 m cell removed and 2% of the
 points dropped at random. In one process, after a warm-up (compiled kernels, imports), each
 round times both epochs' saliency alone (``Pipeline.saliency`` of A, then of B) and the whole
-change map (``lidar_sig.changes(A, B)``: both saliencies, binning, per-cell signatures and
-metrics), alternating which goes first; the ratio of the medians is printed. Peak memory is
-measured apart, one child process per case (``os.wait4``'s peak resident set size).
+change map (``lidar_sig.changes(A, B)`` with its defaults: both saliencies, binning, per-cell
+signatures and metrics, the level of detection), alternating which goes first; the ratio of the
+medians is printed, and the change map's own steps (cell metrics, level of detection) from its
+timings. Peak memory is measured apart, one child process per case (``os.wait4``'s peak
+resident set size).
 
     python benchmarks/bench_changes.py [FILE] [--runs 3]
 """
@@ -74,16 +77,23 @@ def main():
     small = ls.PointCloud(a.xyz[corner], a.labels[corner], crs=a.crs, units=a.units)
     ls.changes(small, small, pipeline=pipeline)
     times = {name: [] for name in CASES}
+    steps = {"cells": [], "lod": []}
     result = None
     for r in range(args.runs):
         for name in (list(CASES) if r % 2 == 0 else list(CASES)[::-1]):
             start = time.perf_counter()
             out = CASES[name](pipeline, a, b)
             times[name].append(time.perf_counter() - start)
-            result = out if out is not None else result
+            if out is not None:
+                result = out
+                for k in steps:
+                    steps[k].append(out.timings[k])
     med = {k: float(np.median(v)) for k, v in times.items()}
     print(f"epochs: A {len(a):,} points ({Path(args.file).name}), B {len(b):,} points (edited copy); "
-          f"{result.grid.rows} x {result.grid.cols} cells of 25 m, {int(result.table['valid'].sum())} compared")
+          f"{result.grid.rows} x {result.grid.cols} cells of {result.cell:g} m, {int(result.table['valid'].sum())} "
+          f"compared (at least {result.min_points:,} points), {result.n_significant} significant")
+    print(f"change map steps: cell metrics median {np.median(steps['cells']):.2f} s, level of detection median "
+          f"{np.median(steps['lod']):.2f} s of the change map's {med['changes']:.2f} s")
     for name, values in times.items():
         print(f"{name:>9}: median {med[name]:.2f} s of " + ", ".join(f"{v:.2f}" for v in values))
     ratio = med["changes"] / med["saliency"]

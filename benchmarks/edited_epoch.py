@@ -1,19 +1,22 @@
-"""A second epoch of the six IGN tiles with known changes, for the change map (issue 13).
+"""A second epoch of a block of tiles with known changes, for the change map (issues 13, 17).
 
-Epoch 1 is the six IGN LiDAR HD tiles of Montpellier (../shared/data/ign_lidarhd_montpellier)
-joined. Epoch 2 is made from it by three edits, each inside one 25 m cell of the grid aligned to
-multiples of 25 m (the change map's default), then everything is resampled and moved:
+Epoch 1 is a folder of tiles joined: by default the six IGN LiDAR HD tiles of Montpellier
+(../shared/data/ign_lidarhd_montpellier); the two AHN3 crops of Delft work too (``--folder``,
+``--vegetation 1``: AHN3 keeps vegetation in class 1). Epoch 2 is made from it by three edits,
+each inside one 25 m cell of the grid aligned to multiples of 25 m, then everything is
+resampled and moved:
 
 1. a building removed: the class-6 points of the largest building footprint that lies wholly
    inside one cell (footprints are the connected parts of a 1 m raster of class-6 points);
-2. the high vegetation (class 5) of another area removed: every class-5 point of the cell with
-   the most class-5 points, 1 m inside its edges;
+2. the vegetation (class 5, high vegetation, by default) of another area removed: every point
+   of that class in the cell with the most of them, 1 m inside its edges;
 3. a synthetic box building added on open ground: a flat roof 14 m x 10 m, 8 m above the
    ground, sampled at the cell's own density (class 6), sparse walls, and the ground points
    under it removed (the roof hides them);
 4. a uniform random 80% of the points kept and the whole cloud shifted by (0.3, -0.2, 0.05) m.
 
-    python benchmarks/edited_epoch.py [--out DIR]      # writes epoch1.laz and epoch2.laz
+    python benchmarks/edited_epoch.py [--out DIR] [--folder DIR --vegetation CODE]
+    # writes epoch1.laz and epoch2.laz
 
 The function :func:`edited_epochs` returns both clouds in memory and the three edited cells.
 """
@@ -42,8 +45,9 @@ def _cells(xy):
     return np.floor(xy / CELL).astype(np.int64)
 
 
-def _building_footprint(xyz, labels):
-    """Mask of the class-6 points of the largest building footprint inside one cell, and the cell.
+def _building_footprint(xyz, labels, avoid=()):
+    """Mask of the class-6 points of the largest building footprint inside one cell (not one of
+    ``avoid``), and the cell.
 
     Roofs of this dense block touch each other across cells, so a footprint is a connected part
     of the 1 m raster of class-6 points once the bands within 1 m of the cell edges are cut out.
@@ -68,11 +72,14 @@ def _building_footprint(xyz, labels):
     part_of_point = parts[ij[:, 0], ij[:, 1]]
     sizes = np.bincount(part_of_point)
     sizes[0] = 0
-    best = int(np.argmax(sizes))
-    mask = np.zeros(len(xyz), bool)
-    mask[np.flatnonzero(b)[part_of_point == best]] = True
-    cell = tuple(int(v) for v in _cells(xyz[mask, :2])[0])
-    return mask, cell
+    points = np.flatnonzero(b)
+    for best in np.argsort(-sizes, kind="stable"):
+        mask = np.zeros(len(xyz), bool)
+        mask[points[part_of_point == best]] = True
+        cell = tuple(int(v) for v in _cells(xyz[mask, :2])[0])
+        if cell not in avoid:
+            return mask, cell
+    raise ValueError("no building footprint outside the cells to avoid")
 
 
 def _inner(xy, cell):
@@ -106,38 +113,52 @@ def _box_building(xyz, labels, cell, rng):
     return added, np.full(len(added), BUILDING, np.int64), under
 
 
-def edited_epochs(folder=IGN, *, seed=13):
+def edited_epochs(folder=IGN, *, seed=13, vegetation=HIGH_VEGETATION):
     """(epoch 1, epoch 2, edits): the two PointClouds and {edit name: (x, y) centre of its 25 m
-    cell in epoch 1's coordinates}."""
+    cell in epoch 1's coordinates}; ``vegetation`` is the class code of the vegetation removed
+    (5 in IGN LiDAR HD, 1 in AHN3)."""
     from lidar_sig.change_map import read_epoch
+
+    one = read_epoch(Path(folder))
+    if Path(folder) == IGN:
+        one.path = "IGN Montpellier, six tiles"
+    two, edits = edit(one, seed=seed, vegetation=vegetation)
+    return one, two, edits
+
+
+def edit(one, *, seed=13, vegetation=HIGH_VEGETATION, avoid=(), name="edited epoch"):
+    """(epoch 2, edits): the three edits of the module's docstring made to the PointCloud
+    ``one`` in cells other than the (x, y) centres ``avoid``, then 80% of the points kept and
+    everything moved; edits as {edit name: (x, y) centre of its 25 m cell in ``one``'s
+    coordinates}."""
     from lidar_sig.cloud import PointCloud
 
     rng = np.random.default_rng(seed)
-    one = read_epoch(Path(folder))
     xyz, labels = one.xyz, one.labels
+    avoid = {tuple(int(v) for v in np.floor(np.asarray(c) / CELL)) for c in avoid}
     cells = _cells(xyz[:, :2])
-    remove_building, building_cell = _building_footprint(xyz, labels)
-    # the cell with the most high vegetation, other than the building's
-    veg = labels == HIGH_VEGETATION
+    remove_building, building_cell = _building_footprint(xyz, labels, avoid)
+    # the cell with the most vegetation, other than the building's
+    veg = labels == vegetation
     keys, counts = np.unique(cells[veg], axis=0, return_counts=True)
-    order = [tuple(map(int, keys[k])) for k in np.argsort(-counts)]
-    veg_cell = next(c for c in order if c != building_cell)
+    order = [tuple(map(int, keys[k])) for k in np.argsort(-counts, kind="stable")]
+    veg_cell = next(c for c in order if c != building_cell and c not in avoid)
     remove_veg = veg & _inner(xyz[:, :2], veg_cell)
     # the open-ground cell: the largest share of ground among full cells, other than both
     keys, n_all = np.unique(cells, axis=0, return_counts=True)
     ground_share = [(np.sum(labels[np.all(cells == k, axis=1)] == GROUND) / n, tuple(map(int, k)))
                     for k, n in zip(keys, n_all) if n > 0.5 * np.median(n_all)]
-    box_cell = next(c for _, c in sorted(ground_share, reverse=True) if c not in (building_cell, veg_cell))
+    box_cell = next(c for _, c in sorted(ground_share, reverse=True)
+                    if c not in (building_cell, veg_cell) and c not in avoid)
     added, added_labels, hidden = _box_building(xyz, labels, box_cell, rng)
     keep = ~(remove_building | remove_veg | (hidden & (labels == GROUND)))
     xyz2 = np.vstack([xyz[keep], added])
     labels2 = np.concatenate([labels[keep], added_labels])
     sample = rng.random(len(xyz2)) < KEEP
     xyz2 = xyz2[sample] + np.asarray(SHIFT)
-    two = PointCloud(np.round(xyz2, 3), labels2[sample], path="edited epoch", crs=one.crs, units=one.units)
-    one.path = "IGN Montpellier, six tiles"
-    edits = {"building removed": building_cell, "high vegetation removed": veg_cell, "box building added": box_cell}
-    return one, two, {k: tuple((np.asarray(c) + 0.5) * CELL) for k, c in edits.items()}
+    two = PointCloud(np.round(xyz2, 3), labels2[sample], path=name, crs=one.crs, units=one.units)
+    edits = {"building removed": building_cell, "vegetation removed": veg_cell, "box building added": box_cell}
+    return two, {k: tuple((np.asarray(c) + 0.5) * CELL) for k, c in edits.items()}
 
 
 def write_las(cloud, path):
@@ -159,14 +180,25 @@ def write_las(cloud, path):
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", default=".", help="folder for epoch1.laz and epoch2.laz")
+    parser.add_argument("--folder", default=str(IGN), help="the tiles of epoch 1 (default: the six IGN tiles)")
+    parser.add_argument("--vegetation", type=int, default=HIGH_VEGETATION,
+                        help="class code of the vegetation removed (5 for IGN, 1 for AHN3)")
+    parser.add_argument("--second", action="store_true",
+                        help="also write epoch3.laz: epoch 2 edited again in other cells (a series)")
     args = parser.parse_args(argv)
-    one, two, edits = edited_epochs()
+    one, two, edits = edited_epochs(Path(args.folder), vegetation=args.vegetation)
     out = Path(args.out)
     write_las(one, out / "epoch1.laz")
     write_las(two, out / "epoch2.laz")
     print(f"epoch 1: {len(one):,} points, epoch 2: {len(two):,} points")
     for name, (x, y) in edits.items():
         print(f"{name}: cell centred at ({x:.1f}, {y:.1f})")
+    if args.second:
+        three, again = edit(two, seed=14, vegetation=args.vegetation, avoid=list(edits.values()), name="second edit")
+        write_las(three, out / "epoch3.laz")
+        print(f"epoch 3: {len(three):,} points")
+        for name, (x, y) in again.items():
+            print(f"{name} (epoch 2 to 3): cell centred at ({x:.1f}, {y:.1f})")
 
 
 if __name__ == "__main__":

@@ -13,8 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-import numpy as np
-
+from .class_schemes import class_scheme_warnings
 from .cloud import PointCloud
 from .errors import LidarSigError
 from .metrics import compare as compare_signatures
@@ -23,9 +22,6 @@ from .signature import RENDERINGS, Signature, method_differences
 
 #: Share of a cloud's points with undefined saliency above which compare warns.
 UNDEFINED_WARNING = 0.05
-#: Share of a cloud's points in classes the other cloud does not use above which compare warns
-#: that the semantic metrics measure the classification schemes.
-CLASS_OVERLAP_WARNING = 0.10
 #: Normalized radii resolving to metric radii further apart than this get a warning.
 RADII_TOLERANCE = 0.10
 
@@ -260,17 +256,7 @@ def _class_warnings(sides):
     a, b = (s.signature for s in sides)
     if not a.classes.names:
         return []
-    pa, pb = (np.asarray(s.class_totals, np.float64) for s in (a, b))
-    out = []
-    for side, p, q in ((sides[0], pa, pb), (sides[1], pb, pa)):
-        alone = (p > 0) & (q == 0)
-        share = p[alone].sum() / max(p.sum(), 1.0)
-        if share > CLASS_OVERLAP_WARNING:
-            names = ", ".join(n for n, on in zip(a.classes.class_names, alone) if on)
-            out.append(f"{share:.0%} of the points of {side.name} are in classes the other cloud does not use "
-                       f"({names}): the clouds are classified differently, so delta_KL and L1 measure the "
-                       "classification schemes as much as the land")
-    return out
+    return class_scheme_warnings(a.class_totals, b.class_totals, a.classes.class_names, [s.name for s in sides])
 
 
 def _radii_warnings(sides):

@@ -6,6 +6,7 @@ never loads it; tests check it against the numpy, scipy and scikit-image definit
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -205,24 +206,66 @@ def fisher_vector(positions, weights, *, grid=FV_GRID):
     weights, means and sigmas (Sanchez et al. 2013), then power (signed square root) and L2
     normalization.
     """
-    centres, sigma = fv_mixture(grid)
     x = np.asarray(positions, dtype=np.float64)
     w = np.asarray(weights, dtype=np.float64)
     w = w / w.sum()
-    k = len(centres)
-    prior = 1.0 / k
+    gamma, diff, prior = _posteriors(x, grid)
+    g_alpha = (w[:, None] * (gamma - prior)).sum(axis=0) / np.sqrt(prior)
+    g_mu = np.einsum("m,mk,mkd->kd", w, gamma, diff) / np.sqrt(prior)
+    g_sigma = np.einsum("m,mk,mkd->kd", w, gamma, diff ** 2 - 1.0) / np.sqrt(2.0 * prior)
+    return _power_normalize(np.concatenate([g_alpha, g_mu.ravel(), g_sigma.ravel()]))
+
+
+def _posteriors(x, grid):
+    """Posteriors (M, K) of the fixed mixture's Gaussians at positions ``x`` (M, 2), the
+    positions' offsets from the centres in sigmas (M, K, 2), and the prior 1/K."""
+    centres, sigma = fv_mixture(grid)
+    prior = 1.0 / len(centres)
     diff = (x[:, None, :] - centres[None, :, :]) / sigma  # (M, K, 2)
     log_p = -0.5 * (diff ** 2).sum(axis=2)
     log_p -= log_p.max(axis=1, keepdims=True)
     gamma = np.exp(log_p)
-    gamma /= gamma.sum(axis=1, keepdims=True)  # posteriors (M, K)
-    g_alpha = (w[:, None] * (gamma - prior)).sum(axis=0) / np.sqrt(prior)
-    g_mu = np.einsum("m,mk,mkd->kd", w, gamma, diff) / np.sqrt(prior)
-    g_sigma = np.einsum("m,mk,mkd->kd", w, gamma, diff ** 2 - 1.0) / np.sqrt(2.0 * prior)
-    fv = np.concatenate([g_alpha, g_mu.ravel(), g_sigma.ravel()])
+    gamma /= gamma.sum(axis=1, keepdims=True)
+    return gamma, diff, prior
+
+
+def _power_normalize(fv):
     fv = np.sign(fv) * np.sqrt(np.abs(fv))
     norm = np.linalg.norm(fv)
     return fv / norm if norm > 0 else fv
+
+
+#: Largest frame (pixels a side) whose per-pixel Fisher-vector gradients are computed once and
+#: kept (size^2 x 5K floats: 10 MB at 64 px); larger frames compute them for their occupied
+#: pixels on each call.
+FV_BASIS_MAX = 64
+
+
+@functools.lru_cache(maxsize=4)
+def fv_basis(frame, grid=FV_GRID):
+    """(size^2, 5K) gradient rows of every pixel centre of ``frame`` (row-major): the Fisher
+    vector's gradients before power normalization are linear in the weights, so a signature's
+    are ``counts.ravel() @ basis / total`` (:func:`signature_fisher_vector`). Read-only."""
+    rows, cols = np.divmod(np.arange(frame.size * frame.size), frame.size)
+    gamma, diff, prior = _posteriors(_pixel_positions(frame, rows, cols), grid)
+    basis = np.concatenate([(gamma - prior) / np.sqrt(prior),
+                            (gamma[:, :, None] * diff).reshape(len(gamma), -1) / np.sqrt(prior),
+                            (gamma[:, :, None] * (diff ** 2 - 1.0)).reshape(len(gamma), -1) / np.sqrt(2.0 * prior)],
+                           axis=1)
+    basis.setflags(write=False)
+    return basis
+
+
+def signature_fisher_vector(signature, *, grid=FV_GRID):
+    """The Fisher vector of a signature's count-weighted pixel centres (:func:`fisher_vector`
+    of :func:`triangle_positions`); through the frame's kept basis (:func:`fv_basis`) when the
+    frame is small, the same values to round-off."""
+    if signature.frame.size > FV_BASIS_MAX:
+        return fisher_vector(*triangle_positions(signature), grid=grid)
+    total = signature.total.ravel()
+    occupied = np.flatnonzero(total)
+    w = total[occupied].astype(np.float64)
+    return _power_normalize(w @ fv_basis(signature.frame, grid)[occupied] / w.sum())
 
 
 def fv_mixture(grid=FV_GRID):
@@ -248,11 +291,15 @@ def triangle_positions(signature):
     """
     total = signature.total
     rows, cols = np.nonzero(total)
-    v = signature.frame.vertices  # V_l, V_s, V_p in pixels
+    return _pixel_positions(signature.frame, rows, cols), total[rows, cols]
+
+
+def _pixel_positions(frame, rows, cols):
+    v = frame.vertices  # V_l, V_s, V_p in pixels
     side = v[1, 0] - v[2, 0]
     x = (cols + 0.5 - v[2, 0]) / side
     y = (v[2, 1] - (rows + 0.5)) / side
-    return np.column_stack([x, y]), total[rows, cols]
+    return np.column_stack([x, y])
 
 
 def fv_distance(a, b, *, grid=FV_GRID):
@@ -262,8 +309,7 @@ def fv_distance(a, b, *, grid=FV_GRID):
     (:func:`triangle_positions`), not each point's own barycentric position: half a pixel
     diagonal at most apart, and a function of the counts, so that an archive compares like
     the cloud it was made from."""
-    return float(np.linalg.norm(fisher_vector(*triangle_positions(a), grid=grid)
-                                - fisher_vector(*triangle_positions(b), grid=grid)))
+    return float(np.linalg.norm(signature_fisher_vector(a, grid=grid) - signature_fisher_vector(b, grid=grid)))
 
 
 #: Most bins per RGB channel of the colour histograms (d_BD-Img, d_EMD-Img).

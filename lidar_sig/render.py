@@ -205,7 +205,7 @@ def top_view_image(xyz, saliency, *, unit="m", display=640, span=None):
     y = key.shape[0] + 16
     cv2.rectangle(panel, (22, y - 10), (36, y + 2), UNDEFINED_GREY, -1)
     cv2.putText(panel, "undefined", (44, y + 1), _FONT, 0.42, _INK, 1, cv2.LINE_AA)
-    bar, label = _scale_bar(metres_per_px, display // 4, unit)  # one bar for views of one span
+    bar, label = scale_bar(metres_per_px, display // 4, unit)  # one bar for views of one span
     y += 34
     cv2.line(panel, (22, y), (22 + bar, y), _INK, 2)
     for x in (22, 22 + bar):
@@ -219,7 +219,7 @@ def top_view_image(xyz, saliency, *, unit="m", display=640, span=None):
     return out
 
 
-def _scale_bar(units_per_px, max_px, unit):
+def scale_bar(units_per_px, max_px, unit):
     """Length in px and label of a round scale bar (1, 2 or 5 times a power of ten units) no
     longer than ``max_px``."""
     longest = max(units_per_px * max_px, 1e-9)

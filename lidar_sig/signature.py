@@ -18,6 +18,7 @@ Renderings (``RENDERINGS``), chosen by the ordering benchmark (docs/comparison.m
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -83,18 +84,43 @@ class Frame:
 
     def mask(self):
         """(size, size) bool: pixels that touch the triangle (centre within half a diagonal)."""
-        c = np.arange(self.size) + 0.5
-        x, y = np.meshgrid(c, c)
-        v = self.vertices
-        inside = np.ones((self.size, self.size), bool)
-        for a, b, o in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
-            # signed distance to edge (a, b), positive towards the opposite vertex o
-            ex, ey = v[b] - v[a]
-            norm = np.hypot(ex, ey)
-            side = np.sign((v[o, 0] - v[a, 0]) * ey - (v[o, 1] - v[a, 1]) * ex)
-            dist = side * ((x - v[a, 0]) * ey - (y - v[a, 1]) * ex) / norm
-            inside &= dist >= -np.sqrt(0.5)
-        return inside
+        return _triangle_mask(self).copy()  # computed once per frame; a copy the caller may change
+
+
+@functools.lru_cache(maxsize=8)
+def _triangle_mask(frame):
+    c = np.arange(frame.size) + 0.5
+    x, y = np.meshgrid(c, c)
+    v = frame.vertices
+    inside = np.ones((frame.size, frame.size), bool)
+    for a, b, o in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
+        # signed distance to edge (a, b), positive towards the opposite vertex o
+        ex, ey = v[b] - v[a]
+        norm = np.hypot(ex, ey)
+        side = np.sign((v[o, 0] - v[a, 0]) * ey - (v[o, 1] - v[a, 1]) * ex)
+        dist = side * ((x - v[a, 0]) * ey - (y - v[a, 1]) * ex) / norm
+        inside &= dist >= -np.sqrt(0.5)
+    return inside
+
+
+def point_codes(sal, class_index, frame, *, egeom=None, egeom_bins=100):
+    """Per-point codes of a signature's rasters (SPEC 5): ``pixel`` = (class index x size + row)
+    x size + col of the point's place in ``frame``, and ``egeom_bin`` its bin of the Egeom
+    histogram over [0, ln 3] (bins of equal width, the last closed, as ``np.histogram``); both
+    (N,) int64, -1 where the saliency is undefined (the bin also outside [0, ln 3])."""
+    sal = np.asarray(sal, dtype=np.float64)
+    ok = ~np.isnan(sal).any(axis=1)
+    rows, cols = frame.pixels(sal[ok])
+    pixel = np.full(len(sal), -1, np.int64)
+    pixel[ok] = (np.asarray(class_index)[ok] * frame.size + rows) * frame.size + cols
+    if egeom is None:
+        egeom = geometric_entropy(sal)
+    e = np.asarray(egeom, dtype=np.float64)
+    edges = np.linspace(0.0, LN3, egeom_bins + 1)
+    inside = ok & (e >= 0.0) & (e <= LN3)
+    egeom_bin = np.full(len(sal), -1, np.int64)
+    egeom_bin[inside] = np.minimum(np.searchsorted(edges, e[inside], side="right") - 1, egeom_bins - 1)
+    return pixel, egeom_bin
 
 
 def transfer(share):
@@ -154,21 +180,26 @@ class Signature:
         points) count nowhere, not even in the class totals.
         """
         frame = frame or Frame()
-        sal = np.asarray(sal, dtype=np.float64)
-        defined = ~np.isnan(sal).any(axis=1)
-        ok = defined if kept is None else defined & kept
-        rows, cols = frame.pixels(sal[ok])
+        if kept is not None:  # withheld and noise points count nowhere
+            kept = np.asarray(kept, bool)
+            sal, class_index = np.asarray(sal)[kept], np.asarray(class_index)[kept]
+            egeom = None if egeom is None else np.asarray(egeom)[kept]
+        pixel, egeom_bin = point_codes(sal, class_index, frame, egeom=egeom, egeom_bins=egeom_bins)
+        return cls.from_codes(pixel, egeom_bin, class_index, classes=classes, frame=frame, egeom_bins=egeom_bins,
+                              metadata=metadata)
+
+    @classmethod
+    def from_codes(cls, pixel, egeom_bin, class_index, *, classes, frame, egeom_bins=100, metadata=None):
+        """Build a signature from per-point codes (:func:`point_codes`) and class indices: the
+        counts are bincounts, so that a subset or a resample of the points (a change map's cell,
+        a bootstrap replicate) costs no saliency arithmetic."""
         n_classes = len(classes)
-        flat = (np.asarray(class_index)[ok] * frame.size + rows) * frame.size + cols
-        counts = np.bincount(flat, minlength=n_classes * frame.size ** 2)
+        defined = pixel >= 0
+        counts = np.bincount(pixel[defined], minlength=n_classes * frame.size ** 2)
         counts = counts.reshape(n_classes, frame.size, frame.size).astype(np.int64)
-        if egeom is None:
-            egeom = geometric_entropy(sal)
-        hist, _ = np.histogram(np.asarray(egeom)[ok], bins=egeom_bins, range=(0.0, LN3))
-        used = np.asarray(class_index) if kept is None else np.asarray(class_index)[kept]
-        totals = np.bincount(used, minlength=n_classes).astype(np.int64)
-        n_undefined = int((~defined).sum() if kept is None else (~defined & kept).sum())
-        return cls(counts, frame, classes, hist.astype(np.int64), n_undefined, dict(metadata or {}), totals)
+        hist = np.bincount(egeom_bin[egeom_bin >= 0], minlength=egeom_bins).astype(np.int64)
+        totals = np.bincount(np.asarray(class_index), minlength=n_classes).astype(np.int64)
+        return cls(counts, frame, classes, hist, int((~defined).sum()), dict(metadata or {}), totals)
 
     @property
     def n_points(self):
@@ -202,12 +233,13 @@ class Signature:
         """(Sg, Sas) in one pass; see :meth:`sg` and :meth:`sas`."""
         if mode not in RENDERINGS:
             raise LidarSigError(f"unknown rendering {mode!r}; use one of {', '.join(RENDERINGS)}")
-        counts = self.counts
+        present = np.flatnonzero(self.counts.reshape(len(self.counts), -1).any(axis=1))  # empty classes add 0
+        counts = self.counts[present]
         if mode == "smooth":
             counts = smooth_counts(counts, self.frame)
-        total = counts.sum(axis=0)
+        total = counts.sum(axis=0) if len(present) else np.zeros(self.counts.shape[1:])
         share = total / max(self.n_points, 1)
-        rgb = np.tensordot(counts, self.classes.class_colors, axes=([0], [0]))
+        rgb = np.tensordot(counts, self.classes.class_colors[present], axes=([0], [0]))
         with np.errstate(invalid="ignore", divide="ignore"):
             mean = np.where(total[..., None] > 0, rgb / total[..., None], 1.0)
         if mode == "points":
@@ -278,14 +310,23 @@ def _show(value):
 def smooth_counts(counts, frame, bandwidth=SMOOTH_BANDWIDTH):
     """(C, H, W) float64: each class raster convolved with a Gaussian of standard deviation
     ``bandwidth`` times the triangle's side in pixels (zero beyond the image, truncated at four
-    standard deviations); empty classes stay zero."""
-    from scipy.ndimage import gaussian_filter
+    standard deviations); empty classes stay zero.
+
+    The kernel is scipy's ``gaussian_filter``'s (``mode="constant", truncate=4.0``), applied by
+    OpenCV's separable filter: the same values to round-off, without scipy's per-call cost
+    that dominated the small signatures of a change map's cells."""
+    import cv2
 
     v = frame.vertices
     sigma = bandwidth * (v[1, 0] - v[2, 0])
+    radius = int(4.0 * sigma + 0.5)  # scipy's rule
+    x = np.arange(-radius, radius + 1)
+    kernel = np.exp(-0.5 * (x / sigma) ** 2)
+    kernel /= kernel.sum()
     out = np.zeros(counts.shape)
     for k in np.flatnonzero(counts.reshape(len(counts), -1).any(axis=1)):
-        out[k] = gaussian_filter(counts[k].astype(np.float64), sigma, mode="constant", truncate=4.0)
+        out[k] = cv2.sepFilter2D(counts[k].astype(np.float64), cv2.CV_64F, kernel, kernel,
+                                 borderType=cv2.BORDER_CONSTANT)
     return out
 
 

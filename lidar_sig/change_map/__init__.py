@@ -1,4 +1,5 @@
-"""Where did it change? A registration-free change map: per-cell signature distances.
+"""Where did it change? A registration-free change map: per-cell signature distances, and a level
+of detection per cell that says which cells changed significantly.
 
 The paper compares two clouds as wholes and names the price: the signature "does not preserve
 the spatial contextual information" (Sreevalsan-Nair & Mohapatra, Sec. 6). Signatures are
@@ -6,28 +7,40 @@ additive count rasters (SPEC 5), so a regular grid of cells in the survey's CRS 
 signature per cell per epoch from the per-point saliency, with no point-to-point matching: a
 shift of a few decimetres between the epochs moves a few points across a cell edge, nothing more.
 
-- Saliency is computed on each WHOLE epoch (so that cell edges do not cut neighbourhoods), then
-  the points are binned into cells.
+- Saliency is computed on each WHOLE epoch (so that cell edges do not cut neighbourhoods), once
+  per epoch, then the points are binned into cells.
 - Cells are squares of ``cell`` metres, aligned to multiples of the cell size in the CRS's
   coordinates (converted to the CRS unit), so that grids of different runs agree. A cell is
-  half-open: [x0 + i s, x0 + (i + 1) s) x [y0 + j s, y0 + (j + 1) s).
-- A cell where either epoch holds fewer than ``min_points`` points gets no data
-  (:data:`MIN_POINTS`, docs/changes.md says why).
+  half-open: [x0 + i s, x0 + (i + 1) s) x [y0 + j s, y0 + (j + 1) s). By default the cell and
+  the fewest points per cell are chosen from the epochs' densities (:mod:`.density`).
+- A cell where either epoch holds fewer than ``min_points`` points with defined saliency gets
+  no data.
 - Per-cell signatures use a :data:`CELL_FRAME` of 64 px instead of 512 (docs/changes.md).
-- Cells are ranked by :data:`SCORE` (chosen by measurement on the edited IGN epoch).
+- Every metric gets a level of detection per cell (:mod:`.lod`): resamples of each epoch's
+  points for the sampling part, the spread over all cells for what differs between the surveys.
+- Cells are ranked by :data:`SCORE` (delta_KL), or :data:`LABEL_FREE_SCORE` (delta_FV) where
+  the labels cannot say (unlabelled epochs, class schemes that barely overlap); significant
+  cells first.
 
-The modules: :mod:`~lidar_sig.change_map.grid` (the cells), :mod:`~lidar_sig.change_map.epochs`
-(an epoch read, joined from tiles, checked against the other), :mod:`~lidar_sig.change_map.cells`
-(per-cell signatures and metrics from computed saliency), :mod:`~lidar_sig.change_map.result`
-(the ChangeMap: ranking, rasters, files) and :mod:`~lidar_sig.change_map.run` (:func:`changes`,
-which reads the epochs and runs the pipeline).
+The modules: :mod:`~lidar_sig.change_map.grid` (the cells), :mod:`~lidar_sig.change_map.density`
+(the defaults from the densities), :mod:`~lidar_sig.change_map.epochs` (an epoch read, joined
+from tiles, checked against the others), :mod:`~lidar_sig.change_map.cells` (per-cell
+signatures, metrics and resampled metrics from computed saliency), :mod:`~lidar_sig.change_map.lod`
+(the level of detection, array in, array out), :mod:`~lidar_sig.change_map.result` (the
+ChangeMap: levels, ranking, rasters, files), :mod:`~lidar_sig.change_map.series` (more than two
+epochs) and :mod:`~lidar_sig.change_map.run` (:func:`changes`, which reads the epochs and runs
+the pipeline).
 """
-from .cells import CELL_FIELDS, CELL_FRAME, MIN_POINTS, bin_points, cell_metrics, cell_signature
-from .epochs import Epoch, read_epoch
-from .grid import CELL, MAX_CELLS, Grid, check_cell
-from .result import GEOMETRIC_SCORE, SCORE, THRESHOLDS, ChangeMap, score_values
-from .run import changes
+from .cells import CELL_FIELDS, CELL_FRAME, SEED, bin_points, cell_signature, null_metrics, observed_metrics
+from .density import auto_cell, auto_min_points, density
+from .epochs import Epoch, compute_epoch, read_epoch
+from .grid import MAX_CELLS, Grid, check_cell
+from .lod import CONFIDENCE, REPLICATES, Level, level_of_detection
+from .result import LABEL_FREE_SCORE, SCORE, ChangeMap, metric_levels, score_values
+from .run import AUTO, changes
+from .series import ChangeSeries
 
-__all__ = ["CELL", "CELL_FIELDS", "CELL_FRAME", "GEOMETRIC_SCORE", "MAX_CELLS", "MIN_POINTS", "SCORE", "THRESHOLDS",
-           "ChangeMap", "Epoch", "Grid", "bin_points", "cell_metrics", "cell_signature", "changes", "check_cell",
-           "read_epoch", "score_values"]
+__all__ = ["AUTO", "CELL_FIELDS", "CELL_FRAME", "CONFIDENCE", "LABEL_FREE_SCORE", "MAX_CELLS", "REPLICATES",
+           "SCORE", "SEED", "ChangeMap", "ChangeSeries", "Epoch", "Grid", "Level", "auto_cell", "auto_min_points",
+           "bin_points", "cell_signature", "changes", "check_cell", "compute_epoch", "density", "level_of_detection", "metric_levels",
+           "null_metrics", "observed_metrics", "read_epoch", "score_values"]

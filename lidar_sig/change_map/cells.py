@@ -1,7 +1,9 @@
 """Per-cell signatures and metrics of two epochs from their computed saliency: each epoch's
-points binned by cell, a signature per cell built from its points' saliency (computed on the
-whole epoch), and every metric of :func:`lidar_sig.metrics.compare` where both epochs hold
-enough points. Nothing here runs a pipeline or ranks the cells."""
+points binned by cell and coded once (their pixel in the cell frame, Egeom bin and class), a
+signature per cell built from its points' codes, every metric of
+:func:`lidar_sig.metrics.compare` where both epochs hold enough points, and the same metrics
+between resamples of one epoch's points (the sampling part of the level of detection,
+:mod:`~lidar_sig.change_map.lod`). Nothing here runs a pipeline or ranks the cells."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -9,50 +11,71 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..metrics import METRIC_KEYS, compare
-from ..signature import Frame, Signature
+from ..signature import Frame, Signature, point_codes
+from .lod import REPLICATES
 
-#: Fewest points of a cell, in each epoch, for a signature worth comparing (docs/changes.md).
-MIN_POINTS = 1000
 #: Frame of the per-cell signatures: 64 px (2 px margin) instead of 512 (docs/changes.md).
 CELL_FRAME = Frame(64, 2)
+#: Seed of the resampling; each cell draws from its own stream (seed, interval, cell), so that
+#: the draws do not depend on the order in which cells are processed.
+SEED = 17
 #: Fields of the per-cell table besides the metrics (:data:`lidar_sig.metrics.METRIC_KEYS`) and
-#: the score.
+#: the ranking fields (:data:`RANKING_FIELDS`).
 CELL_FIELDS = (("row", np.int32), ("col", np.int32), ("x_min", np.float64), ("y_min", np.float64),
                ("x_max", np.float64), ("y_max", np.float64), ("points_a", np.int64), ("points_b", np.int64),
-               ("undefined_a", np.float64), ("undefined_b", np.float64), ("valid", bool))
+               ("defined_a", np.int64), ("defined_b", np.int64), ("undefined_a", np.float64),
+               ("undefined_b", np.float64), ("valid", bool))
+#: The ranking metric's fields, filled by the ranking: its score, level of detection, z and
+#: significance.
+RANKING_FIELDS = (("score", np.float64), ("lod", np.float64), ("z", np.float64), ("significant", bool))
 
 
 @dataclass
 class Binned:
     """An epoch's points by cell: ``order`` sorts them by cell, so that cell c holds the points
     ``order[starts[c]:starts[c + 1]]``; ``classes`` (cells, C) counts its points per class and
-    ``undefined`` (cells,) those with undefined saliency."""
+    ``undefined`` (cells,) those with undefined saliency; ``pixel``, ``egeom_bin`` and
+    ``class_index`` (N,) code each point for a signature (:func:`lidar_sig.signature.point_codes`)."""
 
     order: np.ndarray
     starts: np.ndarray
     classes: np.ndarray
     undefined: np.ndarray
+    pixel: np.ndarray
+    egeom_bin: np.ndarray
+    class_index: np.ndarray
 
     def points(self, c):
         """Indices of the epoch's points in cell ``c``."""
         return self.order[self.starts[c]:self.starts[c + 1]]
 
+    def signature(self, idx, classes, frame):
+        """The signature of the epoch's points ``idx`` (repeats allowed: a resample)."""
+        return Signature.from_codes(self.pixel[idx], self.egeom_bin[idx], self.class_index[idx], classes=classes,
+                                    frame=frame)
 
-def bin_points(epoch, grid, classes, labelled):
-    """The :class:`Binned` points of ``epoch`` on ``grid`` (sets the epoch's ``cells``); class
-    codes are indexed in ``classes``, all one class unless ``labelled``. Points the run left out
-    (withheld and noise, ``epoch.kept``) are in no cell: their cell index is ``n_cells``."""
+
+def epoch_cells(epoch, grid):
+    """(N,) flat cell index of each point of ``epoch`` on ``grid``; points the run left out
+    (withheld and noise, ``epoch.kept``) are in no cell: their index is ``grid.n_cells``."""
+    cells = grid.cell_of(epoch.cloud.xyz[:, :2])
+    return cells if epoch.kept is None else np.where(epoch.kept, cells, grid.n_cells)
+
+
+def bin_points(epoch, grid, classes, labelled, frame=CELL_FRAME):
+    """The :class:`Binned` points of ``epoch`` on ``grid``; class codes are indexed in
+    ``classes``, all one class unless ``labelled``. Points the run left out are in no cell
+    (:func:`epoch_cells`)."""
     n_cells, n_classes = grid.n_cells, len(classes)
-    epoch.cells = grid.cell_of(epoch.cloud.xyz[:, :2])
-    if epoch.kept is not None:
-        epoch.cells = np.where(epoch.kept, epoch.cells, n_cells)
+    cells = epoch_cells(epoch, grid)
     codes = epoch.cloud.labels if labelled else np.zeros(len(epoch.cloud), np.int64)
     index = classes.index(codes)
-    order = np.argsort(epoch.cells, kind="stable")
-    starts = np.searchsorted(epoch.cells[order], np.arange(n_cells + 1))
-    counts = np.bincount(epoch.cells * n_classes + index, minlength=(n_cells + 1) * n_classes)[:n_cells * n_classes]
-    undefined = np.bincount(epoch.cells, weights=~epoch.saliency.defined, minlength=n_cells + 1)[:n_cells]
-    return Binned(order, starts, counts.reshape(n_cells, n_classes), undefined)
+    order = np.argsort(cells, kind="stable")
+    starts = np.searchsorted(cells[order], np.arange(n_cells + 1))
+    counts = np.bincount(cells * n_classes + index, minlength=(n_cells + 1) * n_classes)[:n_cells * n_classes]
+    undefined = np.bincount(cells[~epoch.saliency.defined], minlength=n_cells + 1)[:n_cells]
+    pixel, egeom_bin = point_codes(epoch.saliency.values, index, frame, egeom=epoch.saliency.egeom)
+    return Binned(order, starts, counts.reshape(n_cells, n_classes), undefined, pixel, egeom_bin, index)
 
 
 def cell_signature(epoch, idx, classes, labelled, frame):
@@ -63,19 +86,14 @@ def cell_signature(epoch, idx, classes, labelled, frame):
                                    egeom=sal.egeom[idx])
 
 
-def cell_metrics(grid, epochs, classes, labelled, *, min_points=MIN_POINTS, render="smooth", frame=CELL_FRAME,
-                 progress=None):
-    """The per-cell table and class counts of two epochs on ``grid`` (sets each epoch's ``cells``).
-
-    Each epoch's points are binned by cell; a cell's signature is built from its points'
-    saliency (computed on the whole epoch) in ``frame``, and every metric of
-    :func:`lidar_sig.metrics.compare` is computed where both epochs hold ``min_points``. The
-    table's ``score`` is left NaN for the ranking to fill
-    (:func:`lidar_sig.change_map.result.score_values`). Returns ``(table, classes_a, classes_b)``.
-    """
-    binned = [bin_points(e, grid, classes, labelled) for e in epochs]
+def cell_table(grid, binned, min_points):
+    """The per-cell table of two binned epochs: bounds, counts and ``valid`` (both epochs hold
+    ``min_points`` points with defined saliency: the signatures leave the others out, and a cell
+    of points all undefined, e.g. spherical scales on a sparse cell, has no signature to
+    compare); the metrics and ranking fields NaN (False) for :func:`observed_metrics` and the
+    ranking to fill."""
     n_cells = grid.n_cells
-    dtype = list(CELL_FIELDS) + [(k, np.float64) for k in METRIC_KEYS] + [("score", np.float64)]
+    dtype = list(CELL_FIELDS) + [(k, np.float64) for k in METRIC_KEYS] + list(RANKING_FIELDS)
     table = np.zeros(n_cells, dtype=dtype)
     flat = np.arange(n_cells)
     table["row"], table["col"] = np.divmod(flat, grid.cols)
@@ -83,14 +101,46 @@ def cell_metrics(grid, epochs, classes, labelled, *, min_points=MIN_POINTS, rend
     for tag, b in zip("ab", binned):
         n = np.diff(b.starts)
         table[f"points_{tag}"] = n
+        table[f"defined_{tag}"] = n - b.undefined
         table[f"undefined_{tag}"] = b.undefined / np.maximum(n, 1)
-    table["valid"] = (table["points_a"] >= min_points) & (table["points_b"] >= min_points)
-    for k in METRIC_KEYS + ("score",):
+    table["valid"] = (table["defined_a"] >= min_points) & (table["defined_b"] >= min_points)
+    for k in METRIC_KEYS + ("score", "lod", "z"):
         table[k] = np.nan
+    return table
+
+
+def observed_metrics(table, binned, classes, *, render="smooth", frame=CELL_FRAME, progress=None):
+    """Fill the table's metrics: every metric of :func:`lidar_sig.metrics.compare` between the
+    two epochs' signatures of each valid cell (NaN where a metric is undefined)."""
     cells = np.flatnonzero(table["valid"])
     for c in (progress.track(cells, unit="cell") if progress is not None else cells):
-        pair = [cell_signature(e, b.points(c), classes, labelled, frame) for e, b in zip(epochs, binned)]
+        pair = [b.signature(b.points(c), classes, frame) for b in binned]
         values = compare(*pair, render=render)
         for k in METRIC_KEYS:
             table[k][c] = np.nan if values[k] is None else values[k]
-    return table, binned[0].classes, binned[1].classes
+
+
+def null_metrics(table, binned, classes, *, replicates=REPLICATES, render="smooth", frame=CELL_FRAME, seed=SEED,
+                 stream=0, progress=None):
+    """(cells, 2 x replicates, metrics) values of every metric between resamples of one
+    epoch's points, NaN outside the valid cells: for each epoch and replicate, the cell's
+    points of that epoch drawn with replacement at A's count and at B's count (undefined
+    points included, as the class totals count them) and compared. What unchanged land gives,
+    sampled as this cell is: the sampling part of the level of detection. Each cell draws from
+    the random stream (``seed``, ``stream``, cell)."""
+    n_metrics = len(METRIC_KEYS)
+    out = np.full((len(table), 2 * replicates, n_metrics), np.nan)
+    cells = np.flatnonzero(table["valid"])
+    for c in (progress.track(cells, unit="cell") if progress is not None else cells):
+        rng = np.random.default_rng([seed, stream, int(c)])
+        sizes = (int(table["points_a"][c]), int(table["points_b"][c]))
+        j = 0
+        for b in binned:
+            idx = b.points(c)
+            for _ in range(replicates):
+                pair = [b.signature(idx[rng.integers(0, len(idx), m)], classes, frame) for m in sizes]
+                if all(s.n_points for s in pair):  # a resample of defined points only, all but surely
+                    values = compare(*pair, render=render)
+                    out[c, j] = [np.nan if values[k] is None else values[k] for k in METRIC_KEYS]
+                j += 1
+    return out

@@ -1,5 +1,6 @@
 """The epochs of a change map: each read from a file, a folder of tiles or a list of files (tiles
-joined into one cloud), the two checked to be in one CRS, and each held with its saliency."""
+joined into one cloud), checked to be in one CRS, and each held with its saliency (an
+:class:`Epoch`, which a caller may also compute once and give to several change maps)."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -15,15 +16,27 @@ from ..errors import LidarSigError
 @dataclass
 class Epoch:
     """One epoch of a change map: its name, cloud, per-point saliency (SPEC 1), the run's
-    statistics, the points the run used (``kept``, :meth:`Pipeline.kept`; None for all) and,
-    once binned, the flat cell index of each point."""
+    statistics (with the method that computed it) and the points the run used (``kept``,
+    :meth:`Pipeline.kept`; None for all)."""
 
     name: str
     cloud: object
     saliency: object
     metadata: dict = field(default_factory=dict)
-    cells: np.ndarray = None
     kept: np.ndarray = None
+
+
+def compute_epoch(source, pipeline=None, *, columns=None):
+    """The :class:`Epoch` of ``source`` (as :func:`read_epoch` takes it): read, and its saliency
+    computed with ``pipeline`` (default ``Pipeline()``). Give it to
+    :func:`~lidar_sig.change_map.changes` in place of the source to compute an epoch's saliency
+    once for several change maps."""
+    from ..pipeline import Pipeline
+
+    pipeline = pipeline or Pipeline()
+    cloud = read_epoch(source, columns=columns)
+    sal, stats = pipeline.saliency(cloud)
+    return Epoch(cloud.path or "(in memory)", cloud, sal, stats, kept=pipeline.kept(cloud))
 
 
 def read_epoch(source, *, columns=None):
@@ -36,6 +49,8 @@ def read_epoch(source, *, columns=None):
 
     if isinstance(source, PointCloud):
         return source
+    if isinstance(source, Epoch):
+        return source.cloud
     if isinstance(source, (str, Path)) and Path(source).is_dir():
         paths = sorted(p for p in Path(source).iterdir() if p.suffix.lower() in CLOUD_EXTENSIONS)
         if not paths:

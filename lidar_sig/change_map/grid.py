@@ -9,8 +9,6 @@ import numpy as np
 
 from ..errors import positive_metres
 
-#: Default cell side, in metres.
-CELL = 25.0
 #: Most cells a change map holds (its table takes about 200 bytes a cell).
 MAX_CELLS = 4_000_000
 

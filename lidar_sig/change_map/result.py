@@ -1,5 +1,6 @@
-"""The change map as a result: the per-cell table and the grid, the cells ranked by their score,
-rasters of any field, plain values for JSON, and the files it is saved as (GeoTIFF, PNG, HTML)."""
+"""The change map as a result: the per-cell table and the grid, each metric's level of
+detection, the cells ranked (significant ones first), rasters of any field, plain values for
+JSON, and the files it is saved as (GeoTIFF, PNG, HTML)."""
 from __future__ import annotations
 
 import math
@@ -10,39 +11,61 @@ import numpy as np
 
 from ..crs import crs_name
 from ..errors import LidarSigError, whole_number
-from ..metrics import METRIC_KEYS, METRICS
+from ..metrics import METRIC_KEYS, METRIC_NAMES, METRICS
 from ..progress import step
 from ..signature import Frame
-from .cells import CELL_FRAME, cell_signature
+from .cells import CELL_FRAME, cell_signature, epoch_cells
 from .epochs import Epoch
 from .grid import Grid
+from .lod import CONFIDENCE, level_of_detection
 
 #: Metric that ranks the cells by default (docs/changes.md): delta_KL of the class distributions
-#: where both epochs are labelled, else d_EMD-Info (GEOMETRIC_SCORE).
+#: where both epochs are labelled in overlapping class schemes, else LABEL_FREE_SCORE.
 SCORE = "kl"
-#: Thresholds of the default score at which docs/changes.md gives precision and recall.
-THRESHOLDS = (0.05, 0.1, 0.25, 0.5)
-GEOMETRIC_SCORE = "emd_info"
+#: Metric that ranks the cells where the labels cannot (unlabelled epochs, or class schemes that
+#: barely overlap): delta_FV, which separated the edited cells best among the metrics that do not
+#: depend on the labels (docs/changes.md).
+LABEL_FREE_SCORE = "fv"
+#: Bands of the change map's GeoTIFF before the metrics and after them.
+BANDS = ("score", "lod", "significant")
+COUNT_BANDS = ("points_a", "points_b", "undefined_a", "undefined_b")
+
+
+def oriented(values, metric):
+    """A metric's values oriented so that larger means more different: 1 - s_SSIM for
+    ``"ssim"``, the values themselves otherwise."""
+    return 1.0 - values if metric == "ssim" else values
 
 
 def score_values(table, score):
     """The ranking values of the per-cell ``table`` by metric ``score``: the metric itself, or
     1 - s_SSIM for ``"ssim"``, so that a larger score always means more change."""
-    return 1.0 - table["ssim"] if score == "ssim" else table[score]
+    return oriented(table[score], score)
+
+
+def metric_levels(table, null, *, confidence=CONFIDENCE):
+    """{metric key: :class:`~lidar_sig.change_map.lod.Level`} of every metric, from the table's
+    observed values and the replicates ``null`` (cells, replicates, metrics) of
+    :func:`~lidar_sig.change_map.cells.null_metrics`."""
+    return {k: level_of_detection(oriented(table[k], k), oriented(null[:, :, m], k), table["valid"],
+                                  confidence=confidence)
+            for m, k in enumerate(METRIC_KEYS)}
 
 
 @dataclass
 class ChangeMap:
-    """The result of :func:`lidar_sig.change_map.changes`.
+    """The result of :func:`lidar_sig.change_map.changes` for two epochs.
 
     Attributes
     ----------
     table : numpy structured array
         One record per cell of the grid, row-major (row 0 north): ``row``, ``col``, cell bounds
         ``x_min, y_min, x_max, y_max`` (CRS coordinates), ``points_a``, ``points_b``,
-        ``undefined_a``, ``undefined_b`` (share of the cell's points with undefined saliency),
-        ``valid`` (both epochs hold ``min_points`` or more), the metrics of
-        :data:`lidar_sig.metrics.METRIC_KEYS` and ``score``; metrics are NaN where ``valid`` is
+        ``defined_a``, ``defined_b`` (those with defined saliency), ``undefined_a``,
+        ``undefined_b`` (share of the cell's points with undefined saliency), ``valid`` (both
+        epochs hold ``min_points`` points with defined saliency or more), the metrics of
+        :data:`lidar_sig.metrics.METRIC_KEYS`, and the ranking metric's ``score``, ``lod``
+        (its level of detection), ``z`` and ``significant``; NaN (False) where ``valid`` is
         False.
     classes_a, classes_b : (cells, C) int64
         Points of each class of ``class_table`` per cell, in each epoch.
@@ -50,6 +73,15 @@ class ChangeMap:
     score : str
         The metric that ranks the cells (a key of METRIC_KEYS); the table's ``score`` holds its
         values, 1 - s_SSIM for ``"ssim"``, so that a larger score always means more change.
+    levels : dict
+        {metric key: :class:`~lidar_sig.change_map.lod.Level`}: every metric's level of
+        detection and significance per cell.
+    cell_rule, min_points_rule : str
+        ``"auto"`` (chosen from the epochs' densities) or ``"given"``.
+    density : tuple
+        Points per m² of each epoch (:func:`~lidar_sig.change_map.density.density`).
+    warnings : list
+        What may make the map mislead (class schemes, too few cells for the survey part).
     """
 
     table: np.ndarray
@@ -67,6 +99,26 @@ class ChangeMap:
     b: Epoch
     frame: Frame = CELL_FRAME
     method: dict = field(default_factory=dict)
+    levels: dict = field(default_factory=dict)
+    confidence: float = CONFIDENCE
+    cell_rule: str = "given"
+    min_points_rule: str = "given"
+    density: tuple = ()
+    warnings: list = field(default_factory=list)
+    timings: dict = field(default_factory=dict)
+
+    def rank_by(self, score):
+        """Fill the table's ranking fields (``score``, ``lod``, ``z``, ``significant``) from
+        metric ``score`` and its level."""
+        self.score = score
+        level = self.levels[score]
+        self.table["score"] = score_values(self.table, score)
+        self.table["lod"], self.table["z"], self.table["significant"] = level.lod, level.z, level.significant
+
+    @property
+    def n_significant(self):
+        """Cells whose score exceeds its level of detection."""
+        return int(self.table["significant"].sum())
 
     @property
     def transform(self):
@@ -85,18 +137,22 @@ class ChangeMap:
         return np.asarray(self.table[name], dtype=np.float64).reshape(self.grid.rows, self.grid.cols)
 
     def ranked(self, n=None):
-        """Flat indices of the valid cells, most changed (largest score) first; the first ``n``."""
+        """Flat indices of the valid cells, most changed first: the significant cells first,
+        then by z (how far the score lies above what unchanged land gives, in spreads), ties by
+        score; the first ``n``."""
         if n is not None:
             n = whole_number(n, "the number of cells")
         valid = np.flatnonzero(self.table["valid"])
-        order = valid[np.argsort(-self.table["score"][valid], kind="stable")]
+        t = self.table[valid]
+        z = np.where(np.isnan(t["z"]), -np.inf, t["z"])
+        order = valid[np.lexsort((-t["score"], -z, ~t["significant"]))]
         return order if n is None else order[:n]
 
     def signatures(self, flat):
         """(Signature of A, Signature of B) of cell ``flat``, as the metrics saw them."""
         labelled = bool(self.class_table.names)
-        return tuple(cell_signature(e, np.flatnonzero(e.cells == flat), self.class_table, labelled, self.frame)
-                     for e in (self.a, self.b))
+        return tuple(cell_signature(e, np.flatnonzero(epoch_cells(e, self.grid) == flat),
+                                    self.class_table, labelled, self.frame) for e in (self.a, self.b))
 
     def to_pandas(self):
         """The table as a pandas DataFrame (needs pandas)."""
@@ -113,7 +169,9 @@ class ChangeMap:
         return {names[k]: [int(a[k]), int(b[k])] for k in np.flatnonzero((a > 0) | (b > 0))}
 
     def top(self, n=10):
-        """The ``n`` most changed cells as plain dicts (rank, bounds, counts, metrics, classes)."""
+        """The ``n`` most changed cells as plain dicts (rank, bounds, counts, score, its level
+        of detection and significance, metrics, the metrics in which the cell changed
+        significantly, classes)."""
         out = []
         for rank, flat in enumerate(self.ranked(n), 1):
             rec = self.table[flat]
@@ -121,37 +179,72 @@ class ChangeMap:
                     "bounds": [float(rec[k]) for k in ("x_min", "y_min", "x_max", "y_max")],
                     "points_a": int(rec["points_a"]), "points_b": int(rec["points_b"]),
                     "undefined_a": float(rec["undefined_a"]), "undefined_b": float(rec["undefined_b"]),
-                    "score": float(rec["score"])}
+                    "score": float(rec["score"]), "lod": _plain(rec["lod"]), "z": _plain(rec["z"]),
+                    "significant": bool(rec["significant"])}
             item.update({k: _plain(rec[k]) for k in METRIC_KEYS})
+            item["significant_metrics"] = [k for k in METRIC_KEYS if k in self.levels
+                                           and self.levels[k].significant[flat]]
             item["classes"] = self.composition(flat)
             out.append(item)
         return out
 
-    def to_dict(self, n=10):
-        """Everything a ``--json`` user needs: the grid, the settings and the ``n`` top cells."""
+    def settings(self):
+        """The grid and settings as plain values (``to_dict`` without the cells)."""
         a, b, c, d, e, f = self.grid.transform
-        return {"a": self.a.name, "b": self.b.name, "cell_m": self.cell, "cell_crs_units": self.grid.size,
-                "units": self.units.describe(), "crs": crs_name(self.crs), "min_points": self.min_points,
-                "score": self.score, "render": self.render, "frame_px": self.frame.size,
+        return {"a": self.a.name, "b": self.b.name, "cell_m": self.cell, "cell_rule": self.cell_rule,
+                "cell_crs_units": self.grid.size, "units": self.units.describe(), "crs": crs_name(self.crs),
+                "min_points": self.min_points, "min_points_rule": self.min_points_rule,
+                "density": [round(float(v), 4) for v in self.density], "score": self.score,
+                "confidence": self.confidence, "render": self.render, "frame_px": self.frame.size,
                 "grid": {"rows": self.grid.rows, "cols": self.grid.cols, "transform": [a, b, c, d, e, f],
-                         "cells": self.grid.n_cells, "valid": int(self.table["valid"].sum())},
-                "method": self.method, "top": self.top(n)}
+                         "cells": self.grid.n_cells, "valid": int(self.table["valid"].sum()),
+                         "significant": self.n_significant},
+                "levels": {k: {"beta": v.beta, "tau": v.tau, "survey": v.survey,
+                               "significant": int(v.significant.sum())} for k, v in self.levels.items()
+                           if np.isfinite(v.mu0).any()},
+                "warnings": list(self.warnings), "method": self.method}
+
+    def to_dict(self, n=10):
+        """Everything a ``--json`` user needs: the grid, the settings, each metric's survey part
+        and significant cells, and the ``n`` top cells (all compared cells when ``n`` is at
+        least their number)."""
+        return {**self.settings(), "top": self.top(n)}
+
+    def metadata_tags(self):
+        """Text tags of the GeoTIFF: the settings a reader needs to interpret the bands."""
+        return {"cell_m": f"{self.cell:g}", "cell_rule": self.cell_rule, "min_points": str(self.min_points),
+                "min_points_rule": self.min_points_rule, "density_points_per_m2": ", ".join(
+                    f"{v:.4g}" for v in self.density), "score": self.score, "confidence": f"{self.confidence:g}",
+                "compared": str(int(self.table["valid"].sum())), "significant": str(self.n_significant),
+                "epoch_a": self.a.name, "epoch_b": self.b.name}
+
+    def bands(self, prefix=""):
+        """(rasters, descriptions) of the GeoTIFF's bands: the score, its level of detection,
+        significant (0/1), every metric, the points of each epoch and their undefined shares;
+        NaN where there is no data. ``prefix`` starts each description (a series' interval)."""
+        names = BANDS + METRIC_KEYS + COUNT_BANDS
+        rasters = []
+        for n in names:
+            r = self.raster(n)
+            if n == "significant":
+                r = np.where(self.raster("valid") > 0, r, np.nan)
+            elif n.startswith("undefined"):  # shares say nothing where a cell is empty
+                r = np.where(self.raster(n.replace("undefined", "points")) > 0, r, np.nan)
+            rasters.append(r)
+        return rasters, [prefix + _band_description(n, self.score, self.confidence) for n in names]
 
     def save(self, path, *, overwrite=False):
-        """Write by extension: ``.tif``/``.tiff`` a GeoTIFF of every metric (needs rasterio:
-        ``pip install lidar-sig[geo]``), ``.png`` the map, ``.html`` the report."""
+        """Write by extension: ``.tif``/``.tiff`` a GeoTIFF of the score, its level of
+        detection, significance and every metric (needs rasterio: ``pip install
+        lidar-sig[geo]``), ``.png`` the map, ``.html`` the report."""
         ext = Path(path).suffix.lower()
         if ext in (".tif", ".tiff"):
             from ..io.geotiff import write_geotiff
 
-            names = ("score",) + METRIC_KEYS + ("points_a", "points_b", "undefined_a", "undefined_b")
-            bands = [self.raster(n) for n in names]
-            for k, n in enumerate(names):  # counts and shares say nothing where a cell is empty
-                if n.startswith("undefined"):
-                    bands[k] = np.where(self.raster(n.replace("undefined", "points")) > 0, bands[k], np.nan)
-            descriptions = [_band_description(n, self.score) for n in names]
-            with step(f"writing {Path(path).name}", bands=len(names)):
-                write_geotiff(path, bands, descriptions, self.grid.transform, self.crs, overwrite=overwrite)
+            rasters, descriptions = self.bands()
+            with step(f"writing {Path(path).name}", bands=len(rasters)):
+                write_geotiff(path, rasters, descriptions, self.grid.transform, self.crs, overwrite=overwrite,
+                              tags=self.metadata_tags())
         elif ext == ".png":
             from ..io.png import write_png
             from ..reporting import change_map_image
@@ -177,10 +270,13 @@ def _plain(value):
     return None if math.isnan(value) else value
 
 
-def _band_description(name, score):
+def _band_description(name, score, confidence=CONFIDENCE):
     names = {m.key: f"{m.name}: {m.short}" for m in METRICS}
-    ranking = names[score].split(":")[0]
-    text = {"score": f"score: {'1 - ' if score == 'ssim' else ''}{ranking}, the ranking metric",
+    ranking = f"{'1 - ' if score == 'ssim' else ''}{METRIC_NAMES[score]}"
+    text = {"score": f"score: {ranking}, the ranking metric",
+            "lod": f"lod: level of detection of the score ({ranking} of unchanged land at {confidence:.0%})",
+            "significant": f"significant: 1 where the score exceeds its level of detection ({confidence:.0%}), "
+                           "0 where not",
             "points_a": "points of epoch A", "points_b": "points of epoch B",
             "undefined_a": "share of A's points with undefined saliency",
             "undefined_b": "share of B's points with undefined saliency"}

@@ -1,95 +1,204 @@
-"""The change map of two epochs from their files (:func:`changes`, `lidar-sig changes`): read
-both epochs, check them, compute each one's saliency with the pipeline, then the cells' metrics
-and their ranking."""
+"""The change map of two epochs or more from their files (:func:`changes`, `lidar-sig changes`):
+read the epochs, check them, choose the cell size and the fewest points from their densities,
+compute each epoch's saliency once, then per interval (consecutive pair) the cells' metrics,
+their level of detection and the ranking."""
 from __future__ import annotations
 
+import time
 import warnings
 
 import numpy as np
 
+from ..class_schemes import class_scheme_warnings, merge_classes
 from ..classes import UNLABELED
 from ..errors import LidarSigError, LidarSigWarning, whole_number
-from ..metrics import METRIC_KEYS
+from ..metrics import METRIC_KEYS, METRIC_NAMES
 from ..progress import step
-from ..signature import Frame
-from .cells import CELL_FRAME, MIN_POINTS, cell_metrics
+from ..signature import Frame, method_differences
+from .cells import CELL_FRAME, SEED, bin_points, cell_table, null_metrics, observed_metrics
+from .density import auto_cell, auto_min_points, density
 from .epochs import Epoch, check_same_crs, read_epoch
-from .grid import CELL, MAX_CELLS, Grid, check_cell
-from .result import GEOMETRIC_SCORE, SCORE, ChangeMap, score_values
+from .grid import MAX_CELLS, Grid, check_cell
+from .lod import CONFIDENCE, MIN_CELLS, REPLICATES
+from .result import LABEL_FREE_SCORE, SCORE, ChangeMap, metric_levels
+from .series import ChangeSeries
+
+#: The value of ``cell`` and ``min_points`` that chooses them from the epochs' densities.
+AUTO = "auto"
 
 
-def changes(a, b, *, cell=CELL, pipeline=None, min_points=MIN_POINTS, score=None, render="smooth",
-            frame=CELL_FRAME, columns=None):
-    """Per-cell change map between two epochs of the same area (registration-free).
+def changes(a, b, *more, cell=AUTO, pipeline=None, min_points=AUTO, score=None, render="smooth",
+            frame=CELL_FRAME, columns=None, confidence=CONFIDENCE, class_map=None, seed=SEED):
+    """Per-cell change map between epochs of the same area (registration-free), with a level of
+    detection per cell and metric.
 
     Parameters
     ----------
-    a, b : str, Path, list of paths, folder or PointCloud
-        The two epochs: point-cloud files, folders of tiles or lists of tile files (joined into
-        one cloud per epoch), or clouds. Both must be in the same CRS.
-    cell : float
-        Cell side in metres (converted to the CRS unit); default 25.
+    a, b, *more : str, Path, list of paths, folder, PointCloud or Epoch
+        The epochs in time order: point-cloud files, folders of tiles or lists of tile files
+        (joined into one cloud per epoch), clouds, or epochs whose saliency is computed already
+        (:func:`~lidar_sig.change_map.compute_epoch`, with the same method). All must be in the
+        same CRS. Three or more give a :class:`~lidar_sig.change_map.ChangeSeries` (a map per
+        consecutive pair).
+    cell : float or "auto"
+        Cell side in metres (converted to the CRS unit); ``"auto"`` (default) chooses it from
+        the smallest density of the epochs (:mod:`~lidar_sig.change_map.density`).
     pipeline : Pipeline, optional
         The method of the saliency; default ``Pipeline()`` (SPEC 1-4).
-    min_points : int
-        Fewest points of a cell in each epoch for it to be compared; default
-        :data:`~lidar_sig.change_map.MIN_POINTS`.
+    min_points : int or "auto"
+        Fewest points with defined saliency a cell must hold in each epoch to be compared;
+        ``"auto"`` (default): a fifth of a full cell at the smallest density, at least 30.
     score : str, optional
         Metric that ranks the cells (a key of :data:`lidar_sig.metrics.METRIC_KEYS`; for
-        s_SSIM, 1 - SSIM ranks); default :data:`~lidar_sig.change_map.SCORE`, or
-        :data:`~lidar_sig.change_map.GEOMETRIC_SCORE` when an epoch is unlabelled.
+        s_SSIM, 1 - SSIM ranks); default :data:`~lidar_sig.change_map.SCORE` (delta_KL), or
+        :data:`~lidar_sig.change_map.LABEL_FREE_SCORE` (delta_FV) when an epoch is unlabelled
+        or the epochs' class codes barely overlap.
     render : str
         Rendering of Sg and Sas for the image metrics (see :mod:`lidar_sig.signature`).
     frame : Frame
         Frame of the per-cell signatures; default :data:`~lidar_sig.change_map.CELL_FRAME` (64 px).
+    confidence : float
+        Confidence of the significance test, one-sided, from 0.5 to 0.9999; default 0.95.
+    class_map : str, list, dict or path, optional
+        Codes of either epoch merged into one class before the comparison, e.g.
+        ``"1,3,4,5=vegetation-or-other"`` (see :func:`lidar_sig.class_schemes.parse_class_map`).
+    seed : int
+        Seed of the resampling behind the level of detection (each cell has its own stream).
 
     Returns
     -------
-    ChangeMap
+    ChangeMap, or ChangeSeries for three epochs or more
     """
     from ..pipeline import Pipeline
 
-    cell = check_cell(cell)
-    min_points = whole_number(min_points, "min_points", low=1)
+    sources = (a, b) + more
+    cell_rule = AUTO if _is_auto(cell) else "given"
+    cell = None if cell_rule == AUTO else check_cell(cell)
+    min_points_rule = AUTO if _is_auto(min_points) else "given"
+    min_points = None if min_points_rule == AUTO else whole_number(min_points, "min_points", low=1)
+    if isinstance(confidence, bool) or not isinstance(confidence, (int, float)) or not 0.5 <= confidence <= 0.9999:
+        raise LidarSigError(f"the confidence must be a number from 0.5 to 0.9999 (e.g. 0.95), got {confidence!r}")
     if score is not None and score not in METRIC_KEYS:
         raise LidarSigError(f"unknown score {score!r}; use one of {', '.join(METRIC_KEYS)}")
     if pipeline is not None and not isinstance(pipeline, Pipeline):
         raise LidarSigError(f"pipeline must be a lidar_sig.Pipeline, got {pipeline!r}")
+    if not isinstance(frame, Frame):
+        raise LidarSigError(f"frame must be a lidar_sig.Frame, got {frame!r}")
+    seed = whole_number(seed, "seed")
     pipeline = pipeline or Pipeline()
-    clouds = [read_epoch(x, columns=columns) for x in (a, b)]
-    names = [c.path or "(in memory)" for c in clouds]
-    check_same_crs(clouds, names)
+    table_of_classes = merge_classes(pipeline.classes, class_map)  # a bad map is refused before reading
+    given = [x if isinstance(x, Epoch) else None for x in sources]  # saliency computed already
+    for x in given:
+        differ = [] if x is None else method_differences(x.metadata, pipeline.method())
+        if differ:
+            raise LidarSigError(f"the epoch {x.name} was computed with another method ({'; '.join(differ)}); give "
+                                "the pipeline it was computed with, or its cloud")
+    clouds = [read_epoch(x, columns=columns) for x in sources]
+    names = [x.name if x is not None else c.path or "(in memory)" for x, c in zip(given, clouds)]
+    for k in range(1, len(clouds)):
+        check_same_crs([clouds[0], clouds[k]], [names[0], names[k]])
     labelled = all(c.labels is not None for c in clouds)
+    notes = []
     if not labelled and any(c.labels is not None for c in clouds):
-        bare = names[0] if clouds[0].labels is None else names[1]
-        warnings.warn(f"{bare} has no class labels: the cells are compared by geometry only (ranked by "
-                      f"{score or GEOMETRIC_SCORE}) and both epochs' points are shown as one class", LidarSigWarning,
-                      stacklevel=2)
-    score = score or (SCORE if labelled else GEOMETRIC_SCORE)
+        bare = ", ".join(n for n, c in zip(names, clouds) if c.labels is None)
+        notes.append(f"{bare} has no class labels: the cells are compared by geometry only (ranked by "
+                     f"{METRIC_NAMES[score or LABEL_FREE_SCORE]}) and every epoch's points are shown as one class")
     if score in ("kl", "l1") and not labelled:
-        raise LidarSigError(f"score {score!r} needs class labels in both epochs; use emd_info or another "
-                            "geometric metric")
+        raise LidarSigError(f"score {score!r} needs class labels in every epoch; use fv or another geometric metric")
+    if class_map and not labelled:
+        raise LidarSigError("a class map merges class codes, but not every epoch has class labels; leave out "
+                            "--class-map")
     units = clouds[0].units
+    densities = [density(c.xyz[:, :2], units.horizontal) for c in clouds]
+    if cell is None:
+        cell = auto_cell(min(densities))
+    if min_points is None:
+        min_points = auto_min_points(min(densities), cell)
     grid = Grid.covering(np.vstack([c.xyz[:, :2] for c in clouds]), cell / units.horizontal)
     if grid.n_cells > MAX_CELLS:  # a far outlier, or a cell size meant in another unit
         raise LidarSigError(f"the epochs span {grid.cols:,} x {grid.rows:,} cells of {cell:g} m, more than "
                             f"{MAX_CELLS:,}; use a larger cell size (--cell) or remove far outlying points")
-    filled = np.minimum(*(np.bincount(grid.cell_of(c.xyz[:, :2]), minlength=grid.n_cells) for c in clouds))
-    if filled.max() < min_points:  # said before the saliency is computed
-        raise LidarSigError(f"no cell of {cell:g} m holds {min_points:,} points in both epochs (at most "
-                            f"{filled.max():,}); use a larger cell size (--cell) or a smaller minimum (--min-points)")
-    epochs = []
-    for cloud, name in zip(clouds, names):
-        sal, stats = pipeline.saliency(cloud)
-        epochs.append(Epoch(name, cloud, sal, stats, kept=pipeline.kept(cloud)))
-    classes = pipeline.classes if labelled else UNLABELED
-    if not isinstance(frame, Frame):
-        raise LidarSigError(f"frame must be a lidar_sig.Frame, got {frame!r}")
-    with step("change map", cells=grid.n_cells, cell=f"{cell:g} m", frame=f"{frame.size} px") as s:
-        table, classes_a, classes_b = cell_metrics(grid, epochs, classes, labelled, min_points=min_points,
-                                                   render=render, frame=frame, progress=s)
-    table["score"] = score_values(table, score)
+    counts = [np.bincount(grid.cell_of(c.xyz[:, :2]), minlength=grid.n_cells) for c in clouds]
+    for k in range(len(clouds) - 1):  # said before the saliency is computed
+        filled = np.minimum(counts[k], counts[k + 1])
+        if filled.max() < min_points:
+            pair = "" if len(clouds) == 2 else f" {names[k]} and {names[k + 1]}"
+            raise LidarSigError(f"no cell of {cell:g} m holds {min_points:,} points in both epochs{pair} (at most "
+                                f"{filled.max():,}); use a larger cell size (--cell) or a smaller minimum "
+                                "(--min-points)")
+    epochs, seconds = [], []
+    for cloud, name, epoch in zip(clouds, names, given):
+        start = time.perf_counter()
+        if epoch is None:
+            sal, stats = pipeline.saliency(cloud)
+            epoch = Epoch(name, cloud, sal, stats, kept=pipeline.kept(cloud))
+        seconds.append(time.perf_counter() - start)
+        epochs.append(epoch)
+    classes = table_of_classes if labelled else UNLABELED
+    with step("binning", epochs=len(epochs), cells=grid.n_cells):
+        binned = [bin_points(e, grid, classes, labelled, frame) for e in epochs]
+    schemes = _scheme_warnings(binned, classes, names, ranked_by=score) if labelled else [[]] * (len(epochs) - 1)
+    score = score or (SCORE if labelled and not any(schemes) else LABEL_FREE_SCORE)
     method = {k: epochs[0].metadata[k] for k in ("descriptor", "strategy", "scale_kind", "scale_values",
                                                  "scale_units", "weights") if k in epochs[0].metadata}
-    return ChangeMap(table, classes_a, classes_b, grid, clouds[0].crs, units, cell, int(min_points), score,
-                     render, classes, epochs[0], epochs[1], frame, method)
+    maps = []
+    for k in range(len(epochs) - 1):
+        maps.append(_interval(k, epochs, binned, grid, classes, min_points, cell, render, frame, confidence, seed,
+                              score, method, units, names))
+        cm = maps[-1]
+        cm.cell_rule, cm.min_points_rule = cell_rule, min_points_rule
+        cm.density = (densities[k], densities[k + 1])
+        cm.timings["saliency"] = [seconds[k], seconds[k + 1]]
+        cm.warnings = notes + schemes[k] + cm.warnings
+    for text in dict.fromkeys(w for m in maps for w in m.warnings):  # each once
+        warnings.warn(text, LidarSigWarning, stacklevel=2)
+    return maps[0] if len(maps) == 1 else ChangeSeries(maps, epochs)
+
+
+def _interval(k, epochs, binned, grid, classes, min_points, cell, render, frame, confidence, seed, score, method,
+              units, names):
+    """The ChangeMap of epochs k and k + 1: table, metrics, levels of detection, ranking."""
+    pair = binned[k:k + 2]
+    table = cell_table(grid, pair, min_points)
+    if not table["valid"].any():  # the points are there, their saliency is not
+        most = int(np.minimum(table["defined_a"], table["defined_b"]).max())
+        raise LidarSigError(f"no cell of {cell:g} m holds {min_points:,} points with defined saliency in both "
+                            f"{names[k]} and {names[k + 1]} (at most {most:,}); use a larger cell size (--cell), a "
+                            "smaller minimum (--min-points) or larger scales")
+    n_valid = int(table["valid"].sum())
+    timings = {}
+    start = time.perf_counter()
+    with step("cell metrics", cells=n_valid, cell=f"{cell:g} m", frame=f"{frame.size} px") as s:
+        observed_metrics(table, pair, classes, render=render, frame=frame, progress=s)
+    timings["cells"] = time.perf_counter() - start
+    start = time.perf_counter()
+    with step("level of detection", cells=n_valid, replicates=2 * REPLICATES) as s:
+        null = null_metrics(table, pair, classes, render=render, frame=frame, seed=seed, stream=k, progress=s)
+        levels = metric_levels(table, null, confidence=confidence)
+    timings["lod"] = time.perf_counter() - start
+    notes = []
+    if n_valid < MIN_CELLS:
+        notes.append(f"the level of detection covers sampling noise only: {n_valid} compared "
+                     f"cell{'s' if n_valid != 1 else ''}, fewer than {MIN_CELLS}, cannot tell what differs between "
+                     "the two surveys everywhere; use smaller cells (--cell) for more")
+    cm = ChangeMap(table, pair[0].classes, pair[1].classes, grid, epochs[k].cloud.crs, units, cell, int(min_points),
+                   score, render, classes, epochs[k], epochs[k + 1], frame, method, levels, confidence,
+                   warnings=notes, timings=timings)
+    cm.rank_by(score)
+    return cm
+
+
+def _scheme_warnings(binned, classes, names, *, ranked_by=None):
+    """Per interval, the warnings that its two epochs' class codes barely overlap
+    (:func:`lidar_sig.class_schemes.class_scheme_warnings`), saying what the ranking then is."""
+    consequence = "delta_KL and L1 measure the classification schemes as much as the land"
+    if ranked_by is None:
+        consequence += (f"; the cells are ranked by {METRIC_NAMES[LABEL_FREE_SCORE]}, which does not depend on the "
+                        "labels (--class-map merges codes to compare the classes)")
+    return [class_scheme_warnings(binned[k].classes.sum(axis=0), binned[k + 1].classes.sum(axis=0),
+                                  classes.class_names, names[k:k + 2], consequence=consequence)
+            for k in range(len(binned) - 1)]
+
+
+def _is_auto(value):
+    return isinstance(value, str) and value.strip().lower() == AUTO

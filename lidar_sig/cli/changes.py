@@ -1,9 +1,10 @@
-"""`lidar-sig changes`: where two epochs differ, cell by cell (a registration-free change map)."""
+"""`lidar-sig changes`: where epochs differ, cell by cell (a registration-free change map with a
+level of detection per cell)."""
 import json
 
 import click
 
-from ..change_map import CELL, MIN_POINTS, changes, check_cell
+from ..change_map import AUTO, CONFIDENCE, ChangeSeries, changes, check_cell
 from ..errors import LidarSigError
 from ..metrics import METRIC_KEYS, METRIC_NAMES
 from .group import cli
@@ -11,17 +12,25 @@ from .options import columns_option, overwrite_option, pipeline_options, render_
 
 
 @cli.command("changes")
-@click.argument("a")
-@click.argument("b")
+@click.argument("epochs", nargs=-1, required=True, metavar="A B [C ...]")
 @click.option("-o", "--output", default=None, metavar="FILE.tif",
-              help="GeoTIFF with one band per metric (needs rasterio: pip install lidar-sig[geo]).")
-@click.option("--cell", default=CELL, show_default=True, type=float, help="Cell side in metres.")
-@click.option("--min-points", default=MIN_POINTS, show_default=True, type=int,
-              help="Fewest points of a cell in each epoch for it to be compared; fewer gives no data.")
+              help="GeoTIFF: the score, its level of detection, significant (0/1) and every metric per cell "
+                   "(needs rasterio: pip install lidar-sig[geo]).")
+@click.option("--cell", default=AUTO, show_default=True, metavar="METRES|auto",
+              help="Cell side in metres, or auto: chosen from the epochs' densities.")
+@click.option("--min-points", default=AUTO, show_default=True, metavar="N|auto",
+              help="Fewest points with defined saliency of a cell in each epoch for it to be compared, or auto: "
+                   "a fifth of a full cell.")
 @click.option("--score", type=click.Choice(METRIC_KEYS), default=None,
-              help="Metric that ranks the cells [default: kl, or emd_info for unlabelled clouds].")
+              help="Metric that ranks the cells [default: kl, or fv for unlabelled epochs or class schemes that "
+                   "barely overlap].")
+@click.option("--confidence", default=CONFIDENCE, show_default=True, type=click.FloatRange(0.5, 0.9999),
+              help="Confidence of the level of detection (one-sided).")
+@click.option("--class-map", "class_map", multiple=True, metavar="CODES=NAME",
+              help="Merge class codes of either epoch into one class before comparing, e.g. "
+                   "1,3,4,5=vegetation-or-other (repeatable, or ';'-separated), or a .toml/.json file.")
 @click.option("--top", default=10, show_default=True, type=click.IntRange(0, 100_000),
-              help="Most changed cells to list.")
+              help="Most changed cells to list (100000 lists every compared cell).")
 @click.option("--png", default=None, metavar="FILE.png", help="Also draw the map as a PNG picture.")
 @click.option("--report", default=None, metavar="FILE.html",
               help="Write an HTML page with the map over both epochs and the top cells' signatures.")
@@ -30,34 +39,88 @@ from .options import columns_option, overwrite_option, pipeline_options, render_
 @overwrite_option
 @columns_option
 @pipeline_options
-def changes_command(a, b, output, cell, min_points, score, top, png, report, as_json, render, overwrite, columns,
-                    pipeline, method_given, quiet):
-    """Map where A and B differ: per-cell signature metrics in a grid of the CRS.
+def changes_command(epochs, output, cell, min_points, score, confidence, class_map, top, png, report, as_json, render,
+                    overwrite, columns, pipeline, method_given, quiet):
+    """Map where epochs differ: per-cell signature metrics in a grid of the CRS, each with its
+    level of detection, so that the cells that changed significantly stand out.
 
-    A and B are two epochs of the same area in one CRS: point-cloud files or folders of tiles.
-    Each epoch's saliency is computed on the whole epoch; the points are then binned into cells
-    aligned to multiples of the cell size, and the signatures of each cell compared.
+    A B [C ...] are epochs of the same area in one CRS, in time order: point-cloud files or
+    folders of tiles. Each epoch's saliency is computed once on the whole epoch; the points are
+    then binned into cells aligned to multiples of the cell size, and the signatures of each
+    cell compared between consecutive epochs.
     """
-    cell_m = check_cell(cell)
+    if len(epochs) < 2:
+        raise LidarSigError("give at least two epochs (A B), in time order")
+    cell = _auto_or(cell, "the cell size (--cell)", _metres)
+    min_points = _auto_or(min_points, "the fewest points (--min-points)", _whole)
     _check_outputs(output, png, report, overwrite)
-    result = changes(a, b, cell=cell_m, pipeline=pipeline, min_points=min_points, score=score,
-                     render=render or "smooth", columns=columns)
+    result = changes(*epochs, cell=cell, pipeline=pipeline, min_points=min_points, score=score,
+                     render=render or "smooth", columns=columns, confidence=confidence,
+                     class_map=list(class_map) or None)
     written = _write(result, output, png, report, overwrite)
     if as_json:
         click.echo(json.dumps(result.to_dict(top)))
         return
-    info = result.to_dict(top)
-    grid = info["grid"]
-    click.echo(f"{grid['rows']} x {grid['cols']} cells of {cell_m:g} m, {grid['valid']} compared (both epochs "
-               f"with {min_points:,} points or more); ranked by {METRIC_NAMES[result.score]}")
-    click.echo(f"{'rank':>4} {'x min':>10} {'y min':>11} {'points A':>9} {'points B':>9} {'score':>8}  classes A -> B")
-    for item in info["top"]:
-        classes = ", ".join(f"{k} {na:,}->{nb:,}" for k, (na, nb) in item["classes"].items())
-        click.echo(f"{item['rank']:>4} {item['bounds'][0]:>10.1f} {item['bounds'][1]:>11.1f} {item['points_a']:>9,} "
-                   f"{item['points_b']:>9,} {item['score']:>8.4f}  {classes}")
+    maps = result.maps if isinstance(result, ChangeSeries) else [result]
+    first = maps[0]
+    click.echo(f"{first.grid.rows} x {first.grid.cols} cells of {first.cell:g} m ({_rule(first.cell_rule)}), "
+               f"compared where both epochs hold {first.min_points:,} points with defined saliency "
+               f"({_rule(first.min_points_rule)}); densities "
+               + ", ".join(f"{d:.3g}" for d in _densities(result)) + " points/m²")
+    for k, cm in enumerate(maps):
+        valid = int(cm.table["valid"].sum())
+        where = f"{result.interval_name(k)}: " if len(maps) > 1 else ""
+        ranking = f"{'1 - ' if cm.score == 'ssim' else ''}{METRIC_NAMES[cm.score]}"
+        click.echo(f"{where}{valid} cells compared, ranked by {ranking}; {cm.n_significant} changed significantly "
+                   f"({cm.confidence:.0%} level of detection), marked *")
+        click.echo(f"{'rank':>5} {'x min':>10} {'y min':>11} {'points A':>9} {'points B':>9} {'score':>8} "
+                   f"{'lod':>8}  classes A -> B")
+        for item in cm.top(top):
+            classes = ", ".join(f"{k} {na:,}->{nb:,}" for k, (na, nb) in item["classes"].items())
+            lod = "" if item["lod"] is None else f"{item['lod']:.4f}"
+            mark = "*" if item["significant"] else " "
+            click.echo(f"{item['rank']:>4}{mark} {item['bounds'][0]:>10.1f} {item['bounds'][1]:>11.1f} "
+                       f"{item['points_a']:>9,} {item['points_b']:>9,} {item['score']:>8.4f} {lod:>8}  {classes}")
+    if len(maps) > 1:
+        counts = result.to_dict(0)["when"]["cells"]
+        click.echo("when: " + ", ".join(f"{counts[str(k)]} cells changed most in interval {k}"
+                                        for k in range(1, len(maps) + 1))
+                   + f"; {counts['0']} compared, never significantly")
     if not quiet:
         for line in written:
             click.echo(line)
+
+
+def _densities(result):
+    if isinstance(result, ChangeSeries):
+        return [m.density[0] for m in result.maps] + [result.maps[-1].density[1]]
+    return list(result.density)
+
+
+def _rule(rule):
+    return "auto" if rule == AUTO else "given"
+
+
+def _metres(text, what):
+    try:
+        value = float(text)
+    except ValueError:
+        raise LidarSigError(f"{what} must be auto or a positive number of metres, got {text!r}") from None
+    return check_cell(value)
+
+
+def _whole(text, what):
+    try:
+        value = int(text)
+    except ValueError:
+        raise LidarSigError(f"{what} must be auto or a whole number >= 1, got {text!r}") from None
+    if value < 1:
+        raise LidarSigError(f"{what} must be auto or a whole number >= 1, got {text!r}")
+    return value
+
+
+def _auto_or(text, what, parse):
+    return AUTO if text.strip().lower() == AUTO else parse(text, what)
 
 
 def _check_outputs(output, png, report, overwrite):

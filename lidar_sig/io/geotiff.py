@@ -39,11 +39,12 @@ def check_geotiff_output(path, *, overwrite=False):
     check_output(path, overwrite=overwrite)
 
 
-def write_geotiff(path, bands, descriptions, transform, crs, *, overwrite=False):
+def write_geotiff(path, bands, descriptions, transform, crs, *, overwrite=False, tags=None):
     """Write (rows, cols) float rasters as one GeoTIFF, NaN written as :data:`NODATA`.
 
     ``transform`` is (a, b, c, d, e, f) in rasterio's order; ``crs`` WKT or any text pyproj
-    reads, or None (no CRS written).
+    reads, or None (no CRS written); ``tags`` a dict of text metadata of the dataset (GDAL
+    metadata items: ``gdalinfo`` and QGIS show them, rasterio's ``tags()`` reads them).
     """
     rasterio = rasterio_module()
     from affine import Affine
@@ -60,6 +61,8 @@ def write_geotiff(path, bands, descriptions, transform, crs, *, overwrite=False)
         try:
             with rasterio.open(tmp, "w", **profile) as dst:
                 dst.write(data)
+                if tags:
+                    dst.update_tags(**{str(k): str(v) for k, v in tags.items()})
                 for k, text in enumerate(descriptions, 1):
                     dst.set_band_description(k, text)
         except rasterio.errors.RasterioIOError as exc:

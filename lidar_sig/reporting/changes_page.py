@@ -1,21 +1,23 @@
-"""The HTML report of a change map: the map over both epochs, the table of the most changed
-cells with their class composition, and their signatures side by side."""
+"""The HTML report of a change map: the settings and the level of detection, the map over both
+epochs, the table of the most changed cells (significant ones marked) with their class
+composition, and their signatures side by side."""
 from __future__ import annotations
 
 from pathlib import Path
+
+import numpy as np
 
 from ..progress import step
 from . import page
 from .document import Report
 from .map_image import TOP, change_map_image
-from .sections import made_line
+from .sections import made_line, warnings_list
 
 
 def changes_report(change_map, *, top=TOP):
     """The :class:`Report` of a computed :class:`lidar_sig.change_map.ChangeMap`: the map over
     both epochs, the most changed cells with their class composition and their signatures side
     by side."""
-    from ..metrics import METRIC_NAMES
     from ..render import encode_png, signature_image
 
     cm = change_map
@@ -29,46 +31,91 @@ def changes_report(change_map, *, top=TOP):
             for tag, sig in zip("ab", cm.signatures(int(c))):
                 pngs[f"cell{rank}_{tag}.png"] = encode_png(signature_image(sig, "sas", cm.render, scale=scale))
     title = f"lidar_sig change map: {names[0]} and {names[1]}"
-    valid = int(cm.table["valid"].sum())
     summary = (f"<ul><li><span class=\"a\">A</span> <code>{page.esc(cm.a.name)}</code> "
                f"({len(cm.a.cloud):,} points)</li><li><span class=\"b\">B</span> <code>{page.esc(cm.b.name)}</code> "
-               f"({len(cm.b.cloud):,} points)</li></ul>"
-               f"<p>Cells of {cm.cell:g} m ({cm.grid.rows} x {cm.grid.cols}, aligned to multiples of the cell size "
-               f"in {page.esc(cm.to_dict(0)['crs'] or 'the coordinates (no CRS)')}); {valid} of {cm.grid.n_cells} "
-               f"cells hold {cm.min_points:,} points or more in both epochs and are compared. Ranked by "
-               f"<b>{page.esc(METRIC_NAMES[cm.score])}</b>; per-cell signatures in a {cm.frame.size} px frame, "
-               f"{page.esc(cm.render)} rendering; saliency {page.esc(_method(cm.method))}, computed on each whole "
-               "epoch.</p>")
+               f"({len(cm.b.cloud):,} points)</li></ul>" + settings_text(cm))
     maps = ('<div class="grid">'
             + page.image(pngs["map_a.png"], "change map over A", caption=f"Score over a top view of A, "
                          f"<code>{page.esc(names[0])}</code>")
             + page.image(pngs["map_b.png"], "change map over B", caption=f"Score over a top view of B, "
                          f"<code>{page.esc(names[1])}</code>")
             + "</div>")
-    rows = []
-    for item in cm.top(top):
-        x0, y0, x1, y1 = item["bounds"]
-        composition = "<br>".join(f"{page.esc(k)}: {a:,} &rarr; {b:,}" for k, (a, b) in item["classes"].items())
-        rows.append([str(item["rank"]), f"{x0:.0f} to {x1:.0f}<br>{y0:.0f} to {y1:.0f}",
-                     f"{item['points_a']:,} / {item['points_b']:,}", f"{item['score']:.4f}",
-                     "<br>".join(f"{METRIC_NAMES[k]} {item[k]:.3f}" for k in ("bhattacharyya", "emd_info", "fv", "l1")
-                                 if item[k] is not None), composition])
-    table = page.table(("rank", "cell x, y", "points A / B", "score", "other metrics", "classes A &rarr; B"),
-                       rows, numeric=(0, 2, 3))
     cells = []
-    for rank in range(1, len(rows) + 1):
+    for rank in range(1, min(top, int(cm.table["valid"].sum())) + 1):
         cells.append(page.image(pngs[f"cell{rank}_a.png"], f"Sas of A in cell {rank}",
                                 caption=f'<span class="a">A</span>, cell {rank}'))
         cells.append(page.image(pngs[f"cell{rank}_b.png"], f"Sas of B in cell {rank}",
                                 caption=f'<span class="b">B</span>, cell {rank}'))
     parts = [summary,
+             page.section("Warnings", warnings_list(cm.warnings), anchor="warnings"),
              page.section("Map", maps, anchor="map"),
-             page.section("Most changed cells", table, anchor="top"),
+             page.section("Most changed cells", cells_table(cm, top), anchor="top"),
+             page.section("Level of detection", levels_table(cm), anchor="lod"),
              page.section("Signatures of the most changed cells",
                           "<p>Sas of each cell in A (left) and B (right): each point placed in the triangle by "
                           "its saliency, coloured by its class.</p>",
                           '<div class="grid">' + "".join(cells) + "</div>", anchor="signatures")]
     return Report(title, page.fragment(title, made_line(), parts), pngs)
+
+
+def settings_text(cm):
+    """The grid, the rules that chose it, the ranking and how many cells changed significantly."""
+    from ..metrics import METRIC_NAMES
+
+    valid = int(cm.table["valid"].sum())
+    chosen = {"auto": "chosen from the epochs' densities", "given": "given"}
+    density = " and ".join(f"{d:.3g}" for d in cm.density)
+    crs = cm.settings()["crs"] or "the coordinates (no CRS)"
+    ranking = f"{'1 - ' if cm.score == 'ssim' else ''}{METRIC_NAMES[cm.score]}"
+    return (f"<p>Cells of {cm.cell:g} m ({cm.grid.rows} x {cm.grid.cols}, aligned to multiples of the cell size in "
+            f"{page.esc(crs)}; {chosen[cm.cell_rule]}); {valid} of {cm.grid.n_cells} cells hold {cm.min_points:,} "
+            f"points with defined saliency or more in both epochs ({chosen[cm.min_points_rule]}; densities "
+            f"{density} points/m²) and are compared. Ranked by <b>{page.esc(ranking)}</b>: "
+            f"<b>{cm.n_significant} of {valid} cells changed significantly</b> (their score exceeds the level of "
+            f"detection at {cm.confidence:.0%} confidence), listed first; per-cell signatures in a "
+            f"{cm.frame.size} px frame, {page.esc(cm.render)} rendering; saliency {page.esc(_method(cm.method))}, "
+            "computed on each whole epoch.</p>")
+
+
+def cells_table(cm, top):
+    """The most changed cells: rank (* significant), bounds, points, score and its level of
+    detection, other metrics, classes before and after."""
+    from ..metrics import METRIC_NAMES
+
+    rows = []
+    for item in cm.top(top):
+        x0, y0, x1, y1 = item["bounds"]
+        composition = "<br>".join(f"{page.esc(k)}: {a:,} &rarr; {b:,}" for k, (a, b) in item["classes"].items())
+        lod = "" if item["lod"] is None else f"{item['lod']:.4f}"
+        also = ", ".join(METRIC_NAMES[k] for k in item["significant_metrics"]) or "none"
+        rows.append([f"{item['rank']}{' *' if item['significant'] else ''}", f"{x0:.0f} to {x1:.0f}<br>{y0:.0f} to "
+                     f"{y1:.0f}", f"{item['points_a']:,} / {item['points_b']:,}", f"{item['score']:.4f}", lod,
+                     "<br>".join(f"{METRIC_NAMES[k]} {item[k]:.3f}" for k in ("bhattacharyya", "emd_info", "fv", "l1")
+                                 if item[k] is not None) + f"<br>significant in: {page.esc(also)}", composition])
+    note = ("<p>* changed significantly: the score exceeds its level of detection, the score unchanged land "
+            f"would reach at {cm.confidence:.0%} between these two epochs (sampled as this cell is, surveyed as "
+            "these two surveys differ everywhere).</p>")
+    return note + page.table(("rank", "cell x, y", "points A / B", "score", "level of detection", "other metrics",
+                              "classes A &rarr; B"), rows, numeric=(0, 2, 3, 4))
+
+
+def levels_table(cm):
+    """Per metric: the survey part of the level of detection and the cells significant in it."""
+    from ..metrics import METRIC_NAMES
+
+    rows = []
+    for key, level in cm.levels.items():
+        if not np.isfinite(level.mu0).any():
+            continue  # undefined (delta_KL and L1 of unlabelled epochs)
+        rows.append([page.esc(METRIC_NAMES[key]), f"{np.exp(level.beta):.3g}", f"{level.tau:.3f}",
+                     f"{int(level.significant.sum())}"])
+    return ("<p>For each cell and metric, resamples of each epoch's points give the score of unchanged land "
+            "sampled as the cell is; over all cells, the median ratio of the score to it (the survey factor) is "
+            "what differs between the two surveys everywhere (density, noise, sensor, classification), its robust "
+            "spread how much that varies from cell to cell. A change covering most cells reads as a survey "
+            "difference; docs/changes.md says what else the level cannot see.</p>"
+            + page.table(("metric", "survey factor exp(beta)", "spread tau (log)", "significant cells"), rows,
+                         numeric=(1, 2, 3)))
 
 
 def _method(m):

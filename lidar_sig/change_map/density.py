@@ -1,0 +1,54 @@
+"""Defaults that fit the survey: the change map's cell size and its fewest points per cell,
+chosen from the epochs' point densities (``--cell auto``, ``--min-points auto``).
+
+A signature of few points is mostly sampling noise (docs/changes.md measures it), and the level
+of detection (:mod:`~lidar_sig.change_map.lod`) needs enough cells to learn what a survey
+difference looks like: cells of :data:`CELL_POINTS` points or more on average, never smaller
+than :data:`MIN_CELL`, and a cell compared where each epoch fills a fifth of it
+(:data:`FILL`). From 50 points/m² down to 0.24 that is 25 m cells; 30 m at 0.2, 40 m at 0.1.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+#: Side of the pixels over which an epoch's density is measured, in metres: the density is the
+#: points over the area of the occupied pixels, so that water, gaps and an irregular footprint
+#: do not thin it.
+DENSITY_PIXEL = 10.0
+#: Smallest cell side chosen, in metres (the change map's cell where the density allows it).
+MIN_CELL = 25.0
+#: Points an average cell holds at least: sqrt(CELL_POINTS / density) is the smallest side.
+CELL_POINTS = 150
+#: Chosen cell sides are multiples of this, in metres.
+CELL_STEP = 5.0
+#: A cell is compared where each epoch holds this share of a full cell's points (defined ones).
+FILL = 0.2
+#: Fewest points of a compared cell whatever the density.
+MIN_POINTS_FLOOR = 30
+
+
+def density(xy, metres_per_unit=1.0):
+    """Points per m² of a cloud's (N, 2) coordinates: the points over the area of the
+    :data:`DENSITY_PIXEL` pixels they occupy (``metres_per_unit`` converts the CRS unit)."""
+    xy = np.asarray(xy, dtype=np.float64)
+    if len(xy) == 0:
+        return 0.0
+    pixel = DENSITY_PIXEL / metres_per_unit
+    ij = np.floor((xy - xy.min(axis=0)) / pixel).astype(np.int64)
+    occupied = len(np.unique(ij[:, 0] * (int(ij[:, 1].max()) + 1) + ij[:, 1]))
+    return len(xy) / (occupied * DENSITY_PIXEL ** 2)
+
+
+def auto_cell(points_per_m2):
+    """Cell side in metres for a density: max(:data:`MIN_CELL`, sqrt(:data:`CELL_POINTS` /
+    density) rounded up to a multiple of :data:`CELL_STEP`)."""
+    side = math.sqrt(CELL_POINTS / max(points_per_m2, 1e-9))
+    return max(MIN_CELL, math.ceil(side / CELL_STEP - 1e-9) * CELL_STEP)
+
+
+def auto_min_points(points_per_m2, cell):
+    """Fewest points with defined saliency a cell of ``cell`` metres must hold in each epoch:
+    max(:data:`MIN_POINTS_FLOOR`, :data:`FILL` x density x cell²), rounded."""
+    return max(MIN_POINTS_FLOOR, int(round(FILL * points_per_m2 * cell ** 2)))

@@ -1,0 +1,101 @@
+"""The level of detection of a change map: per cell and metric, the score that unchanged land
+would give between these two epochs, and whether the cell's score exceeds it (docs/changes.md).
+
+Two parts, combined on the log scale of the scores:
+
+- **Sampling** (per cell): the cell's points of each epoch resampled with replacement at both
+  epochs' counts and compared, :data:`REPLICATES` times from each epoch
+  (:func:`lidar_sig.change_map.cells.null_metrics`). Their mean ``mu0`` is the score of
+  unchanged land sampled as this cell is; ``sigma`` the spread of their logs.
+- **Survey** (over all compared cells): ``l = ln(score / mu0)`` of every cell; its median
+  ``beta`` is what differs between the two surveys everywhere (density, noise, sensor, a
+  classification scheme), its robust spread ``tau`` (1.4826 x MAD) how much that varies from
+  cell to cell.
+
+z = (l - beta) / sqrt(tau² + sigma²), and the level of detection LoD = mu0 exp(beta + z_q
+sqrt(tau² + sigma²)) with z_q the one-sided normal quantile of the confidence (1.645 at 95%);
+a cell changed significantly when its score exceeds its LoD (z > z_q). tau already holds an
+average cell's sampling noise, so an average cell counts it twice: the level is conservative.
+With fewer than :data:`MIN_CELLS` compared cells no survey part is estimated (beta = tau = 0).
+Pure array functions: no signatures, no files.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from statistics import NormalDist
+
+import numpy as np
+
+#: Default confidence of the significance test (one-sided).
+CONFIDENCE = 0.95
+#: Bootstrap replicates drawn from each epoch per cell (2 x REPLICATES comparisons).
+REPLICATES = 3
+#: Fewest compared cells from which the survey part (beta, tau) is estimated.
+MIN_CELLS = 8
+#: Smallest spreads (log scale): two replicates, or cells all alike, may give a spread of 0.
+SPREAD_FLOOR = 0.05
+#: Scores and replicates below this are taken as this (logs of identical cells' zeros).
+VALUE_FLOOR = 1e-12
+#: 1 / Phi^-1(3/4): the MAD of a normal sample times this estimates its standard deviation.
+MAD_SCALE = 1.4826
+
+
+@dataclass
+class Level:
+    """The level of detection of one metric over a change map's cells, (cells,) arrays NaN
+    (``significant`` False) where a cell is not compared.
+
+    ``mu0``: mean replicate score (unchanged land, this cell's sampling); ``sigma``: spread of
+    the replicates' logs; ``z``: how far the cell's score lies above its expected value, in
+    spreads; ``lod``: the score above which the cell changed significantly; ``beta``, ``tau``:
+    the survey part (median and robust spread of ln(score / mu0) over the compared cells);
+    ``survey``: whether it was estimated (at least :data:`MIN_CELLS` cells).
+    """
+
+    mu0: np.ndarray
+    sigma: np.ndarray
+    z: np.ndarray
+    lod: np.ndarray
+    significant: np.ndarray
+    beta: float
+    tau: float
+    survey: bool
+    confidence: float
+
+
+def quantile(confidence):
+    """z_q: the one-sided standard normal quantile of ``confidence`` (1.645 at 0.95)."""
+    return NormalDist().inv_cdf(confidence)
+
+
+def level_of_detection(scores, null, valid, *, confidence=CONFIDENCE):
+    """The :class:`Level` of one metric.
+
+    ``scores``: (cells,) observed scores, larger = more different (1 - s_SSIM for s_SSIM);
+    ``null``: (cells, replicates) the replicate scores of unchanged land, same orientation;
+    ``valid``: (cells,) bool, the compared cells (where a metric is undefined, e.g. delta_KL of
+    unlabelled epochs, its scores are NaN and nothing is significant).
+    """
+    scores = np.asarray(scores, dtype=np.float64)
+    null = np.asarray(null, dtype=np.float64)
+    n = len(scores)
+    use = np.asarray(valid, bool) & np.isfinite(scores) & np.isfinite(null).all(axis=1)
+    mu0, sigma, z, lod = (np.full(n, np.nan) for _ in range(4))
+    significant = np.zeros(n, bool)
+    if not use.any():
+        return Level(mu0, sigma, z, lod, significant, 0.0, 0.0, False, confidence)
+    replicates = np.maximum(null[use], VALUE_FLOOR)
+    mu0[use] = replicates.mean(axis=1)
+    sigma[use] = np.maximum(np.log(replicates).std(axis=1, ddof=1), SPREAD_FLOOR)
+    ratio = np.log(np.maximum(scores[use], VALUE_FLOOR) / mu0[use])
+    survey = int(use.sum()) >= MIN_CELLS
+    if survey:
+        beta = float(np.median(ratio))
+        tau = max(float(MAD_SCALE * np.median(np.abs(ratio - beta))), SPREAD_FLOOR)
+    else:
+        beta, tau = 0.0, 0.0
+    spread = np.sqrt(tau ** 2 + sigma[use] ** 2)
+    z[use] = (ratio - beta) / spread
+    lod[use] = mu0[use] * np.exp(beta + quantile(confidence) * spread)
+    significant[use] = scores[use] > lod[use]
+    return Level(mu0, sigma, z, lod, significant, beta, tau, survey, confidence)

@@ -1,0 +1,114 @@
+"""More than two epochs: a change map per interval (each consecutive pair of epochs, on one grid,
+each epoch's saliency computed once) and, per cell, the interval in which it changed most."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import LidarSigError
+from ..progress import step
+
+#: Value of the "when" band in a cell compared in some interval but never significant.
+NEVER = 0
+
+
+@dataclass
+class ChangeSeries:
+    """The result of :func:`lidar_sig.change_map.changes` for three epochs or more.
+
+    ``maps[k]`` is the :class:`~lidar_sig.change_map.ChangeMap` of interval k + 1 (epoch k + 1
+    to epoch k + 2, 1-based as printed); all share one grid, one score metric and the epochs'
+    saliency (``epochs``, in time order).
+    """
+
+    maps: list
+    epochs: list
+
+    @property
+    def grid(self):
+        return self.maps[0].grid
+
+    @property
+    def score(self):
+        return self.maps[0].score
+
+    def interval_name(self, k):
+        """``"interval 1 (E1 -> E2)"`` for ``k`` = 0, with the epochs' file names."""
+        a, b = (Path(e.name).name for e in (self.epochs[k], self.epochs[k + 1]))
+        return f"interval {k + 1} ({a} -> {b})"
+
+    def when(self):
+        """(cells,) float: the interval (1-based) in which each cell changed most, i.e. the one
+        of largest z among the intervals where it changed significantly; :data:`NEVER` (0)
+        where it was compared but never significant; NaN where it was never compared."""
+        valid = np.array([m.table["valid"] for m in self.maps])
+        significant = np.array([m.table["significant"] for m in self.maps])
+        z = np.array([np.where(s, m.table["z"], -np.inf) for m, s in zip(self.maps, significant)])
+        out = np.where(significant.any(axis=0), np.argmax(z, axis=0) + 1.0, float(NEVER))
+        return np.where(valid.any(axis=0), out, np.nan)
+
+    def raster(self):
+        """(rows, cols) raster of :meth:`when`, row 0 north."""
+        return self.when().reshape(self.grid.rows, self.grid.cols)
+
+    def to_dict(self, n=10):
+        """One entry per interval (its settings, survey parts and ``n`` top cells, as
+        :meth:`ChangeMap.to_dict`), and the cells per value of "when"."""
+        when = self.when()
+        counts = {str(k): int((when == k).sum()) for k in range(NEVER, len(self.maps) + 1)}
+        first = self.maps[0].settings()
+        shared = {k: first[k] for k in ("cell_m", "cell_rule", "cell_crs_units", "units", "crs", "min_points",
+                                        "min_points_rule", "score", "confidence", "render", "frame_px", "method")}
+        grid = {k: first["grid"][k] for k in ("rows", "cols", "transform", "cells")}
+        intervals = []
+        for k, m in enumerate(self.maps):
+            d = m.to_dict(n)
+            intervals.append({"interval": k + 1, **{key: d[key] for key in ("a", "b", "density", "levels",
+                                                                              "warnings", "top")},
+                              "valid": d["grid"]["valid"], "significant": d["grid"]["significant"]})
+        return {"epochs": [e.name for e in self.epochs], **shared, "grid": grid, "intervals": intervals,
+                "when": {"cells": counts, "never_significant": NEVER, "meaning": "the interval (1-based) in which "
+                         "the cell changed most; 0 compared but never significant"}}
+
+    def save(self, path, *, overwrite=False):
+        """Write by extension: ``.tif``/``.tiff`` every interval's bands (as a change map's,
+        described "interval k (Ek -> Ek+1): ...") then "when"; ``.png`` the map of "when";
+        ``.html`` the report with each interval's map."""
+        ext = Path(path).suffix.lower()
+        if ext in (".tif", ".tiff"):
+            from ..io.geotiff import write_geotiff
+
+            rasters, descriptions = [], []
+            for k, m in enumerate(self.maps):
+                r, d = m.bands(prefix=f"{self.interval_name(k)}: ")
+                rasters += r
+                descriptions += d
+            rasters.append(self.raster())
+            descriptions.append(f"when: the interval (1 to {len(self.maps)}) in which the cell changed most "
+                                f"(largest z among its significant intervals); {NEVER} compared but never "
+                                "significant")
+            tags = {k: v for k, v in self.maps[0].metadata_tags().items() if not k.startswith(("epoch", "compared",
+                                                                                               "significant"))}
+            tags.update({f"epoch_{k + 1}": e.name for k, e in enumerate(self.epochs)})
+            with step(f"writing {Path(path).name}", bands=len(rasters)):
+                write_geotiff(path, rasters, descriptions, self.grid.transform, self.maps[0].crs,
+                              overwrite=overwrite, tags=tags)
+        elif ext == ".png":
+            from ..io.png import write_png
+            from ..reporting import when_map_image
+
+            with step(f"writing {Path(path).name}"):
+                write_png(path, when_map_image(self), overwrite=overwrite)
+        elif ext in (".html", ".htm"):
+            self.report().save(path, overwrite=overwrite)
+        else:
+            raise LidarSigError(f"cannot write a change series as {ext or '(no extension)'!r}; use .tif, .png "
+                                "or .html", path=path)
+
+    def report(self):
+        """The HTML report: each interval's map and most changed cells, and the map of "when"."""
+        from ..reporting import series_report
+
+        return series_report(self)
