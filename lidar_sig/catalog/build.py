@@ -41,6 +41,7 @@ class CatalogRun:
     resumed: list = field(default_factory=list)
     failed: dict = field(default_factory=dict)
     n_tiles: int = 0
+    method: dict = field(default_factory=dict)
     crs: list = field(default_factory=list)
     seconds: float = 0.0
     execution: str = ""
@@ -118,6 +119,7 @@ def build_catalog(inputs, output, pipeline=None, *, backend=None, work=None, res
     if output.exists():
         header, columns = read_catalog(output)
         run.n_tiles = len(columns["name"])
+        run.method = header["method"]
         run.crs = [header["crs"][k] or None for k in sorted(set(columns["crs"].tolist()))]
     if run.complete:
         remove_work(work)

@@ -55,11 +55,12 @@ def shortlist_size(top, n):
     return min(n, max(SHORTLIST_FACTOR * top, SHORTLIST_MIN))
 
 
-def similar(catalog, query, *, top=10, metric=None, shortlist=None):
+def similar(catalog, query, *, top=10, metric=None, shortlist=None, columns=None):
     """The ``top`` tiles of ``catalog`` nearest to ``query`` (a tile's name or path, a cloud or
-    an archive file, a PointCloud or a Signature), best first, ranked by ``metric`` (default
-    "distance", the combined distance; or one metric's key). ``shortlist`` sets how many tiles
-    get the full metrics (default :func:`shortlist_size`; ``len(catalog)`` for all)."""
+    an archive file, a PointCloud or a Signature; ``columns`` of a text cloud), best first,
+    ranked by ``metric`` (default "distance", the combined distance; or one metric's key).
+    ``shortlist`` sets how many tiles get the full metrics (default :func:`shortlist_size`;
+    ``len(catalog)`` for all)."""
     keys = catalog.keys
     metric = metric or "distance"
     if metric not in ("distance",) + keys:
@@ -67,7 +68,7 @@ def similar(catalog, query, *, top=10, metric=None, shortlist=None):
     n = len(catalog)
     top = min(whole_number(top, "top (how many tiles to list)", low=1), n)
     size = shortlist_size(top, n) if shortlist is None else min(n, whole_number(shortlist, "shortlist", low=top))
-    q = catalog.query(query)
+    q = catalog.query(query, columns=columns)
     spread = catalog.spread
     screen = {k: v[0] for k, v in screening(q.features, catalog.features, catalog.labelled).items()}
     screen_keys = tuple(screen)

@@ -249,12 +249,12 @@ class Catalog:
         return Query(name, kind, signature_features(signature),
                      sg_image(signature.total, signature.n_points, self.frame))
 
-    def similar(self, query, *, top=10, metric=None, shortlist=None):
-        """The tiles nearest to ``query`` (see :meth:`query`), best first
-        (:func:`lidar_sig.catalog.similar.similar`)."""
+    def similar(self, query, *, top=10, metric=None, shortlist=None, columns=None):
+        """The tiles nearest to ``query`` (see :meth:`query`; ``columns`` of a text cloud), best
+        first (:func:`lidar_sig.catalog.similar.similar`)."""
         from .similar import similar
 
-        return similar(self, query, top=top, metric=metric, shortlist=shortlist)
+        return similar(self, query, top=top, metric=metric, shortlist=shortlist, columns=columns)
 
     def outliers(self, *, reach=None):
         """Every tile scored by how unlike it is to its spatial neighbours and to the survey
