@@ -142,7 +142,7 @@ class Catalog:
         text = str(name)
         resolved = str(Path(text).resolve()) if text else ""
         hits = [i for i, (n, p) in enumerate(zip(self.columns["name"], self.columns["path"]))
-                if text in (n, Path(n).stem) or p == resolved]
+                if text == n or p == resolved or text == n.rsplit(".", 1)[0]]
         if len(hits) > 1:
             raise LidarSigError(f"{text!r} names {len(hits)} tiles of the catalogue ("
                                 + ", ".join(self.columns["path"][i] for i in hits) + "); give its path")
@@ -174,14 +174,18 @@ class Catalog:
         return Signature(self.counts([i])[i], self.frame, self.classes, c["egeom"][i].astype(np.int64),
                          int(c["n_undefined"][i]), metadata, c["class_totals"][i].astype(np.int64))
 
-    def sg(self, rows):
-        """{row: Sg image} of the tiles ``rows`` (made from their counts, kept once made)."""
+    def total_rasters(self, rows):
+        """{row: (H, W) float64 points per pixel, all classes} of the tiles ``rows``."""
         from ..io.catalog import read_counts
 
-        todo = [i for i in rows if i not in self._sg]
         pixels = self.frame.size ** 2
-        for i, (at, values) in read_counts(self.path, todo, self.columns["counts_offsets"]).items():
-            total = np.bincount(at % pixels, weights=values, minlength=pixels).reshape(self.frame.size, -1)
+        return {i: np.bincount(at % pixels, weights=values, minlength=pixels).reshape(self.frame.size, -1)
+                for i, (at, values) in read_counts(self.path, rows, self.columns["counts_offsets"]).items()}
+
+    def sg(self, rows):
+        """{row: Sg image} of the tiles ``rows`` (made from their counts, kept once made)."""
+        todo = [i for i in rows if i not in self._sg]
+        for i, total in self.total_rasters(todo).items():
             self._sg[i] = sg_image(total, self.features.n_points[i], self.frame)
         return {i: self._sg[i] for i in rows}
 

@@ -1,10 +1,6 @@
 """`lidar-sig catalog`: one signature per tile of a survey, in a catalogue made or grown."""
 import click
 
-from ..catalog import build_catalog
-from ..crs import crs_name
-from ..reporting.sections import scales_text
-from ..tiling.execute import executor
 from .group import cli
 from .options import overwrite_option, pipeline_options, resume_options, scheduler_option, workers_option
 
@@ -27,6 +23,11 @@ def catalog(inputs, output, overwrite, workers, scheduler, resume, work_dir, pip
     changed files are computed, the others kept; it holds one method (method options that
     differ from its own are refused). --overwrite makes it anew.
     """
+    from ..catalog import build_catalog
+    from ..crs import crs_name
+    from ..reporting.sections import scales_text
+    from ..tiling.execute import executor
+
     backend = executor(workers, scheduler)
     try:
         run = build_catalog(inputs, output, pipeline, backend=backend, work=work_dir, resume=resume,

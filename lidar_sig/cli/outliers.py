@@ -5,7 +5,6 @@ from pathlib import Path
 
 import click
 
-from ..catalog import Catalog
 from ..errors import LidarSigError
 from ..io import check_outputs, output_group
 from ..reporting import check_report_path
@@ -30,6 +29,8 @@ def outliers(catalogue, output, report, reach, top, as_json, overwrite, quiet):
     """Score every tile of CATALOGUE by how unlike it is to its spatial neighbours and to the
     survey as a whole, highest first, with the classes that make the difference.
     """
+    from ..catalog import Catalog
+
     if output and Path(output).suffix.lower() != ".gpkg":
         raise LidarSigError("the footprints are written as a GeoPackage (.gpkg)", path=output)
     check_outputs([p for p in (output, report) if p], overwrite=overwrite)  # before any work

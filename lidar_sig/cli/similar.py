@@ -3,7 +3,6 @@ import json
 
 import click
 
-from ..catalog import Catalog
 from ..metrics import METRIC_KEYS, METRIC_NAMES
 from .group import cli
 from .options import columns_option
@@ -26,6 +25,8 @@ def similar(query, catalogue, top, metric, shortlist, as_json, columns, quiet):
     QUERY is a tile of the catalogue (its file name, stem or path), a point cloud (computed with
     the catalogue's method) or a signature archive made with that method.
     """
+    from ..catalog import Catalog
+
     found = Catalog(catalogue).similar(query, top=top, metric=metric, shortlist=shortlist, columns=columns)
     if as_json:
         click.echo(json.dumps(found.to_dict()))
