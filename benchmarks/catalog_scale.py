@@ -208,15 +208,23 @@ def main():
           f"--json {out['cli_outliers_seconds']:.2f} s, with -o tiles.gpkg --report {out['cli_outliers_outputs_seconds']:.2f} s")
 
     # the shortlist against the full metrics of every tile
-    same = 0
+    from lidar_sig.catalog.distances import combine, screening
+
+    same, worst = 0, []
     checked = queries[:args.check]
     for q in checked:
         short = cat.similar(q, top=10)
         full = cat.similar(q, top=10, shortlist=len(cat))
         same += short.names() == full.names()
+        values = screening(cat.features.row(cat.index(q)), cat.features)
+        order = list(np.argsort(combine({k: v[0] for k, v in values.items()}, cat.spread, tuple(values)),
+                                kind="stable"))
+        worst.append(max(order.index(cat.index(name)) for name in full.names()) + 1)
     out["shortlist_same_top10"] = f"{same} of {len(checked)}"
+    out["full_top10_worst_screening_position"] = worst
     print(f"shortlist check: the top 10 from the shortlist are those of the full metrics on all {len(cat):,} tiles "
-          f"for {same} of {len(checked)} queries")
+          f"for {same} of {len(checked)} queries; the full top 10's last tile by screening distance was at most "
+          f"the {max(worst)}th (median {np.median(worst):g}th) of the shortlist's {short.shortlist['size']}")
     out["load_after"] = os.getloadavg()[0]
     print(f"load average (1 min) before {out['load_before']:.2f}, after {out['load_after']:.2f}")
     if args.json:

@@ -57,7 +57,8 @@ def screening(query, tiles, labelled=True):
     out["emd_info"] = cdist(cq[:, :-1], ct[:, :-1], "cityblock") * width
     out["fv"] = cdist(query.fv, tiles.fv, "euclidean")
     if labelled:
-        out["kl"] = np.array([_kl_row(p, tiles.totals) for p in query.totals]).reshape(len(query), len(tiles))
+        out["kl"] = np.concatenate([_kl_rows(query.totals[r:r + 64], tiles.totals)
+                                    for r in range(0, len(query), 64)]).reshape(len(query), len(tiles))
         out["l1"] = cdist(_shares(query.totals), _shares(tiles.totals), "cityblock")
     return {k: out[k] for k in SCREENING if k in out}
 
@@ -67,20 +68,20 @@ def _shares(counts):
     return counts / np.maximum(counts.sum(axis=1, keepdims=True), 1e-300)
 
 
-def _kl_row(p, q, alpha=KL_ALPHA):
-    """delta_KL of one count vector ``p`` (C,) against each row of ``q`` (N, C), with the rule
-    of :func:`lidar_sig.metrics.symmetric_kl`: classes empty in both dropped, ``alpha`` added
-    to every other count of a pair where one of them is empty in one cloud only."""
-    p = np.broadcast_to(np.asarray(p, np.float64), q.shape)
-    q = np.asarray(q, np.float64)
+def _kl_rows(p, q, alpha=KL_ALPHA):
+    """delta_KL of each count vector of ``p`` (M, C) against each row of ``q`` (N, C): (M, N),
+    with the rule of :func:`lidar_sig.metrics.symmetric_kl`: classes empty in both dropped,
+    ``alpha`` added to every other count of a pair where one of them is empty in one cloud only."""
+    p = np.asarray(p, np.float64)[:, None, :]
+    q = np.asarray(q, np.float64)[None, :, :]
     keep = (p > 0) | (q > 0)
-    smooth = (keep & ((p == 0) | (q == 0))).any(axis=1, keepdims=True)
+    smooth = (keep & ((p == 0) | (q == 0))).any(axis=2, keepdims=True)
     p = np.where(keep, p + alpha * smooth, 0.0)
     q = np.where(keep, q + alpha * smooth, 0.0)
-    p, q = p / p.sum(axis=1, keepdims=True), q / q.sum(axis=1, keepdims=True)
+    p, q = p / p.sum(axis=2, keepdims=True), q / q.sum(axis=2, keepdims=True)
     with np.errstate(divide="ignore", invalid="ignore"):
         terms = np.where(keep, (p - q) * np.log(p / q), 0.0)
-    return terms.sum(axis=1)
+    return terms.sum(axis=2)
 
 
 def pair_metrics(a, b, sg_a, sg_b, mask, keys):

@@ -35,42 +35,45 @@ def polygon_area(polygon):
     return float(abs(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1))) / 2.0)
 
 
-def _point_segment_distances(points, polygon):
-    """(P,) distance from each point to the nearest edge of ``polygon`` (closed implicitly)."""
-    a = polygon
-    b = np.roll(polygon, -1, axis=0)
-    ab = b - a  # (E, 2)
-    ap = points[:, None, :] - a[None, :, :]  # (P, E, 2)
-    length2 = np.maximum((ab ** 2).sum(axis=1), 1e-300)
-    t = np.clip((ap * ab[None]).sum(axis=2) / length2[None], 0.0, 1.0)
-    nearest = a[None] + t[..., None] * ab[None]
-    return np.sqrt(((points[:, None, :] - nearest) ** 2).sum(axis=2)).min(axis=1)
+class _Polygon:
+    """A convex polygon with what distances to it need, computed once: its vertices, edges
+    (start, vector, squared length) and unit edge normals."""
+
+    def __init__(self, vertices):
+        self.v = np.asarray(vertices, np.float64).reshape(-1, 2)
+        self.edges = np.concatenate([self.v[1:], self.v[:1]]) - self.v
+        self.length2 = np.maximum((self.edges ** 2).sum(axis=1), 1e-300)
+        normals = np.column_stack([self.edges[:, 1], -self.edges[:, 0]])
+        norm = np.hypot(normals[:, 0], normals[:, 1])
+        self.normals = normals[norm > 0] / norm[norm > 0, None]
+
+    def distances_from(self, points):
+        """(P,) distance from each point to the polygon's nearest edge."""
+        ap = points[:, None, :] - self.v[None, :, :]  # (P, E, 2)
+        t = np.clip((ap * self.edges[None]).sum(axis=2) / self.length2[None], 0.0, 1.0)
+        gap = ap - t[..., None] * self.edges[None]
+        return np.sqrt((gap ** 2).sum(axis=2)).min(axis=1)
 
 
 def _separation(p, q):
     """Largest gap between the projections of convex polygons ``p`` and ``q`` on their edge
     normals: positive when they are apart (a lower bound of their distance), else they meet."""
     gap = -np.inf
-    for poly in (p, q):
-        edges = np.roll(poly, -1, axis=0) - poly
-        normals = np.column_stack([edges[:, 1], -edges[:, 0]])
-        norm = np.hypot(normals[:, 0], normals[:, 1])
-        keep = norm > 0
-        normals = normals[keep] / norm[keep, None]
-        if not len(normals):
-            continue
-        sp, sq = p @ normals.T, q @ normals.T  # (K, A) projections
-        gap = max(gap, float(np.max(np.maximum(sq.min(axis=0) - sp.max(axis=0), sp.min(axis=0) - sq.max(axis=0)))))
+    for normals in (p.normals, q.normals):
+        if len(normals):
+            sp, sq = p.v @ normals.T, q.v @ normals.T  # (K, A) projections
+            gap = max(gap, float(np.max(np.maximum(sq.min(axis=0) - sp.max(axis=0), sp.min(axis=0) - sq.max(axis=0)))))
     return gap
 
 
 def polygon_distance(p, q):
     """Distance between two convex polygons (0 when they touch or overlap), in coordinate
     units."""
-    p, q = np.asarray(p, np.float64), np.asarray(q, np.float64)
+    p = p if isinstance(p, _Polygon) else _Polygon(p)
+    q = q if isinstance(q, _Polygon) else _Polygon(q)
     if _separation(p, q) <= 0:
         return 0.0
-    return float(min(_point_segment_distances(p, q).min(), _point_segment_distances(q, p).min()))
+    return float(min(q.distances_from(p.v).min(), p.distances_from(q.v).min()))
 
 
 def neighbours(hulls, bounds, reach):
@@ -84,8 +87,12 @@ def neighbours(hulls, bounds, reach):
     gap_y = np.maximum(bounds[None, :, 1] - bounds[:, None, 3], bounds[:, None, 1] - bounds[None, :, 3])
     near = np.hypot(np.maximum(gap_x, 0), np.maximum(gap_y, 0)) <= reach
     out = [[] for _ in range(n)]
+    polygons = {}
     for i, j in zip(*np.nonzero(np.triu(near, 1))):
-        if polygon_distance(hulls[i], hulls[j]) <= reach:
+        for k in (i, j):
+            if k not in polygons:
+                polygons[k] = _Polygon(hulls[k])
+        if polygon_distance(polygons[i], polygons[j]) <= reach:
             out[i].append(int(j))
             out[j].append(int(i))
     return [np.array(sorted(v), dtype=np.int64) for v in out]
