@@ -212,6 +212,26 @@ def test_a_failed_tile_is_named_and_resume_reuses_finished_tiles(tmp_path):
     assert ls.Catalog(out).names == ["a.laz", "b.laz"]
 
 
+def test_a_dask_cluster_makes_the_same_catalogue(tmp_path):
+    distributed = pytest.importorskip("distributed", reason="the dask extra is not installed")
+    tiles = tmp_path / "tiles"
+    tiles.mkdir()
+    synthetic_tile(tiles / "a.laz", 0, (0, 0))
+    synthetic_tile(tiles / "b.laz", 1, (40, 0))
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        backend = ls.executor(scheduler=cluster.scheduler_address)
+        try:
+            on_dask = build_catalog([tiles], tmp_path / "dask.h5", backend=backend)
+        finally:
+            backend.close()
+    assert on_dask.complete and on_dask.execution.startswith("Dask")
+    here = build_catalog([tiles], tmp_path / "here.h5")
+    a, b = ls.Catalog(tmp_path / "dask.h5"), ls.Catalog(tmp_path / "here.h5")
+    for name in ("a.laz", "b.laz"):  # every count and vector as in this process
+        assert np.array_equal(a.signature(name).counts, b.signature(name).counts)
+    assert np.array_equal(a.features.fv, b.features.fv) and np.array_equal(a.features.color, b.features.color)
+
+
 def test_a_tile_larger_than_a_block_goes_through_the_tiled_runner(tmp_path, monkeypatch):
     import lidar_sig.catalog.tile as tile
 

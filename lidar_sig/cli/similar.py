@@ -32,7 +32,8 @@ def similar(query, catalogue, top, metric, shortlist, as_json, columns, quiet):
         click.echo(json.dumps(found.to_dict()))
         return
     q, s = found.query, found.shortlist
-    kind = "a tile of the catalogue" if q["tile"] else f"a {q['kind']}, computed with the catalogue's method"
+    kind = {"tile": "a tile of the catalogue", "cloud": "a cloud, computed with the catalogue's method",
+            "archive": "an archive made with the catalogue's method"}[q["kind"]]
     click.echo(f"query {q['name']} ({kind}); ranked by {metric}; full metrics for {s['screened_by']}"
                + ("" if s["certain"] else " (the top may miss a tile outside the shortlist)"))
     keys = [k for k in METRIC_KEYS if k in found.results[0]] if found.results else []
