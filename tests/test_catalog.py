@@ -272,6 +272,22 @@ def test_the_geopackage_opens_with_gdal_with_one_polygon_per_tile(nine, tmp_path
         assert scores[r["name"]] == pytest.approx(r["score"], rel=1e-9)
 
 
+def test_a_geopackage_has_a_layer_per_crs(tmp_path):
+    from lidar_sig.io.geopackage import write_geopackage
+
+    square = np.array([[0, 0], [10, 0], [10, 10], [0, 10]], float)
+    wkt = pyproj.CRS.from_epsg(2154).to_wkt()
+    write_geopackage(tmp_path / "two.gpkg", {wkt: [(square, {"name": "a", "score": 1.5})],
+                                             None: [(square + 20, {"name": "b", "score": -0.5})]})
+    with sqlite3.connect(tmp_path / "two.gpkg") as con:
+        layers = dict(con.execute("SELECT table_name, srs_id FROM gpkg_geometry_columns").fetchall())
+    assert layers == {"tiles_2154": 2154, "tiles_no_crs": -1}
+    if shutil.which("ogrinfo") is None:
+        pytest.skip("ogrinfo (GDAL, Debian package gdal-bin) is not installed: the SQLite tables were checked")
+    done = subprocess.run(["ogrinfo", "-al", "-so", str(tmp_path / "two.gpkg")], capture_output=True, text=True)
+    assert done.returncode == 0 and done.stdout.count("Feature Count: 1") == 2, done.stdout + done.stderr
+
+
 def test_the_outliers_report_opens_in_headless_chromium(nine, tmp_path):
     found = nine.outliers()
     report = found.report()
