@@ -223,8 +223,8 @@ def main():
     out["shortlist_same_top10"] = f"{same} of {len(checked)}"
     out["full_top10_worst_screening_position"] = worst
     print(f"shortlist check: the top 10 from the shortlist are those of the full metrics on all {len(cat):,} tiles "
-          f"for {same} of {len(checked)} queries; the full top 10's last tile by screening distance was at most "
-          f"the {max(worst)}th (median {np.median(worst):g}th) of the shortlist's {short.shortlist['size']}")
+          f"for {same} of {len(checked)} queries; the full top 10's last tile was at most at position {max(worst)} "
+          f"(median {np.median(worst):g}) by screening distance, the shortlist holding {short.shortlist['size']}")
     out["load_after"] = os.getloadavg()[0]
     print(f"load average (1 min) before {out['load_before']:.2f}, after {out['load_after']:.2f}")
     if args.json:
