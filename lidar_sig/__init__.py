@@ -26,7 +26,7 @@ _EXPORTS = {
     "compare_sources": "comparison", "Comparison": "comparison", "resilience": "sampling",
     "Report": "reporting", "report": "comparison", "changes": "change_map", "ChangeMap": "change_map",
     "run_set": "tiling.run", "SetRun": "tiling.results", "executor": "tiling.execute",
-    "saliency_in_tiles": "tiling.core",
+    "saliency_in_tiles": "tiling.core", "Catalog": "catalog",
 }
 __all__ = sorted(_EXPORTS)
 

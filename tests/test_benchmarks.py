@@ -58,3 +58,13 @@ def test_ordering_benchmark_defaults_measure_the_land(tmp_path):
         for key in ("bhattacharyya", "ssim", "emd_info", "fv"):
             sign = -1 if key == "ssim" else 1
             assert sign * v["80%"][key] < sign * v["adjacent"][key] < sign * v["other city"][key], (ref, key)
+
+
+def test_catalogue_scale_script_runs_on_a_small_survey(tmp_path):
+    # issue 19: the 1,000-tile benchmark's script, on 12 tiles (its figures are measured by hand)
+    proc = subprocess.run([sys.executable, str(BENCH / "catalog_scale.py"), "--tiles", "12", "--points", "1500",
+                           "--queries", "2", "--check", "1", "--workers", "1", "--folder", str(tmp_path)],
+                          capture_output=True, text=True, timeout=900)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert "similar (top 10" in proc.stdout and "spoilt tiles' ranks in outliers" in proc.stdout
+    assert "for 1 of 1 queries" in proc.stdout  # the shortlist keeps the top 10 (here: every tile)

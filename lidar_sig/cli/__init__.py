@@ -7,7 +7,8 @@ were; a note from the library (LidarSigWarning) is one line too and does not sto
 """
 import click
 
-from . import changes, compare, info, plugins, resilience, saliency, signature  # noqa: F401  (registers the commands)
+from . import (catalog, changes, compare, info, outliers, plugins, resilience, saliency, signature,  # noqa: F401
+               similar)  # (registers the commands)
 from .group import cli
 
 

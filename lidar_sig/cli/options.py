@@ -185,6 +185,13 @@ def write_report(made, report, plots, overwrite):
     return lines
 
 
+workers_option = click.option("--workers", type=click.IntRange(1, 1024), default=None,
+                              help="Local worker processes for a set of tiles [default: all cores].")
+scheduler_option = click.option("--scheduler", default=None, metavar="ADDRESS", callback=not_empty("an address"),
+                                help="Run the tiles on this dask.distributed scheduler (e.g. tcp://host:8786) "
+                                     "instead of local processes; needs the dask extra.")
+
+
 def tiling_options(func):
     """Decorate a command with the options of tiled runs over a set of files: ``--tile-size``,
     ``--workers``, ``--scheduler`` (``tiling`` receives them as a dict)."""
@@ -192,11 +199,8 @@ def tiling_options(func):
         click.option("--tile-size", type=click.FloatRange(0, min_open=True), default=None, metavar="METRES",
                      help="Side of the square processing tiles of a set, in metres [default: about 2 million "
                           "points per tile, from the files' density]."),
-        click.option("--workers", type=click.IntRange(1, 1024), default=None,
-                     help="Local worker processes for a set of tiles [default: all cores]."),
-        click.option("--scheduler", default=None, metavar="ADDRESS", callback=not_empty("an address"),
-                     help="Run the tiles on this dask.distributed scheduler (e.g. tcp://host:8786) instead "
-                          "of local processes; needs the dask extra."),
+        workers_option,
+        scheduler_option,
     ]
 
     @functools.wraps(func)

@@ -1,7 +1,8 @@
-"""The HTML report: the paper's figures for one cloud, for the comparison of two, or for a change
-map or series, made from computed results (a :class:`lidar_sig.comparison.Comparison`, a
-:class:`lidar_sig.comparison.Side`, a :class:`lidar_sig.change_map.ChangeMap` or
-:class:`~lidar_sig.change_map.ChangeSeries`); nothing here
+"""The HTML report: the paper's figures for one cloud, for the comparison of two, for a change
+map or series, or for a catalogue's outliers, made from computed results (a
+:class:`lidar_sig.comparison.Comparison`, a :class:`lidar_sig.comparison.Side`, a
+:class:`lidar_sig.change_map.ChangeMap` or :class:`~lidar_sig.change_map.ChangeSeries`, a
+:class:`lidar_sig.catalog.outliers.Outliers`); nothing here
 reads a file or runs a pipeline (:func:`lidar_sig.comparison.report` does, then makes the report).
 
 A :class:`Report` is one self-contained HTML page (pictures embedded, no network). In a notebook
@@ -14,10 +15,11 @@ from .changes_page import changes_report
 from .comparison_page import COMPARISON_PLOTS, comparison_report
 from .document import Report
 from .map_image import change_map_image, when_map_image
+from .outliers_page import outliers_report
 from .paths import HTML_EXTENSIONS, check_plots_folder, check_report_path
 from .series_page import series_report
 from .signature_page import SIGNATURE_PLOTS, signature_report
 
 __all__ = ["COMPARISON_PLOTS", "HTML_EXTENSIONS", "SIGNATURE_PLOTS", "Report", "change_map_image", "changes_report",
-           "check_plots_folder", "check_report_path", "comparison_report", "series_report", "signature_report",
-           "when_map_image"]
+           "check_plots_folder", "check_report_path", "comparison_report", "outliers_report", "series_report",
+           "signature_report", "when_map_image"]

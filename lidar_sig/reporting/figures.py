@@ -1,10 +1,11 @@
 """The report's plots, drawn with matplotlib and returned as PNG bytes: the pdfs of Egeom, the
-class-wise pdfs of Cl, Cs and Cp (the paper's figure of class-wise saliency pdfs), and the class
-composition of each cloud.
+class-wise pdfs of Cl, Cs and Cp (the paper's figure of class-wise saliency pdfs), the class
+composition of each cloud, and a survey's maps: tile footprints coloured by outlier score and the
+tiles placed by likeness (MDS).
 
 Figures are made through ``matplotlib.figure.Figure`` (no pyplot, no global backend), so a
 notebook's own plots are untouched; matplotlib is imported only when a report is made.
-Each function takes the signatures to draw (one or two) and their names.
+The signatures' plots take the signatures to draw (one or two) and their names.
 """
 from __future__ import annotations
 
@@ -127,4 +128,60 @@ def class_composition(signatures, names):
     ax.grid(axis="x", alpha=0.3)
     if n > 1:
         ax.legend(frameon=False, fontsize=9, loc="lower right")
+    return _png(fig)
+
+
+#: Colour map of outlier scores (low to high) in the survey's plots.
+SCORE_CMAP = "viridis"
+
+
+def footprint_map(polygons, scores, labels, *, title=None, unit="m"):
+    """Tile footprints (``polygons``: (K, 2) arrays in one CRS) filled by ``scores`` on one
+    colour scale with its bar, and ``labels`` (text or None per tile) written at their centres:
+    the map of a survey's outlier scores."""
+    from matplotlib.collections import PolyCollection
+
+    allxy = np.concatenate([np.asarray(p, np.float64) for p in polygons])
+    span = np.ptp(allxy, axis=0)
+    aspect = float(span[1] / span[0]) if span[0] > 0 else 1.0
+    width = 7.5
+    fig = _figure(width, min(max(width * aspect, 2.5), 10.0))
+    ax = fig.subplots()
+    scores = np.asarray(scores, np.float64)
+    coll = PolyCollection([np.asarray(p) for p in polygons], array=scores, cmap=SCORE_CMAP, edgecolors="#333333",
+                          linewidths=0.4, alpha=0.9)
+    ax.add_collection(coll)
+    for poly, label in zip(polygons, labels):
+        if label:
+            x, y = np.asarray(poly, np.float64).mean(axis=0)
+            ax.text(x, y, label, ha="center", va="center", fontsize=8, color="white",
+                    bbox=dict(boxstyle="round,pad=0.2", facecolor="black", alpha=0.6, linewidth=0))
+    ax.set_xlim(allxy[:, 0].min(), allxy[:, 0].max())
+    ax.set_ylim(allxy[:, 1].min(), allxy[:, 1].max())
+    ax.set_aspect("equal")
+    ax.ticklabel_format(useOffset=False, style="plain")
+    ax.tick_params(labelsize=8)
+    ax.set_xlabel(f"x ({unit})", fontsize=9)
+    ax.set_ylabel(f"y ({unit})", fontsize=9)
+    if title:
+        ax.set_title(title, fontsize=10)
+    fig.colorbar(coll, ax=ax, label="outlier score (robust z)", shrink=0.8)
+    return _png(fig)
+
+
+def likeness_map(xy, scores, labels):
+    """Tiles as points of a 2-D embedding of their distances (classical MDS), coloured by
+    ``scores``, with ``labels`` (text or None per tile) beside the points."""
+    fig = _figure(7.5, 5.5)
+    ax = fig.subplots()
+    xy = np.asarray(xy, np.float64)
+    dots = ax.scatter(xy[:, 0], xy[:, 1], c=scores, cmap=SCORE_CMAP, s=28, edgecolors="#333333", linewidths=0.4)
+    for (x, y), label in zip(xy, labels):
+        if label:
+            ax.annotate(label, (x, y), xytext=(4, 4), textcoords="offset points", fontsize=8)
+    ax.set_xlabel("MDS axis 1 (distance units)", fontsize=9)
+    ax.set_ylabel("MDS axis 2", fontsize=9)
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.grid(alpha=0.3)
+    fig.colorbar(dots, ax=ax, label="outlier score (robust z)", shrink=0.8)
     return _png(fig)

@@ -1,0 +1,208 @@
+"""Making and growing a catalogue: one task per tile on the run's backend (this process, local
+processes or a Dask cluster, :mod:`lidar_sig.tiling.execute`), each writing its result to the
+work folder whole or not at all; then the tiles merged with those already in the catalogue, the
+metrics' spreads computed over all of them, and the catalogue written at once.
+
+Growing: a tile already in the catalogue with the same path and SHA-256 is not computed again; a
+changed file is; tiles of the catalogue not among the inputs stay. A catalogue holds one method:
+method options that differ from its own are refused, and without any the catalogue's method is
+used. ``resume`` reuses the tiles an interrupted or failed run finished in the work folder.
+"""
+from __future__ import annotations
+
+import copy
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import LidarSigError, as_path, reason
+from ..progress import progress, step
+from .distances import spreads
+from .features import COLOR_BINS, RENDER, Features, sg_image
+from .tile import result_path, tile_task
+
+#: Fields of a finished tile kept in the catalogue (besides the work folder's key).
+_TILE_FIELDS = ("path", "sha256", "crs", "factors", "n_points", "n_undefined", "n_signature", "bounds", "hull",
+                "area", "density", "class_totals", "egeom", "counts_at", "counts", "fv", "color", "meta")
+
+
+@dataclass
+class CatalogRun:
+    """What making or growing a catalogue did: the tiles ``added``, ``updated`` (changed files),
+    ``unchanged`` and ``resumed`` (paths), those that ``failed`` (path -> reason), the tiles
+    the catalogue holds and their CRSs (WKT, None for none), where it ran and how long it took."""
+
+    output: str
+    added: list = field(default_factory=list)
+    updated: list = field(default_factory=list)
+    unchanged: list = field(default_factory=list)
+    resumed: list = field(default_factory=list)
+    failed: dict = field(default_factory=dict)
+    n_tiles: int = 0
+    method: dict = field(default_factory=dict)
+    crs: list = field(default_factory=list)
+    seconds: float = 0.0
+    execution: str = ""
+    grown: bool = False
+
+    @property
+    def complete(self):
+        return not self.failed
+
+    @property
+    def missing(self):
+        """Lines naming the tiles that failed and why."""
+        return [f"{Path(p).name}: {why}" for p, why in self.failed.items()]
+
+
+def build_catalog(inputs, output, pipeline=None, *, backend=None, work=None, resume=False, overwrite=False,
+                  method_given=None, progress_enabled=None):
+    """Make the catalogue ``output`` (.h5) of the LAS/LAZ files and folders ``inputs``, or grow
+    it when it exists (unless ``overwrite``: made anew). ``pipeline`` is the method (default
+    ``Pipeline()``, or the catalogue's own when growing); ``method_given``, the method options a
+    user set, must then agree with the catalogue's (None: compare the whole method, as Python
+    callers passing a pipeline mean it). ``backend`` from :func:`lidar_sig.tiling.execute.executor`
+    (default this process); ``work`` the folder of finished tiles (default ``OUTPUT.work``),
+    removed after a complete run. Returns a :class:`CatalogRun`."""
+    from ..io import HDF5_EXTENSIONS, check_output
+    from ..io.catalog import is_catalog, read_catalog
+    from ..pipeline import Pipeline
+    from ..tiling.execute import InProcess
+    from ..tiling.sources import expand
+    from ..tiling.work import prepare_work, remove_work
+
+    start = time.perf_counter()
+    output = as_path(output, "the catalogue's output")
+    if output.suffix.lower() not in HDF5_EXTENSIONS:
+        raise LidarSigError("a catalogue is written as .h5", path=output)
+    if isinstance(inputs, (str, Path)):
+        inputs = [inputs]
+    if not inputs:
+        raise LidarSigError("give at least one LAS/LAZ tile or folder of tiles")
+    files = [str(f) for f in expand(inputs)]
+    old = None
+    if output.exists() and not overwrite:
+        if not is_catalog(output):
+            raise LidarSigError("exists and is not a lidar_sig survey catalogue; give a new name, or --overwrite to "
+                                "replace it", path=output)
+        old = read_catalog(output)
+        pipeline = _growing_pipeline(old[0], pipeline, method_given, output)
+    else:
+        check_output(output, overwrite=overwrite)
+        pipeline = pipeline or Pipeline()
+    backend = backend or InProcess()
+    work = Path(work) if work is not None else output.with_name(output.name + ".work")
+    work = prepare_work(work, resume, keep=[*files, output])
+    run = CatalogRun(str(output), execution=backend.description, grown=old is not None)
+    quiet = copy.copy(pipeline)
+    quiet.progress = False  # workers show nothing; this process shows tiles done
+    known = dict(zip(old[1]["path"], old[1]["sha256"])) if old else {}
+    tasks = [(str(work), f, quiet, known.get(f)) for f in files]
+    finished = []
+    for (_, path, _, _), summary, err in progress(backend.run(tile_task, tasks), total=len(tasks), desc="tiles",
+                                                  enabled=progress_enabled, unit="tile"):
+        if err is not None:
+            run.failed[path] = _reason(err)
+        elif summary.get("unchanged"):
+            run.unchanged.append(path)
+        else:
+            (run.updated if path in known else run.added).append(path)
+            if summary.get("resumed"):
+                run.resumed.append(path)
+            finished.append(path)
+    if finished or old is None or overwrite:
+        tiles = _merge(old, [_load(work, p) for p in sorted(finished)], output)
+        if tiles:
+            _write(output, pipeline, tiles, overwrite=old is not None or overwrite, progress_enabled=progress_enabled)
+    if output.exists():
+        header, columns = read_catalog(output)
+        run.n_tiles = len(columns["name"])
+        run.method = header["method"]
+        run.crs = [header["crs"][k] or None for k in sorted(set(columns["crs"].tolist()))]
+    if run.complete:
+        remove_work(work)
+    run.seconds = time.perf_counter() - start
+    return run
+
+
+def _growing_pipeline(header, pipeline, method_given, output):
+    """The catalogue's own method, refusing method options that differ from it."""
+    from ..pipeline import Pipeline
+    from ..signature import method_differences
+
+    if pipeline is not None and (method_given is None or method_given):
+        differ = method_differences(header["method"], pipeline.method())
+        if "classes" in (method_given or {"classes"}) and pipeline.classes != header["classes"]:
+            differ.append(f"class table {header['classes'].name} / {pipeline.classes.name}")
+        if differ:
+            raise LidarSigError("holds tiles made with another method (" + "; ".join(differ) + "); a catalogue "
+                                "holds one method: leave out the method options to grow it, or write a new one",
+                                path=output)
+    progress_setting = getattr(pipeline, "progress", None)
+    return Pipeline.from_method(header["method"], classes=header["classes"], frame=header["frame"],
+                                progress=progress_setting)
+
+
+def _reason(err):
+    if isinstance(err, LidarSigError):  # the file is named where the reason is printed
+        text = str(err)
+        return text[len(err.path) + 2:] if err.path and text.startswith(err.path) else text
+    return f"{type(err).__name__}: {reason(err)}"
+
+
+def _load(work, path):
+    """A finished tile's fields from the work folder."""
+    with np.load(result_path(work, path)) as r:
+        tile = {k: r[k] for k in _TILE_FIELDS}
+    for k in ("path", "sha256", "crs", "meta"):
+        tile[k] = str(tile[k])
+    for k in ("n_points", "n_undefined", "n_signature"):
+        tile[k] = int(tile[k])
+    for k in ("area", "density"):
+        tile[k] = float(tile[k])
+    tile["name"] = Path(tile["path"]).name
+    return tile
+
+
+def _merge(old, new, output):
+    """The catalogue's tiles (``old``: its header and columns, or None) with ``new`` ones
+    replacing those of the same path, in path order."""
+    from ..io.catalog import read_counts
+
+    tiles = {t["path"]: t for t in new}
+    if old is not None:
+        header, c = old
+        keep = [i for i, p in enumerate(c["path"]) if p not in tiles]
+        counts = read_counts(output, keep, c["counts_offsets"]) if keep else {}
+        for i in keep:
+            tile = {k: c[k][i] for k in ("name", "path", "sha256", "factors", "n_points", "n_undefined",
+                                        "n_signature", "bounds", "area", "density", "class_totals", "egeom", "fv",
+                                        "color", "meta")}
+            tile["crs"] = header["crs"][int(c["crs"][i])]
+            tile["hull"] = c["hull"][i]
+            tile["counts_at"], tile["counts"] = counts[i]
+            tiles[tile["path"]] = tile
+    return [tiles[p] for p in sorted(tiles)]
+
+
+def _write(output, pipeline, tiles, *, overwrite, progress_enabled=None):
+    """The spreads over ``tiles``, then the catalogue written."""
+    from ..io.catalog import write_catalog
+
+    frame = pipeline.frame
+    features = Features(*(np.array([t[k] for t in tiles]) for k in ("fv", "color", "egeom", "class_totals",
+                                                                     "n_signature")))
+    pixels = frame.size ** 2
+
+    def sg_of(i):
+        total = np.bincount(np.asarray(tiles[i]["counts_at"]) % pixels, weights=tiles[i]["counts"], minlength=pixels)
+        return sg_image(total.reshape(frame.size, frame.size), features.n_points[i], frame)
+
+    with step("spreads of the metrics", enabled=progress_enabled, tiles=len(tiles)):
+        spread = spreads(features, sg_of, frame.mask(), bool(pipeline.classes.names))
+    header = {"method": pipeline.method(), "classes": pipeline.classes, "frame": frame, "render": RENDER,
+              "color_bins": COLOR_BINS, "spread": spread}
+    with step(f"writing {output.name}", enabled=progress_enabled, tiles=len(tiles)):
+        write_catalog(output, header, tiles, overwrite=overwrite)

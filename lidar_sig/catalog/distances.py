@@ -1,0 +1,152 @@
+"""The metrics between tiles of a catalogue, and the one distance that ranks them.
+
+- **Screening metrics** (``SCREENING``: d_BD-Img, d_EMD-Info, delta_FV, delta_KL, L1) come from
+  the tiles' vectors (:mod:`lidar_sig.catalog.features`): a query against N tiles, or all N^2
+  pairs, is a few array operations. The values are the metrics' own (SPEC 6), equal to
+  :func:`lidar_sig.metrics.compare`'s to rounding (a sum taken in another order); a test checks
+  every pair of its catalogue.
+- **Image metrics** (``IMAGE``: s_SSIM of Sg, d_EMD-Img of the Sas colour histograms) need an
+  image or a transport problem per pair (about 10 to 50 ms): they are computed for a shortlist,
+  with the metrics' own functions (:func:`pair_metrics`).
+- **The distance** of two tiles is the mean over the metrics of each metric's value, as a
+  distance (s_SSIM as 1 - s_SSIM), divided by its **spread**: the median of that metric over the
+  catalogue's pairs (all pairs for the screening metrics, pairs of up to ``SPREAD_TILES`` tiles
+  for the image metrics), kept in the catalogue. Each metric then weighs alike, whatever its
+  range. The **screening distance** is the same mean over the screening metrics alone.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..metrics import KL_ALPHA, METRIC_KEYS, METRICS
+from ..saliency import LN3
+
+#: Metrics computed from per-tile vectors for every pair (screening), in METRICS' order.
+SCREENING = tuple(k for k in METRIC_KEYS if k in ("bhattacharyya", "emd_info", "fv", "kl", "l1"))
+#: Metrics that need images or a transport problem per pair.
+IMAGE = tuple(k for k in METRIC_KEYS if k not in SCREENING)
+#: The semantic metrics (None for unlabelled tiles, as in compare).
+SEMANTIC = ("kl", "l1")
+#: Most tiles whose pairs give the spread of an image metric (16 tiles: 120 pairs).
+SPREAD_TILES = 16
+_SAME = {m.key: (m.same, m.larger_differs) for m in METRICS}
+
+
+def as_distance(key, values):
+    """A metric's values as distances from identical clouds (0 = same): s_SSIM becomes 1 - s_SSIM."""
+    same, larger_differs = _SAME[key]
+    values = np.asarray(values, dtype=np.float64)
+    return values - same if larger_differs else same - values
+
+
+def metric_keys(labelled):
+    """The metrics a catalogue compares: all seven, or without the semantic ones when unlabelled."""
+    return tuple(k for k in METRIC_KEYS if labelled or k not in SEMANTIC)
+
+
+def screening(query, tiles, labelled=True):
+    """Screening metrics between each row of ``query`` (Features, Q rows) and each tile of
+    ``tiles`` (Features, N rows): a dict key -> (Q, N) float64 array."""
+    from scipy.spatial.distance import cdist
+
+    out = {}
+    hq, ht = _shares(query.color), _shares(tiles.color)
+    out["bhattacharyya"] = np.sqrt(np.maximum(0.0, 1.0 - np.sqrt(hq) @ np.sqrt(ht).T))
+    width = LN3 / query.egeom.shape[1]
+    cq, ct = np.cumsum(_shares(query.egeom), axis=1), np.cumsum(_shares(tiles.egeom), axis=1)
+    out["emd_info"] = cdist(cq[:, :-1], ct[:, :-1], "cityblock") * width
+    out["fv"] = cdist(query.fv, tiles.fv, "euclidean")
+    if labelled:
+        out["kl"] = np.concatenate([_kl_rows(query.totals[r:r + 64], tiles.totals)
+                                    for r in range(0, len(query), 64)]).reshape(len(query), len(tiles))
+        out["l1"] = cdist(_shares(query.totals), _shares(tiles.totals), "cityblock")
+    return {k: out[k] for k in SCREENING if k in out}
+
+
+def _shares(counts):
+    counts = np.asarray(counts, dtype=np.float64)
+    return counts / np.maximum(counts.sum(axis=1, keepdims=True), 1e-300)
+
+
+def _kl_rows(p, q, alpha=KL_ALPHA):
+    """delta_KL of each count vector of ``p`` (M, C) against each row of ``q`` (N, C): (M, N),
+    with the rule of :func:`lidar_sig.metrics.symmetric_kl`: classes empty in both dropped,
+    ``alpha`` added to every other count of a pair where one of them is empty in one cloud only."""
+    p = np.asarray(p, np.float64)[:, None, :]
+    q = np.asarray(q, np.float64)[None, :, :]
+    keep = (p > 0) | (q > 0)
+    smooth = (keep & ((p == 0) | (q == 0))).any(axis=2, keepdims=True)
+    p = np.where(keep, p + alpha * smooth, 0.0)
+    q = np.where(keep, q + alpha * smooth, 0.0)
+    p, q = p / p.sum(axis=2, keepdims=True), q / q.sum(axis=2, keepdims=True)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        terms = np.where(keep, (p - q) * np.log(p / q), 0.0)
+    return terms.sum(axis=2)
+
+
+def pair_metrics(a, b, sg_a, sg_b, mask, keys):
+    """Every metric of ``keys`` between one tile ``a`` and one tile ``b`` (Features of one row
+    each; ``sg_a``, ``sg_b`` their Sg images, needed for s_SSIM), computed by the metrics' own
+    functions as :func:`lidar_sig.metrics.compare` does."""
+    from .. import metrics
+    from .features import COLOR_BINS
+
+    out = {}
+    for key in keys:
+        if key == "bhattacharyya":
+            out[key] = metrics.bhattacharyya(a.color[0], b.color[0])
+        elif key == "ssim":
+            out[key] = metrics.ssim(sg_a, sg_b, mask)
+        elif key == "emd_info":
+            out[key] = metrics.emd_info(a.egeom[0], b.egeom[0])
+        elif key == "emd_img":
+            out[key] = metrics.emd_img(a.color[0], b.color[0], bins=COLOR_BINS)
+        elif key == "fv":
+            out[key] = float(np.linalg.norm(a.fv[0] - b.fv[0]))
+        elif key == "kl":
+            out[key] = metrics.symmetric_kl(a.totals[0], b.totals[0])
+        elif key == "l1":
+            out[key] = metrics.l1_distance(a.totals[0], b.totals[0])
+    return out
+
+
+def combine(values, spread, keys):
+    """The mean over ``keys`` of each metric's values as a distance divided by its spread."""
+    return np.mean([as_distance(k, values[k]) / spread[k] for k in keys], axis=0)
+
+
+def spread_of(values):
+    """The spread of a metric over pairs (its values as distances): their median; the mean
+    where more than half the pairs are equal, 1 where every pair is."""
+    values = np.asarray(values, dtype=np.float64)
+    values = values[np.isfinite(values)]
+    for statistic in (np.median, np.mean):
+        s = float(statistic(values)) if len(values) else 0.0
+        if s > 0:
+            return s
+    return 1.0
+
+
+def spreads(features, sg_of, mask, labelled=True):
+    """The spread of each metric over a catalogue's tiles (``features``, all N rows):
+    screening metrics over every pair, image metrics over the pairs of at most
+    ``SPREAD_TILES`` tiles evenly spaced in the catalogue's order (``sg_of(i)`` gives tile i's
+    Sg). A dict key -> spread."""
+    n = len(features)
+    out = {}
+    if n < 2:
+        return {k: 1.0 for k in metric_keys(labelled)}
+    upper = np.triu_indices(n, 1)
+    for key, matrix in screening(features, features, labelled).items():
+        out[key] = spread_of(as_distance(key, matrix[upper]))
+    picked = np.unique(np.linspace(0, n - 1, min(n, SPREAD_TILES)).round().astype(int))
+    images = {i: sg_of(i) for i in picked}
+    pairs = {k: [] for k in IMAGE}
+    for x, i in enumerate(picked):
+        for j in picked[x + 1:]:
+            values = pair_metrics(features.row(i), features.row(j), images[i], images[j], mask, IMAGE)
+            for k in IMAGE:
+                pairs[k].append(as_distance(k, values[k]))
+    for k in IMAGE:
+        out[k] = spread_of(pairs[k])
+    return {k: out[k] for k in metric_keys(labelled)}

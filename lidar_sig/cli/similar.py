@@ -1,0 +1,44 @@
+"""`lidar-sig similar`: the tiles of a catalogue nearest to a query, best first."""
+import json
+
+import click
+
+from ..metrics import METRIC_KEYS, METRIC_NAMES
+from .group import cli
+from .options import columns_option
+
+
+@cli.command()
+@click.argument("query")
+@click.argument("catalogue")
+@click.option("--top", default=10, show_default=True, type=click.IntRange(1), help="How many tiles to list.")
+@click.option("--metric", type=click.Choice(("distance",) + METRIC_KEYS), default="distance", show_default=True,
+              help="Rank by the combined distance (every metric over its spread) or by one metric.")
+@click.option("--shortlist", type=click.IntRange(1), default=None,
+              help="Tiles that get the full metrics after screening [default: max(4 x top, 20)].")
+@click.option("--json", "as_json", is_flag=True, help="Print one JSON object on stdout.")
+@columns_option
+@click.option("-q", "--quiet", is_flag=True, help="No progress or notes.")
+def similar(query, catalogue, top, metric, shortlist, as_json, columns, quiet):
+    """List the tiles of CATALOGUE most like QUERY, best first, with every metric's value.
+
+    QUERY is a tile of the catalogue (its file name, stem or path), a point cloud (computed with
+    the catalogue's method) or a signature archive made with that method.
+    """
+    from ..catalog import Catalog
+
+    found = Catalog(catalogue).similar(query, top=top, metric=metric, shortlist=shortlist, columns=columns)
+    if as_json:
+        click.echo(json.dumps(found.to_dict()))
+        return
+    q, s = found.query, found.shortlist
+    kind = {"tile": "a tile of the catalogue", "cloud": "a cloud, computed with the catalogue's method",
+            "archive": "an archive made with the catalogue's method"}[q["kind"]]
+    click.echo(f"query {q['name']} ({kind}); ranked by {metric}; full metrics for {s['screened_by']}"
+               + ("" if s["certain"] else " (the top may miss a tile outside the shortlist)"))
+    keys = [k for k in METRIC_KEYS if k in found.results[0]] if found.results else []
+    head = f"{'rank':>4}  {'distance':>8}  " + "  ".join(f"{METRIC_NAMES[k]:>10}" for k in keys) + "  tile"
+    click.echo(head)
+    for r in found.results:
+        click.echo(f"{r['rank']:>4}  {r['distance']:>8.4f}  " + "  ".join(f"{r[k]:>10.4f}" for k in keys)
+                   + f"  {r['name']}")

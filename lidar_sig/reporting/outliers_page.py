@@ -1,0 +1,121 @@
+"""The HTML report of a catalogue's outliers, what a quality-control reviewer opens: the table of
+the tiles by score with the classes that make the difference, a map of the footprints coloured
+by score, the signatures (Sas) of the top outliers beside their neighbours', the tiles placed by
+likeness (classical MDS of the distances), and the method and catalogue."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..progress import step
+from . import page
+from .document import Report
+from .sections import class_legend, made_line, scales_text
+
+#: Top outliers whose signatures are shown beside their neighbours', neighbours shown each, rows
+#: of the table.
+TOP_SHOWN = 3
+NEIGHBOURS_SHOWN = 3
+TABLE_ROWS = 25
+
+
+def outliers_report(outliers, *, top=None):
+    """The :class:`Report` of computed :class:`lidar_sig.catalog.outliers.Outliers`; ``top``
+    outliers (default TOP_SHOWN) are shown beside their neighbours."""
+    from .. import render as images
+    from ..crs import crs_name
+    from ..metrics import METRIC_NAMES
+    from . import figures
+
+    o = outliers
+    cat = o.catalog
+    top = TOP_SHOWN if top is None else max(1, int(top))
+    shown = o.results[:min(top, len(o.results))]
+    score = np.empty(len(cat))
+    for r in o.results:
+        score[r["row"]] = r["score"]
+    labels = [None] * len(cat)
+    for r in shown:
+        labels[r["row"]] = f"#{r['rank']}"
+    pngs = {}
+    with step("rendering the report", tiles=len(cat)):
+        groups = sorted(set(np.asarray(cat.columns["crs"]).tolist()))
+        for g in groups:
+            rows = [i for i in range(len(cat)) if int(cat.columns["crs"][i]) == g]
+            name = crs_name(cat.header["crs"][g]) or "no CRS"
+            pngs[f"map_{g}.png"] = figures.footprint_map([cat.columns["hull"][i] for i in rows], score[rows],
+                                                         [labels[i] for i in rows], title=name)
+        pngs["likeness.png"] = figures.likeness_map(o.embedding(), score, labels)
+        signatures = []
+        shown_near = {}
+        for r in shown:
+            i = r["row"]
+            near = o.neighbours[i]
+            near = near[np.argsort(o.distances[i, near], kind="stable")][:NEIGHBOURS_SHOWN] if len(near) else \
+                np.argsort(o.distances[i], kind="stable")[1:NEIGHBOURS_SHOWN + 1]
+            for tag, j in [("", i)] + [(f"_n{k + 1}", int(j)) for k, j in enumerate(near)]:
+                sig = cat.signature(int(j))
+                signatures.append(sig)
+                pngs[f"outlier{r['rank']}{tag}.png"] = images.encode_png(images.signature_image(sig, "sas"))
+            shown_near[r["rank"]] = [int(j) for j in near]
+    title = f"lidar_sig outliers: {Path(str(cat.path)).name}"
+    method = cat.method
+    summary = (f"<p>Catalogue <code>{page.esc(cat.path)}</code>: {len(cat):,} tiles; signatures "
+               f"{page.esc(method.get('descriptor', '?'))} {page.esc(method.get('strategy', '?'))}, "
+               f"{page.esc(scales_text(method))}, {page.esc(method.get('weights', '?'))} weights, each tile's "
+               "saliency computed on the tile alone.</p>"
+               "<p>Each tile is scored by how unlike it is to its spatial neighbours (footprints touching it or "
+               f"within {o.reach:.3g} m) and to the survey as a whole: the <b>score</b> is the mean of the "
+               "robust z-scores of its median distance to its neighbours and to every tile. The distance is the "
+               "screening distance, the mean of " + ", ".join(page.esc(METRIC_NAMES[k]) for k in o.metrics)
+               + ", each divided by its spread over the catalogue.</p>")
+    if o.notes:
+        summary += '<div class="warnings"><ul>' + "".join(f"<li>{page.esc(n)}</li>" for n in o.notes) + "</ul></div>"
+    rows = []
+    for r in o.results[:TABLE_ROWS]:
+        classes = "<br>".join(f"{page.esc(c['class'])} {c['share']:.1f}% (neighbours {c['neighbours']:.1f}%)"
+                              for c in r["classes"]) or "&ndash;"
+        z_near = "&ndash;" if r["z_neighbours"] is None else f"{r['z_neighbours']:.2f}"
+        rows.append([str(r["rank"]), f"<code>{page.esc(r['name'])}</code>", f"{r['score']:.2f}", z_near,
+                     f"{r['z_survey']:.2f}", str(len(r["neighbours"])), f"{r['points']:,}", f"{r['density']:.1f}",
+                     classes])
+    table = page.table(("rank", "tile", "score", "z neighbours", "z survey", "neighbours", "points",
+                        "points/m&sup2;", "classes that make the difference"), rows, numeric=(0, 2, 3, 4, 5, 6, 7),
+                       cls="outliers")
+    more = (f'<p class="muted">The {len(o.results) - TABLE_ROWS:,} other tiles are in the JSON and the GeoPackage '
+            "outputs.</p>" if len(o.results) > TABLE_ROWS else "")
+    maps = "".join(page.image(pngs[f"map_{g}.png"], f"map of outlier scores ({crs_name(cat.header['crs'][g]) or 'no CRS'})",
+                              caption="Tile footprints (convex hulls of their points) coloured by score; "
+                                      "the top outliers are numbered.") for g in groups)
+    beside = []
+    for r in shown:
+        cells = [page.image(pngs[f"outlier{r['rank']}.png"], f"Sas of outlier {r['rank']}",
+                            caption=f"<b>#{r['rank']}</b> <code>{page.esc(r['name'])}</code>, score {r['score']:.2f}")]
+        for k, j in enumerate(shown_near[r["rank"]]):
+            cells.append(page.image(pngs[f"outlier{r['rank']}_n{k + 1}.png"], f"Sas of a neighbour of outlier {r['rank']}",
+                                    caption=f"neighbour <code>{page.esc(cat.columns['name'][j])}</code>, distance "
+                                            f"{o.distances[r['row'], j]:.2f}"))
+        beside.append('<div class="grid" style="grid-template-columns: repeat(4, minmax(0, 1fr))">'
+                      + "".join(cells) + "</div>")
+    spread_rows = [[page.esc(METRIC_NAMES[k]), f"{v:.4g}"] for k, v in cat.spread.items()]
+    crs_rows = [[page.esc(crs_name(w) or "none recorded"), f"{int(np.sum(np.asarray(cat.columns['crs']) == g)):,}"]
+                for g, w in enumerate(cat.header["crs"])]
+    parts = [
+        summary,
+        page.section("Tiles by score", table, more, anchor="outliers"),
+        page.section("Map", maps, anchor="map"),
+        page.section("Top outliers beside their neighbours",
+                     "<p>Sas of each top outlier (left) and of its nearest neighbours in signature: each point "
+                     "placed in the triangle by its saliency, coloured by its class.</p>", class_legend(signatures),
+                     *beside, anchor="signatures"),
+        page.section("Tiles by likeness",
+                     page.image(pngs["likeness.png"], "tiles placed by likeness (classical MDS)",
+                                caption="Classical multidimensional scaling of the screening distances: tiles close "
+                                        "in this plane have similar signatures; outliers stand apart."),
+                     anchor="likeness"),
+        page.section("Method and catalogue",
+                     page.table(("metric", "spread over the catalogue"), spread_rows, numeric=(1,)),
+                     page.table(("CRS", "tiles"), crs_rows, numeric=(1,)), anchor="provenance"),
+    ]
+    return Report(title, page.fragment(title, made_line(), parts), pngs)
