@@ -1,7 +1,7 @@
 """Class tables: semantic codes -> class name and colour, for augmented signatures (SPEC 5)."""
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -128,6 +128,19 @@ ISPRS_VAIHINGEN = ClassTable(
 UNLABELED = ClassTable("unlabeled", names=(), codes=(), colors=())
 BUILTIN = {"asprs": ASPRS, "paper": PAPER, "isprs-vaihingen": ISPRS_VAIHINGEN}
 
+
+
+def recorded_table(name, names, codes, colors, noise=None):
+    """The :class:`ClassTable` a file records: ``noise`` None when the file is from before
+    noise codes were recorded, and then a built-in table's own noise codes where the rest
+    matches it (archives, catalogues)."""
+    table = ClassTable(name, names=tuple(names), codes=tuple(tuple(int(v) for v in c) for c in codes),
+                       colors=tuple(tuple(int(v) for v in c) for c in colors))
+    if noise is not None:
+        return replace(table, noise=tuple(int(v) for v in noise))
+    if name in BUILTIN and replace(BUILTIN[name], noise=()) == table:
+        return BUILTIN[name]
+    return table
 
 def class_table(name):
     """A class table: built-in by name (asprs, paper, isprs-vaihingen), a TOML or JSON file of
