@@ -11,7 +11,7 @@ import sys
 _ANNOUNCED = False
 # Kernels every run calls, and those of each built-in descriptor (module, function names); the
 # functions they call are compiled and cached with them.
-_COMMON = (("grid", ("nearest", "count_within")), ("saliency", ("_saliency_rows", "_entropy_rows")))
+_COMMON = (("grid", ("nearest", "count_within")), ("kernels", ("saliency_rows", "entropy_rows")))
 _DESCRIPTOR = {
     "c3dcm": (("kernels", ("covariance_eigenvalues",)),),
     "t3dvt": (("kernels", ("voting_eigenvalues",)),),
@@ -26,6 +26,15 @@ def _dispatchers(descriptor):
         mod = importlib.import_module(f"lidar_sig.{module}")
         for name in names:
             yield getattr(mod, name)
+
+
+def load_kernels(descriptor="c3dcm"):
+    """Import numba and the modules of the kernels a run of ``descriptor`` calls. A run does so
+    before its first timed step (numba takes a good part of a second to import), so that the
+    steps' timings are their own work; compiling, or loading from the cache, happens at a
+    kernel's first call."""
+    for _ in _dispatchers(descriptor):
+        pass
 
 
 def kernels_cached(descriptor="c3dcm"):

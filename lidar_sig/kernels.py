@@ -1,8 +1,11 @@
-"""Compiled per-neighbour kernels (numba), shared by the descriptors.
+"""Compiled kernels (numba): per neighbour, shared by the descriptors; per point, the saliency
+and Egeom of :mod:`lidar_sig.saliency`. Importing this module loads numba: the modules that use
+it import it where they compute, so that listing commands or reading an archive does not.
 
-Each kernel walks the distance-sorted neighbour list of a query point once, keeps running sums,
-and reads off every scale when the walk reaches that scale's neighbour count (SPEC 2:
-smaller scales are prefixes of the largest). Work is spread over the cores with ``prange``.
+Each per-neighbour kernel walks the distance-sorted neighbour list of a query point once, keeps
+running sums, and reads off every scale when the walk reaches that scale's neighbour count
+(SPEC 2: smaller scales are prefixes of the largest). Work is spread over the cores with
+``prange``.
 """
 import numpy as np
 from numba import njit, prange
@@ -181,3 +184,34 @@ def voting_eigenvalues(xyz, rows, idx, counts, sigma, weights):
             out[b, s, 1] = min(1.0, max(0.0, 1.0 - l1))
             out[b, s, 2] = min(1.0, max(0.0, 1.0 - l0))
     return out
+
+
+@njit(cache=True, parallel=True)
+def saliency_rows(ev, out):
+    """(Cl, Cs, Cp) of each row of sorted eigenvalues ``ev`` (M, 3) into ``out`` (M, 3); NaN
+    where their sum is not positive (SPEC 1; :func:`lidar_sig.saliency.saliency_from_eigenvalues`)."""
+    for i in prange(ev.shape[0]):
+        l0, l1, l2 = ev[i, 0], ev[i, 1], ev[i, 2]
+        total = l0 + l1 + l2
+        if total > 0.0:  # False for NaN too
+            out[i, 0] = (l0 - l1) / total
+            out[i, 1] = 2.0 * (l1 - l2) / total
+            out[i, 2] = 3.0 * l2 / total
+        else:
+            out[i, 0] = out[i, 1] = out[i, 2] = np.nan
+
+
+@njit(cache=True, parallel=True)
+def entropy_rows(sal, out, upper):
+    """Egeom of each saliency row of ``sal`` (M, 3) into ``out`` (M,), clipped to [0, ``upper``]
+    (ln 3) against round-off; NaN rows stay NaN (SPEC 1; :func:`lidar_sig.saliency.geometric_entropy`)."""
+    for i in prange(sal.shape[0]):
+        e = 0.0
+        for j in range(3):
+            c = sal[i, j]
+            if c > 0.0:
+                e -= c * np.log(c)
+            elif c != c:  # NaN
+                e = np.nan
+                break
+        out[i] = min(max(e, 0.0), upper) if e == e else e

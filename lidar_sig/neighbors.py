@@ -3,6 +3,8 @@
 Every scale of a run is a prefix of the neighbour list of its largest scale, so one search per
 block of points serves them all. The search runs on a voxel grid (:mod:`lidar_sig.grid`); the
 few queries it cannot settle within a few voxel shells (isolated outliers) go to a k-d tree.
+The grid's kernels (numba) are loaded when a first index is built, the k-d tree (scipy) when a
+query needs it: importing this module loads neither.
 The index works on the points sorted by voxel: ``NeighborIndex.xyz`` is the sorted cloud and
 ``order`` maps its rows back to the input.
 
@@ -20,9 +22,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import cKDTree
-
-from .grid import LUT_CELLS, VoxelGrid, count_within
 
 # Bytes of neighbour lists (squared distance + index) held at once; bounds memory per block.
 _BLOCK_BYTES = 96 * 2**20
@@ -61,6 +60,8 @@ def counts_within(d2, n, limits):
     distances of row ``b`` of ``d2`` are at most ``limits[b, s]`` (``limits`` (B, S), or (S,)
     for every row; ascending). Rows are sorted by distance or grouped by scale, as the search
     lists them. Every count of neighbours within a scale is this."""
+    from .grid import count_within
+
     limits = np.ascontiguousarray(np.broadcast_to(np.asarray(limits, dtype=np.float64),
                                                   (len(n), np.shape(limits)[-1])))
     counts = np.empty(limits.shape, np.int64)
@@ -163,6 +164,8 @@ class NeighborIndex:
 
     def __init__(self, xyz, kind, scales, *, max_neighbors=512, min_neighbors=3, weights="none",
                  area_cap=None):
+        from .grid import VoxelGrid
+
         xyz = np.asarray(xyz, dtype=np.float64)
         self.kind = kind
         self.scales = np.asarray(scales)
@@ -283,6 +286,8 @@ class NeighborIndex:
 
     def _kdtree(self):
         if self._tree is None:
+            from scipy.spatial import cKDTree  # slow to load, and most runs leave no query to it
+
             self._tree = cKDTree(self.xyz)
         return self._tree
 
@@ -377,6 +382,8 @@ def _knn_cell(k, density, volume):
     (a poor guess costs time, never correctness). Not smaller than the side at which the core
     box holds more voxels than the grid's dense look-up table (small k on a tall box would
     otherwise fall back to binary searches)."""
+    from .grid import LUT_CELLS
+
     cell = 0.9 * np.sqrt(k / (np.pi * density))
     cell = max(cell, (volume / LUT_CELLS) ** (1.0 / 3.0))
     return float(cell) if np.isfinite(cell) and cell > 0 else 1.0

@@ -11,7 +11,7 @@ import numpy as np
 from . import __version__
 from .classes import UNLABELED, class_table
 from .cloud import PointCloud, kept_points
-from .compile import announce_compilation
+from .compile import announce_compilation, load_kernels
 from .errors import LidarSigError, LidarSigWarning, counted
 from .io.open3d import from_open3d, is_open3d
 from .neighbors import WEIGHTS, NeighborIndex, unique_points
@@ -209,6 +209,7 @@ class Pipeline:
         """(N, 3) saliency values and (N,) chosen scales (or None) of every point of ``cloud``
         (the points a run uses), and the run statistics."""
         announce_compilation(self.progress, self.descriptor.name)
+        load_kernels(self.descriptor.name)
         with step("neighbourhoods", enabled=self.progress, points=len(cloud),
                   scales=self.scales.describe(), weights=self.weights) as s:
             xyz = cloud.metric_xyz()

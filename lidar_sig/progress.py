@@ -11,6 +11,8 @@ Two tools serve every command and the library alike:
 
 Whether anything is shown: an explicit ``enabled`` wins; else the setting of the enclosing
 :func:`settings` block (the command line's ``--quiet``); else only when stderr is a terminal.
+The bars are tqdm's, imported when one is first made or a line said (not when the command
+line starts).
 """
 from __future__ import annotations
 
@@ -20,8 +22,6 @@ import logging
 import sys
 import threading
 import time
-
-from tqdm import tqdm
 
 log = logging.getLogger("lidar_sig")
 
@@ -76,11 +76,15 @@ class _TqdmHandler(logging.Handler):
 
 def say(line):
     """Print ``line`` on stderr above any bar or step line, which stay intact below it."""
+    from tqdm import tqdm
+
     tqdm.write(line, file=sys.stderr)
 
 
 def progress(iterable, *, total=None, desc="", enabled=None, unit="it"):
     """Wrap ``iterable`` in a bar on stderr; see the module docstring for when it shows."""
+    from tqdm import tqdm
+
     return tqdm(iterable, total=total, desc=desc, disable=not shown(enabled), unit=unit,
                 leave=False, file=sys.stderr)
 
@@ -95,6 +99,8 @@ class Step:
         self._bar = None
         self._done = threading.Event()
         if shown(enabled):
+            from tqdm import tqdm
+
             self._bar = tqdm(total=None, desc=name, bar_format="{desc}: {elapsed}", leave=False,
                              file=sys.stderr, delay=STEP_DELAY)
             threading.Thread(target=self._refresh, daemon=True).start()

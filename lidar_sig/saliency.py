@@ -4,7 +4,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit, prange
 
 LN3 = float(np.log(3.0))
 #: Codes of the deterministic geometric class, as written to LAS (GeomClass).
@@ -17,9 +16,11 @@ def saliency_from_eigenvalues(ev):
     Cl = (l0 - l1)/S, Cs = 2 (l1 - l2)/S, Cp = 3 l2/S with S = l0 + l1 + l2; they sum to 1.
     NaN where S = 0 or the eigenvalues are NaN (undefined saliency).
     """
+    from .kernels import saliency_rows  # numba, loaded when saliency is first computed
+
     ev = np.ascontiguousarray(ev, dtype=np.float64)
     out = np.empty_like(ev)
-    _saliency_rows(ev.reshape(-1, 3), out.reshape(-1, 3))
+    saliency_rows(ev.reshape(-1, 3), out.reshape(-1, 3))
     return out
 
 
@@ -28,37 +29,12 @@ def geometric_entropy(sal):
 
     NaN where the saliency is undefined.
     """
+    from .kernels import entropy_rows
+
     sal = np.ascontiguousarray(sal, dtype=np.float64)
     out = np.empty(sal.shape[:-1])
-    _entropy_rows(sal.reshape(-1, 3), out.reshape(-1))
+    entropy_rows(sal.reshape(-1, 3), out.reshape(-1), LN3)
     return out
-
-
-@njit(cache=True, parallel=True)
-def _saliency_rows(ev, out):
-    for i in prange(ev.shape[0]):
-        l0, l1, l2 = ev[i, 0], ev[i, 1], ev[i, 2]
-        total = l0 + l1 + l2
-        if total > 0.0:  # False for NaN too
-            out[i, 0] = (l0 - l1) / total
-            out[i, 1] = 2.0 * (l1 - l2) / total
-            out[i, 2] = 3.0 * l2 / total
-        else:
-            out[i, 0] = out[i, 1] = out[i, 2] = np.nan
-
-
-@njit(cache=True, parallel=True)
-def _entropy_rows(sal, out):
-    for i in prange(sal.shape[0]):
-        e = 0.0
-        for j in range(3):
-            c = sal[i, j]
-            if c > 0.0:
-                e -= c * np.log(c)
-            elif c != c:  # NaN
-                e = np.nan
-                break
-        out[i] = min(max(e, 0.0), LN3) if e == e else e
 
 
 def geometric_class(sal):

@@ -1,5 +1,4 @@
 """C3DCM: the covariance tensor of a neighbourhood (SPEC 3)."""
-from ...kernels import covariance_eigenvalues
 from ..base import Descriptor
 
 
@@ -15,4 +14,6 @@ class C3DCM(Descriptor):
     summary = "covariance tensor of the neighbourhood (C3DCM)"
 
     def eigenvalues(self, batch):
+        from ...kernels import covariance_eigenvalues  # numba: loaded to compute, not to list plugins
+
         return covariance_eigenvalues(batch.xyz, batch.rows, batch.idx, batch.counts, batch.weights)

@@ -2,7 +2,6 @@
 import numpy as np
 
 from ...errors import LidarSigError
-from ...kernels import voting_eigenvalues
 from ..base import Descriptor
 
 
@@ -42,6 +41,8 @@ class T3DVT(Descriptor):
         return {"delta": self.delta, "diffusion": self.diffusion}
 
     def eigenvalues(self, batch):
+        from ...kernels import voting_eigenvalues  # numba: loaded to compute, not to list plugins
+
         w = voting_eigenvalues(batch.xyz, batch.rows, batch.idx, batch.counts, batch.sigma, batch.weights)
         if not self.diffusion:
             return w

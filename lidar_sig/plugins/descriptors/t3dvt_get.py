@@ -3,8 +3,6 @@ import warnings
 
 import numpy as np
 
-from ...get import line_saliency_of_index
-from ...neighbors import NeighborIndex
 from .t3dvt import T3DVT
 
 #: Default threshold on the dimensionless GET magnitude m0 * r^2; see docs/descriptors.md for
@@ -75,6 +73,9 @@ def cl_get_of_cloud(xyz, kind, scales, *, max_neighbors=512, min_neighbors=3, th
 
     Cylindrical neighbourhoods: the neighbour search runs on (x, y, 0).
     """
+    from ...get import line_saliency_of_index  # numba: loaded to compute, not to list plugins
+    from ...neighbors import NeighborIndex
+
     flat = np.column_stack([xyz[:, 0], xyz[:, 1], np.zeros(len(xyz))])
     index = NeighborIndex(flat, kind, scales, max_neighbors=max_neighbors, min_neighbors=min_neighbors)
     cl = line_saliency_of_index(index, xyz[index.order, 2], threshold=threshold, progress=progress)
