@@ -1,8 +1,10 @@
 """The package's structure (docs/architecture.md): its modules import each other without a
 cycle, none reaches into another's private (underscore) names, every import goes to the same
-layer of the page's diagram or a lower one, and the page names every module. Imports are read from the source with ``ast``, those inside functions included (a
-lazy import still ties the two modules); the lazy public names of ``lidar_sig/__init__.py``
-(loaded through importlib on first use) are not imports."""
+layer of the page's diagram or a lower one, and the page names every module. Imports are read
+from the source with ``ast``, those inside functions included (a lazy import still ties the two
+modules), and so are the lazy names a sub-package's ``__init__.py`` lists in ``_EXPORTS`` (name
+-> its submodule, loaded through importlib on first use); those of ``lidar_sig/__init__.py`` are
+not imports (a module may take ``__version__`` from it)."""
 import ast
 import re
 
@@ -40,6 +42,9 @@ def imports(module):
     the name taken from ``target`` (None when the import names the module itself) and ``bound``
     the name it gets in ``module`` (None unless it is bound to a module)."""
     tree = ast.parse(MODULES[module].read_text(encoding="utf-8"))
+    if _is_package(module) and module != "lidar_sig":
+        for name, sub in _lazy_names(tree).items():
+            yield f"{module}.{sub}", name, None
     for node in ast.walk(tree):
         if isinstance(node, ast.Import):
             for alias in node.names:
@@ -55,6 +60,15 @@ def imports(module):
                     yield sub, None, alias.asname or alias.name
                 else:
                     yield base, alias.name, None
+
+
+def _lazy_names(tree):
+    """name -> submodule of a package's ``_EXPORTS = {...}`` (its names loaded on first use)."""
+    for node in tree.body:
+        if (isinstance(node, ast.Assign) and isinstance(node.value, ast.Dict)
+                and any(isinstance(t, ast.Name) and t.id == "_EXPORTS" for t in node.targets)):
+            return {k.value: v.value for k, v in zip(node.value.keys, node.value.values)}
+    return {}
 
 
 def graph():
@@ -99,6 +113,8 @@ def test_the_walk_finds_the_package_and_its_imports():
     edges = graph()
     assert "lidar_sig.signature" in edges["lidar_sig.pipeline"]
     assert "lidar_sig.io" in edges["lidar_sig.pipeline"]  # a lazy import, inside a function
+    assert "lidar_sig.io.hdf5" in edges["lidar_sig.io"]  # a lazy name of the package (_EXPORTS)
+    assert all(t in MODULES for m in MODULES for t in edges[m])
     assert find_cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}}) == ["a", "b", "c", "a"]
     assert find_cycle({"a": {"b"}, "b": set()}) is None
 

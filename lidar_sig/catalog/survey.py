@@ -230,7 +230,7 @@ class Catalog:
     def _run(self, cloud):
         """The signature of ``cloud`` with the catalogue's method (a LAS cloud whose codes are
         all 0 counted in class 0, as the catalogue's tiles are)."""
-        from ..io.las import LAS_EXTENSIONS
+        from ..io import LAS_EXTENSIONS
         from ..pipeline import Pipeline
 
         if cloud.labels is None and cloud.path and Path(cloud.path).suffix.lower() in LAS_EXTENSIONS:

@@ -1,26 +1,47 @@
 """Readers and writers at the edges: point-cloud files in, results out.
 
-``read(path)`` picks the reader from the file extension.
+``read(path)`` picks the reader from the file extension. A format's module, and with it its
+library (laspy, h5py, Open3D), is loaded when a file of that format is first read or written,
+or one of its names below is first used (PEP 562): the command line starts without them.
 """
 from __future__ import annotations
 
+import importlib
 import os
 from pathlib import Path
 
 from ..errors import LidarSigError, as_path
 from ..progress import step
 from .atomic import atomic_output, check_output, check_outputs, output_group
-from .hdf5 import HDF5_EXTENSIONS, archive_summary, load_signature, write_archive
-from .fields import saliency_fields
-from .las import LAS_EXTENSIONS, check_las_output, read_las, write_las
-from .open3d import OPEN3D_EXTENSIONS, read_open3d, write_open3d
-from .text import TEXT_EXTENSIONS, parse_columns, read_text, write_text
+from .formats import CLOUD_EXTENSIONS, HDF5_EXTENSIONS, LAS_EXTENSIONS, OPEN3D_EXTENSIONS, TEXT_EXTENSIONS
 
-CLOUD_EXTENSIONS = LAS_EXTENSIONS + OPEN3D_EXTENSIONS + TEXT_EXTENSIONS
+# name -> the module of this package that defines it, loaded on first use
+_EXPORTS = {
+    "archive_summary": "hdf5", "load_signature": "hdf5", "write_archive": "hdf5", "saliency_fields": "fields",
+    "check_las_output": "las", "read_las": "las", "write_las": "las", "read_open3d": "open3d",
+    "write_open3d": "open3d", "parse_columns": "text", "read_text": "text", "write_text": "text",
+}
 
 __all__ = ["read", "write_cloud", "parse_columns", "CLOUD_EXTENSIONS", "atomic_output", "check_output",
            "check_outputs", "output_group", "check_cloud_output", "write_las", "write_archive", "load_signature",
            "archive_summary", "LAS_EXTENSIONS", "TEXT_EXTENSIONS", "HDF5_EXTENSIONS"]
+
+
+def __getattr__(name):
+    if name in _EXPORTS:
+        value = getattr(importlib.import_module(f".{_EXPORTS[name]}", __name__), name)
+        globals()[name] = value
+        return value
+    try:  # a submodule, e.g. lidar_sig.io.hdf5
+        return importlib.import_module(f".{name}", __name__)
+    except ModuleNotFoundError as exc:
+        if exc.name != f"{__name__}.{name}":
+            raise
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}") from None
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_EXPORTS))
 
 
 def read(path, *, columns=None):
@@ -29,10 +50,10 @@ def read(path, *, columns=None):
     ``columns`` names the columns of a text file (see :mod:`lidar_sig.io.text`).
     """
     as_path(path, "read")
-    if isinstance(columns, str):
-        columns = parse_columns(columns)
-    elif columns is not None:
-        columns = parse_columns(",".join(map(str, columns)))
+    if columns is not None:
+        from .text import parse_columns
+
+        columns = parse_columns(columns if isinstance(columns, str) else ",".join(map(str, columns)))
     path = Path(path)
     if not path.exists():
         raise LidarSigError("no such file; check the path", path=path)
@@ -41,11 +62,10 @@ def read(path, *, columns=None):
     if not os.access(path, os.R_OK):
         raise LidarSigError("cannot be read (permission denied)", path=path)
     ext = path.suffix.lower()
-    readers = {**dict.fromkeys(LAS_EXTENSIONS, read_las), **dict.fromkeys(OPEN3D_EXTENSIONS, read_open3d),
-               **dict.fromkeys(TEXT_EXTENSIONS, lambda p: read_text(p, columns=columns))}
-    if ext in readers:
+    if ext in CLOUD_EXTENSIONS:
+        reader = _reader(ext, columns)  # its module loaded before the step, whose time is the reading
         with step(f"reading {path.name}", bytes=path.stat().st_size) as s:
-            cloud = readers[ext](path)
+            cloud = reader(path)
             s.note(points=len(cloud))
         return cloud
     if ext in HDF5_EXTENSIONS:
@@ -55,10 +75,27 @@ def read(path, *, columns=None):
                         f"use one of {', '.join(CLOUD_EXTENSIONS)}", path=path)
 
 
+def _reader(ext, columns):
+    """The function reading a point cloud of extension ``ext`` (one of CLOUD_EXTENSIONS)."""
+    if ext in LAS_EXTENSIONS:
+        from .las import read_las
+
+        return read_las
+    if ext in OPEN3D_EXTENSIONS:
+        from .open3d import read_open3d
+
+        return read_open3d
+    from .text import read_text
+
+    return lambda p: read_text(p, columns=columns)
+
+
 def check_cloud_output(path, cloud):
     """Refuse, before any work, a cloud that the format of ``path`` cannot hold (see
     :func:`lidar_sig.io.las.check_las_output`)."""
     if Path(path).suffix.lower() in LAS_EXTENSIONS:
+        from .las import check_las_output
+
         check_las_output(cloud, path)
 
 
@@ -66,12 +103,20 @@ def write_cloud(path, cloud, saliency, *, scale_kind=None, scale_values=None, ov
     """Write the cloud with per-point saliency to ``path``, in the format of its extension."""
     ext = Path(path).suffix.lower()
     if ext in LAS_EXTENSIONS:
+        from .las import write_las
+
         return write_las(path, cloud, saliency, scale_kind=scale_kind, scale_values=scale_values,
                          overwrite=overwrite)
+    from .fields import saliency_fields
+
     fields = saliency_fields(saliency, scale_kind, scale_values)
     if ext in OPEN3D_EXTENSIONS:
+        from .open3d import write_open3d
+
         return write_open3d(path, cloud, fields, overwrite=overwrite)
     if ext in TEXT_EXTENSIONS:
+        from .text import write_text
+
         return write_text(path, cloud, fields, overwrite=overwrite)
     raise LidarSigError(f"cannot write point clouds as {ext or '(no extension)'!r}; use one of "
                         f"{', '.join(CLOUD_EXTENSIONS)}", path=path)

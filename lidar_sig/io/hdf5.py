@@ -17,6 +17,7 @@ from ..errors import LidarSigError, as_path, counted
 from ..saliency import LN3
 from ..signature import METHOD_KEYS, Frame, Signature
 from .atomic import atomic_output
+from .formats import HDF5_EXTENSIONS  # noqa: F401 (a name of this module too)
 
 FORMAT = "lidar_sig signature archive"
 FORMAT_VERSION = 2
@@ -24,7 +25,6 @@ FORMAT_VERSION = 2
 _TEXT_ATTRS = ("descriptor", "strategy", "scales", "scale_kind", "scale_units", "weights", "units", "crs")
 _INT_ATTRS = ("n_points", "n_undefined", "n_capped", "n_duplicates", "n_excluded", "max_neighbors",
               "min_neighbors")
-HDF5_EXTENSIONS = (".h5", ".hdf5")
 _GZIP = {"compression": "gzip", "compression_opts": 4, "shuffle": True}
 
 

@@ -28,9 +28,9 @@ from ..cloud import PointCloud
 from ..errors import LidarSigError, LidarSigWarning
 from .atomic import atomic_output
 from .fields import marker, parse_marker
+from .formats import OPEN3D_EXTENSIONS  # noqa: F401 (a name of this module too)
 from .table import cloudcompare_name, plain_name, point_table
 
-OPEN3D_EXTENSIONS = (".ply", ".pcd")
 LABEL_NAMES = ("label", "classification", "class")
 UNDEFINED_GREY = 0.5  # colour of undefined saliency in to_open3d: neutral mid grey
 # PLY property type of each stored dtype. Open3D's PLY reader (0.17-0.20) skips char, short,

@@ -21,9 +21,9 @@ from ..cloud import PointCloud
 from ..errors import LidarSigError, LidarSigWarning, counted
 from .atomic import atomic_output
 from .fields import marker, parse_marker
+from .formats import TEXT_EXTENSIONS  # noqa: F401 (a name of this module too)
 from .table import cloudcompare_name, plain_name, point_table
 
-TEXT_EXTENSIONS = (".xyz", ".txt", ".pts", ".csv")
 LAYOUTS = {
     3: ("x", "y", "z"),
     4: ("x", "y", "z", "label"),

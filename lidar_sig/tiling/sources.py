@@ -27,7 +27,7 @@ import numpy as np
 
 from ..cloud import MAX_COORDINATE, check_magnitude, kept_points
 from ..errors import LidarSigError, counted, reason
-from ..io.las import LAS_EXTENSIONS
+from ..io import LAS_EXTENSIONS
 
 #: Bits of a point identifier that hold its index in its file (files up to 10^12 points).
 ID_BITS = 40

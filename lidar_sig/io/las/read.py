@@ -11,9 +11,8 @@ import numpy as np
 from ...cloud import PointCloud
 from ...crs import las_units
 from ...errors import LidarSigError, LidarSigWarning, counted, reason
+from ..formats import LAS_EXTENSIONS  # noqa: F401 (a name of this module too)
 from .dims import lidar_sig_dims
-
-LAS_EXTENSIONS = (".las", ".laz")
 
 
 def read_las(path):
