@@ -1,5 +1,5 @@
 """``python -m lidar_sig`` and the ``lidar-sig`` command: the command line, with Ctrl-C and
-SIGTERM handled from its first instant (the libraries take a second to load) to its last.
+SIGTERM handled from its first instant (before the command line has loaded) to its last.
 
 The last instant: once the command has ended, the process ends at once with its status
 (``os._exit``, after flushing the output), without the interpreter's shutdown. That shutdown
@@ -37,7 +37,7 @@ def main(argv=None):
     try:
         try:
             from .cli import main as cli_main
-        except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM while the libraries load
+        except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM while the command line loads
             signum = getattr(exc, "signum", signal.SIGINT)
             print(f"lidar-sig: interrupted ({signal.Signals(signum).name}) while starting; nothing was written",
                   file=sys.stderr)

@@ -1,8 +1,8 @@
 """Run `lidar-sig ARGS` as a user would, two ways; both return a ``subprocess.CompletedProcess``
 (``returncode``, ``stdout``, ``stderr`` as text).
 
-- :func:`run`: in this process. A child process spends 0.6-1.1 s starting Python and loading
-  the libraries before the command begins; here the command begins at once, so most tests of
+- :func:`run`: in this process. A child process spends most of a second starting Python and
+  loading the libraries a command computes with; here they are loaded once, so most tests of
   the command line use this. It is run as a child would be (see :func:`run`).
 - :func:`run_process`: in a child process, ``python -m lidar_sig ARGS``. For what only a real
   process shows: signals, the exit status of the process, start-up and imports, entry points of

@@ -1,6 +1,5 @@
 """Progress and logging of long steps: bars on a terminal only, silent with --quiet or off a
-terminal, --verbose timings of every step; and `lidar-sig saliency` never loads the plotting
-and image libraries."""
+terminal, --verbose timings of every step (what a run loads: tests/test_startup.py)."""
 import os
 import re
 import subprocess
@@ -83,17 +82,6 @@ def test_a_step_shows_its_elapsed_time_after_a_delay_and_logs_when_done(capsys, 
     assert "quick" not in err and "slow: 00:01" in err
     assert [r.getMessage().split(":")[0] for r in caplog.records] == ["quick", "slow"]
     assert "(cells 12, points 1,234)" in caplog.records[1].getMessage()
-
-
-def test_saliency_imports_neither_matplotlib_nor_opencv(tmp_path):
-    code = ("import sys\n"
-            "from lidar_sig.cli import cli\n"
-            f"cli.main(['saliency', {str(EPOCH2)!r}, '-o', 'out.laz', '-q'], standalone_mode=False)\n"
-            "print(sorted(m for m in ('matplotlib', 'cv2', 'PIL', 'selenium') if m in sys.modules))\n")
-    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path)
-    assert done.returncode == 0, done.stderr
-    assert (tmp_path / "out.laz").exists()
-    assert done.stdout.strip().splitlines()[-1] == "[]"
 
 
 def test_a_note_during_a_shown_step_gets_a_line_of_its_own(monkeypatch, capsys):

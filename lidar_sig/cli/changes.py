@@ -4,11 +4,15 @@ import json
 
 import click
 
-from ..change_map import AUTO, CONFIDENCE, ChangeSeries, changes, check_cell
 from ..errors import LidarSigError
-from ..metrics import METRIC_KEYS, METRIC_NAMES
 from .group import cli
-from .options import columns_option, overwrite_option, pipeline_options, render_option
+from .options import Choice, Default, columns_option, metric_keys, overwrite_option, pipeline_options, render_option
+
+
+def _confidence():
+    from ..change_map import CONFIDENCE
+
+    return CONFIDENCE
 
 
 @cli.command("changes")
@@ -16,15 +20,15 @@ from .options import columns_option, overwrite_option, pipeline_options, render_
 @click.option("-o", "--output", default=None, metavar="FILE.tif",
               help="GeoTIFF: the score, its level of detection, significant (0/1) and every metric per cell "
                    "(needs rasterio: pip install lidar-sig[geo]).")
-@click.option("--cell", default=AUTO, show_default=True, metavar="METRES|auto",
+@click.option("--cell", default="auto", show_default=True, metavar="METRES|auto",
               help="Cell side in metres, or auto: chosen from the epochs' densities.")
-@click.option("--min-points", default=AUTO, show_default=True, metavar="N|auto",
+@click.option("--min-points", default="auto", show_default=True, metavar="N|auto",
               help="Fewest points with defined saliency of a cell in each epoch for it to be compared, or auto: "
                    "a fifth of a full cell.")
-@click.option("--score", type=click.Choice(METRIC_KEYS), default=None,
+@click.option("--score", type=Choice(metric_keys), default=None,
               help="Metric that ranks the cells [default: kl, or fv for unlabelled epochs or class schemes that "
                    "barely overlap].")
-@click.option("--confidence", default=CONFIDENCE, show_default=True, type=click.FloatRange(0.5, 0.9999),
+@click.option("--confidence", default=Default(_confidence), show_default=True, type=click.FloatRange(0.5, 0.9999),
               help="Confidence of the level of detection (one-sided).")
 @click.option("--class-map", "class_map", multiple=True, metavar="CODES=NAME",
               help="Merge class codes of either epoch into one class before comparing, e.g. "
@@ -54,6 +58,9 @@ def changes_command(epochs, output, cell, min_points, score, confidence, class_m
     cell = _auto_or(cell, "the cell size (--cell)", _metres)
     min_points = _auto_or(min_points, "the fewest points (--min-points)", _whole)
     _check_outputs(output, png, report, overwrite)
+    from ..change_map import ChangeSeries, changes
+    from ..metrics import METRIC_NAMES
+
     result = changes(*epochs, cell=cell, pipeline=pipeline, min_points=min_points, score=score,
                      render=render or "smooth", columns=columns, confidence=confidence,
                      class_map=list(class_map) or None)
@@ -92,12 +99,16 @@ def changes_command(epochs, output, cell, min_points, score, confidence, class_m
 
 
 def _densities(result):
+    from ..change_map import ChangeSeries
+
     if isinstance(result, ChangeSeries):
         return [m.density[0] for m in result.maps] + [result.maps[-1].density[1]]
     return list(result.density)
 
 
 def _rule(rule):
+    from ..change_map import AUTO
+
     return "auto" if rule == AUTO else "given"
 
 
@@ -106,6 +117,8 @@ def _metres(text, what):
         value = float(text)
     except ValueError:
         raise LidarSigError(f"{what} must be auto or a positive number of metres, got {text!r}") from None
+    from ..change_map import check_cell
+
     return check_cell(value)
 
 
@@ -120,7 +133,11 @@ def _whole(text, what):
 
 
 def _auto_or(text, what, parse):
-    return AUTO if text.strip().lower() == AUTO else parse(text, what)
+    if text.strip().lower() == "auto":
+        from ..change_map import AUTO
+
+        return AUTO
+    return parse(text, what)
 
 
 def _check_outputs(output, png, report, overwrite):

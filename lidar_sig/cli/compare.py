@@ -3,13 +3,11 @@ import json
 
 import click
 
-from ..comparison import compare_sources
-from ..metrics import METRICS
 from .group import cli
-from ..reporting import COMPARISON_PLOTS
 from .options import (check_report_outputs, columns_option, overwrite_option, pipeline_options, render_option,
                       report_options, tiling_options, write_report)
 from .summaries import archive_summary_line, run_summary
+
 
 @cli.command()
 @click.argument("a")
@@ -28,7 +26,13 @@ def compare(a, b, as_json, report, plots, render, overwrite, columns, tiling, pi
     Both are made the same way: two clouds with the same method; a cloud compared with an
     archive the archive's way; two archives must record the same method.
     """
-    check_report_outputs(report, plots, COMPARISON_PLOTS, overwrite)
+    if report or plots:
+        from ..reporting import COMPARISON_PLOTS
+
+        check_report_outputs(report, plots, COMPARISON_PLOTS, overwrite)
+    from ..comparison import compare_sources
+    from ..metrics import METRICS
+
     result = compare_sources(a, b, pipeline, render=render, columns=columns, method_given=method_given,
                              tiling=tiling)
     written = write_report(result.report(), report, plots, overwrite) if report or plots else []

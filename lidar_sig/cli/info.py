@@ -2,10 +2,9 @@
 from pathlib import Path
 
 import click
-import numpy as np
 
 from ..errors import counted
-from ..io import HDF5_EXTENSIONS, archive_summary, read
+from ..io import HDF5_EXTENSIONS, read
 from .group import cli
 from .options import columns_option
 
@@ -16,8 +15,12 @@ from .options import columns_option
 def info(path, columns):
     """Summarize a signature archive (.h5) or a point-cloud file."""
     if Path(path).suffix.lower() in HDF5_EXTENSIONS:
+        from ..io import archive_summary
+
         click.echo("\n".join(archive_summary(path)))
         return
+    import numpy as np
+
     cloud = read(path, columns=columns)
     lo, hi = cloud.xyz.min(axis=0), cloud.xyz.max(axis=0)
     click.echo(f"{path}: {counted(len(cloud), 'point')}")

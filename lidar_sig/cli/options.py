@@ -1,4 +1,10 @@
-"""Options shared by the commands: descriptor, strategy, scales, weights, classes, rendering."""
+"""Options shared by the commands: descriptor, strategy, scales, weights, classes, rendering.
+
+The command line starts without the library's science (numpy and what it loads): a command
+imports what it computes with when it runs, and the choices and defaults the options show that
+the library defines (``WEIGHTS``, ``RENDERINGS``, ...) are read when first needed, through
+:class:`Choice` and :class:`Default` (docs/architecture.md).
+"""
 from __future__ import annotations
 
 import functools
@@ -7,12 +13,57 @@ import math
 import click
 
 from ..errors import LidarSigError
-from ..neighbors import WEIGHTS
-from ..pipeline import Pipeline
 from ..progress import settings as progress_settings
-from ..scales import knn
-from ..scales import radii as make_radii
-from ..signature import RENDERINGS
+
+
+class Choice(click.Choice):
+    """A click.Choice among names the library defines, given as a function returning them: called
+    when the choices are first needed (the command's help, a value to check), not when the
+    command line starts."""
+
+    def __init__(self, names, case_sensitive=True):  # not click.Choice's, which would store the choices
+        self._names = names
+        self.case_sensitive = case_sensitive
+
+    @property
+    def choices(self):
+        return tuple(self._names())
+
+
+class Default:
+    """An option's default that the library defines, given as a function returning it: click calls
+    it for the value, and the help shows its text (``show_default=True``; for a plain function
+    click would show "(dynamic)")."""
+
+    def __init__(self, value):
+        self._value = value
+
+    def __call__(self):
+        return self._value()
+
+    def __str__(self):
+        return str(self._value())
+
+
+def _weights():
+    from ..neighbors import WEIGHTS
+
+    return WEIGHTS
+
+
+def metric_keys():
+    """The keys of the metrics, in the order of every table (``lidar_sig.metrics.METRIC_KEYS``)."""
+    from ..metrics import METRIC_KEYS
+
+    return METRIC_KEYS
+
+
+def renderings():
+    """The renderings of the signatures, the default first (``lidar_sig.signature.RENDERINGS``)."""
+    from ..signature import RENDERINGS
+
+    return RENDERINGS
+
 
 # Method options: None when not given, so that a command can tell what the user asked for (an
 # archive compared with a cloud brings its own method).
@@ -75,7 +126,7 @@ def pipeline_options(func):
         click.option("--units", type=click.Choice(["metric", "normalized"]), default=None,
                      help="Units of --radii: metric (metres) or normalized (the paper's: half the "
                           "longest bounding-box side is 1; not rotation invariant) [default: metric]."),
-        click.option("--weights", type=click.Choice(WEIGHTS), default=None,
+        click.option("--weights", type=Choice(_weights), default=None,
                      help="Neighbours count by the area they stand for, or equally (the paper's) "
                           "[default: area]."),
         click.option("--max-neighbors", default=None, type=click.IntRange(3, 100_000),
@@ -110,6 +161,10 @@ def pipeline_options(func):
 def make_pipeline(descriptor=None, strategy=None, radii=None, units=None, k=None, weights=None,
                   max_neighbors=None, classes=None, keep_noise=None, quiet=False):
     """A Pipeline from command-line option values (None: the default)."""
+    from ..pipeline import Pipeline
+    from ..scales import knn
+    from ..scales import radii as make_radii
+
     if radii is not None and k is not None:
         raise LidarSigError("give either --radii or --k, not both")
     if units and radii is None:
@@ -132,7 +187,7 @@ def make_pipeline(descriptor=None, strategy=None, radii=None, units=None, k=None
 overwrite_option = click.option("--overwrite", is_flag=True, help="Replace an existing output file.")
 
 render_option = click.option(
-    "--render", type=click.Choice(RENDERINGS), default=None,
+    "--render", type=Choice(renderings), default=None,
     help="Rendering of Sg and Sas: smooth (a density estimate, robust to sampling), points (the "
          "paper's) or density (per-pixel shares) [default: smooth].")
 

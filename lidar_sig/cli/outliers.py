@@ -7,7 +7,6 @@ import click
 
 from ..errors import LidarSigError
 from ..io import check_outputs, output_group
-from ..reporting import check_report_path
 from .group import cli
 from .options import overwrite_option
 
@@ -30,6 +29,7 @@ def outliers(catalogue, output, report, reach, top, as_json, overwrite, quiet):
     survey as a whole, highest first, with the classes that make the difference.
     """
     from ..catalog import Catalog
+    from ..reporting import check_report_path
 
     if output and Path(output).suffix.lower() != ".gpkg":
         raise LidarSigError("the footprints are written as a GeoPackage (.gpkg)", path=output)

@@ -5,15 +5,20 @@ import click
 
 from ..errors import LidarSigError, counted
 from ..io import check_output, read
-from ..metrics import METRIC_KEYS, METRIC_NAMES
-from ..sampling import DEFAULT_FRACTIONS, check_fractions, plot_resilience, resilience
 from .group import cli
-from .options import columns_option, not_empty, number_list, overwrite_option, pipeline_options, render_option
+from .options import (Default, columns_option, not_empty, number_list, overwrite_option, pipeline_options,
+                      render_option)
+
+
+def _fractions():
+    from ..sampling import DEFAULT_FRACTIONS
+
+    return ",".join(f"{f:g}" for f in DEFAULT_FRACTIONS)
 
 
 @cli.command("resilience")
 @click.argument("source")
-@click.option("--fractions", default=",".join(f"{f:g}" for f in DEFAULT_FRACTIONS), show_default=True,
+@click.option("--fractions", type=str, default=Default(_fractions), show_default=True,
               help="Fractions of the points to keep, comma-separated, each in (0, 1].")
 @click.option("--repeats", default=3, show_default=True, type=click.IntRange(1, 1000),
               help="Random subsamples per fraction.")
@@ -29,6 +34,9 @@ from .options import columns_option, not_empty, number_list, overwrite_option, p
 def resilience_command(source, fractions, repeats, seed, as_json, plot, render, overwrite, columns, pipeline,
                        method_given, quiet):
     """Compare SOURCE with uniform random subsamples of itself, fraction by fraction."""
+    from ..metrics import METRIC_KEYS, METRIC_NAMES
+    from ..sampling import check_fractions, plot_resilience, resilience
+
     values = check_fractions(number_list(fractions, "--fractions"), "--fractions")
     if plot:
         if not plot.lower().endswith(".png"):

@@ -5,13 +5,9 @@ import click
 
 from ..errors import LidarSigError
 from ..io import HDF5_EXTENSIONS, check_outputs, output_group, read
-from ..io.png import write_signature_png
-from ..comparison import report as ls_report
-from ..reporting import SIGNATURE_PLOTS
-from ..signature import RENDERINGS
 from .group import cli
 from .options import (check_report_outputs, columns_option, not_empty, overwrite_option, pipeline_options,
-                      render_option, report_options, resume_options, tiling_options, write_report)
+                      render_option, renderings, report_options, resume_options, tiling_options, write_report)
 from .summaries import echo_run
 from .tiles import finish, is_set, run_tiles
 
@@ -57,11 +53,17 @@ def signature(sources, output, png_output, sg_output, no_points, report, plots, 
             raise LidarSigError("signature images are written as .png", path=path)
     outputs = ([output] if output else []) + images
     check_outputs(outputs + ([report] if report else []), overwrite=overwrite)  # all of them, before any work
-    check_report_outputs(report, plots, SIGNATURE_PLOTS, overwrite)
-    render = render or RENDERINGS[0]
+    if report or plots:
+        from ..reporting import SIGNATURE_PLOTS
+
+        check_report_outputs(report, plots, SIGNATURE_PLOTS, overwrite)
+    render = render or renderings()[0]
     if tiled:
         return _signature_of_set(sources, output, ext, png_output, sg_output, render, overwrite, tiling, resume,
                                  work_dir, pipeline, quiet)
+    from ..comparison import report as ls_report
+    from ..io.png import write_signature_png
+
     source = sources[0]
     result = pipeline.run(read(source, columns=columns))
     written = []
@@ -87,6 +89,7 @@ def signature(sources, output, png_output, sg_output, no_points, report, plots, 
 def _signature_of_set(sources, output, ext, png_output, sg_output, render, overwrite, tiling, resume, work_dir,
                       pipeline, quiet):
     from ..io import write_archive
+    from ..io.png import write_signature_png
 
     first = output or png_output or sg_output
     work = Path(work_dir) if work_dir else Path(first).with_name(Path(first).name + ".work")

@@ -3,16 +3,15 @@ import json
 
 import click
 
-from ..metrics import METRIC_KEYS, METRIC_NAMES
 from .group import cli
-from .options import columns_option
+from .options import Choice, columns_option, metric_keys
 
 
 @cli.command()
 @click.argument("query")
 @click.argument("catalogue")
 @click.option("--top", default=10, show_default=True, type=click.IntRange(1), help="How many tiles to list.")
-@click.option("--metric", type=click.Choice(("distance",) + METRIC_KEYS), default="distance", show_default=True,
+@click.option("--metric", type=Choice(lambda: ("distance",) + metric_keys()), default="distance", show_default=True,
               help="Rank by the combined distance (every metric over its spread) or by one metric.")
 @click.option("--shortlist", type=click.IntRange(1), default=None,
               help="Tiles that get the full metrics after screening [default: max(4 x top, 20)].")
@@ -26,6 +25,7 @@ def similar(query, catalogue, top, metric, shortlist, as_json, columns, quiet):
     the catalogue's method) or a signature archive made with that method.
     """
     from ..catalog import Catalog
+    from ..metrics import METRIC_KEYS, METRIC_NAMES
 
     found = Catalog(catalogue).similar(query, top=top, metric=metric, shortlist=shortlist, columns=columns)
     if as_json:

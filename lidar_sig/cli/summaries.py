@@ -3,11 +3,11 @@ import click
 
 from ..errors import counted
 
-from ..reporting.sections import scales_text
-
 
 def run_summary(source, result):
     """One line: points, method, scales, units, undefined, capped, duplicate and left-out counts."""
+    from ..reporting.sections import scales_text
+
     m = result.metadata
     text = (f"{source}: {counted(m['n_points'], 'point')}, {m['descriptor']} {m['strategy']}, {scales_text(m)}, "
             f"{m['weights']} weights, units {m['units']}; {m['n_undefined']:,} undefined")
@@ -24,6 +24,8 @@ def run_summary(source, result):
 
 def archive_summary_line(side):
     """One line for an archive input of compare."""
+    from ..reporting.sections import scales_text
+
     m = side.signature.metadata
     scales = scales_text(m) if "resolved_scales" in m and "scale_kind" in m else m.get("scales", "?")
     what = "set of tiles" if "tiling" in m else "archive"

@@ -5,9 +5,6 @@ import click
 
 from ..errors import counted
 from ..io import LAS_EXTENSIONS
-from ..tiling.execute import executor
-from ..tiling.run import run_set
-from ..tiling.work import remove_work
 
 
 def is_set(sources, tiling, resume=False):
@@ -19,6 +16,9 @@ def is_set(sources, tiling, resume=False):
 
 def run_tiles(pipeline, sources, tiling, work, *, outputs=(), resume=False, quiet=False):
     """Run ``sources`` as a set with the command's tiling options; print the summary line."""
+    from ..tiling.execute import executor
+    from ..tiling.run import run_set
+
     backend = executor(tiling["workers"], tiling["scheduler"])
     try:
         run = run_set(pipeline, sources, work=work, tile_size=tiling["tile_size"], backend=backend,
@@ -44,6 +44,8 @@ def run_tiles(pipeline, sources, tiling, work, *, outputs=(), resume=False, quie
 def finish(run, work, written, not_written=()):
     """Exit status 1 naming what is missing, or 0 after removing the work folder."""
     if run.complete and not not_written:
+        from ..tiling.work import remove_work
+
         remove_work(work)
         return
     for line in run.missing:

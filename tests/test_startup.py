@@ -1,0 +1,114 @@
+"""The command line starts without the libraries it does not use (docs/architecture.md): the help,
+`plugins` and a refused option load none of numba, scipy, laspy, h5py, matplotlib and OpenCV
+(the help not even numpy), `info` only the reader of its file, and a run numba and numpy but
+scipy.spatial, h5py, matplotlib and OpenCV only where it uses them. Each command runs in a fresh
+interpreter, whose sys.modules then says what was imported: a test of what is loaded, not of
+how long it takes. And the names the packages load on first use are the ones they had."""
+import json
+import subprocess
+import sys
+import types
+
+import pytest
+
+from conftest import SAMPLES
+
+EPOCH2 = SAMPLES / "epoch2.laz"
+#: What the command line must not load unless a command computes with it.
+SLOW = ("numba", "scipy", "laspy", "h5py", "matplotlib", "cv2")
+
+
+def loaded(*args, cwd=None):
+    """(exit status, set of the modules imported) of `lidar-sig ARGS` run in a fresh interpreter,
+    as ``python -m lidar_sig`` runs it (its output is dropped)."""
+    code = ("import contextlib, io, json, sys\n"
+            "from lidar_sig.__main__ import main\n"
+            "with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):\n"
+            f"    status = main({[str(a) for a in args]!r})\n"
+            "print(json.dumps([status, sorted(sys.modules)]))\n")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=cwd, timeout=600,
+                          stdin=subprocess.DEVNULL)
+    assert done.returncode == 0, done.stderr
+    status, modules = json.loads(done.stdout.splitlines()[-1])
+    return status, set(modules)
+
+
+def test_the_check_sees_what_a_command_loads():
+    # the test can fail: the same interpreter and check see laspy once a LAS file is read
+    status, modules = loaded("info", EPOCH2)
+    assert status == 0
+    assert {"lidar_sig.cli", "numpy", "laspy"} <= modules
+    assert not modules & {"numba", "h5py", "matplotlib", "cv2"}
+
+
+@pytest.mark.parametrize("args", [["--help"], [], ["saliency", "--help"], ["changes", "--help"]],
+                         ids=["help", "no command", "saliency help", "changes help"])
+def test_the_help_loads_no_science(args):
+    status, modules = loaded(*args)
+    assert status == 0
+    assert "lidar_sig.cli.saliency" in modules  # every command registered
+    assert not modules & set(SLOW)
+    if args in (["--help"], []):  # the list of commands; a command's help shows choices numpy modules hold
+        assert "numpy" not in modules
+
+
+def test_plugins_loads_the_plugins_not_their_kernels():
+    status, modules = loaded("plugins")
+    assert status == 0
+    assert "lidar_sig.plugins.descriptors.t3dvt_get" in modules
+    assert not modules & set(SLOW)
+
+
+def test_info_of_an_archive_loads_h5py_and_no_other_slow_library(epoch1_archive):
+    status, modules = loaded("info", epoch1_archive)
+    assert status == 0
+    assert "h5py" in modules
+    assert not modules & (set(SLOW) - {"h5py"})
+
+
+@pytest.mark.parametrize("args", [
+    ["saliency", EPOCH2, "-o", "out.laz", "--weights", "equal"],
+    ["saliency", EPOCH2, "-o", "out.las.gz"],
+    ["compare", EPOCH2, EPOCH2, "--render", "dots"],
+    ["changes", EPOCH2, EPOCH2, "--cell", "big"],
+    ["changes", EPOCH2, EPOCH2, "--confidence", "2"],
+    ["similar", EPOCH2, "catalogue.h5", "--metric", "nearest"],
+    ["resilience", EPOCH2, "--fractions", "2"],
+], ids=["choice", "output format", "render", "cell", "confidence", "metric", "fractions"])
+def test_a_refused_option_loads_no_slow_library(args, tmp_path):
+    status, modules = loaded(*args, cwd=tmp_path)
+    assert status == 2
+    assert not modules & set(SLOW)
+    assert not list(tmp_path.iterdir())  # nothing written
+
+
+def test_a_run_loads_numba_and_only_the_libraries_it_uses(tmp_path):
+    status, modules = loaded("saliency", EPOCH2, "-o", "out.laz", "-q", cwd=tmp_path)
+    assert status == 0 and (tmp_path / "out.laz").exists()
+    assert {"numpy", "numba", "laspy"} <= modules
+    # no plots, pictures, archives; and every query of this cloud is settled by the voxel grid,
+    # so the k-d tree of scipy.spatial is not loaded either
+    assert not modules & {"matplotlib", "cv2", "PIL", "selenium", "h5py", "scipy.spatial"}
+
+
+def test_the_lazy_names_of_io_are_the_names_it_had():
+    # a name loaded on first use (PEP 562) is the object its module defines, listed by dir(), and
+    # stays so once every submodule is imported (a submodule named like it would replace it);
+    # tests/robustness/test_robust_api.py checks the same of lidar_sig's own names
+    import importlib
+    import pkgutil
+
+    import lidar_sig
+    from lidar_sig import io
+
+    for name in io.__all__:
+        assert name in dir(io)
+        value = getattr(io, name)
+        if name in io._EXPORTS:
+            assert value is getattr(importlib.import_module(f"lidar_sig.io.{io._EXPORTS[name]}"), name), name
+    for info in pkgutil.iter_modules(io.__path__):
+        importlib.import_module(f"lidar_sig.io.{info.name}")
+    assert not [n for n in io.__all__ + list(io._EXPORTS) if isinstance(getattr(io, n), types.ModuleType)]
+    from lidar_sig.io.las import read_las
+
+    assert io.read_las is read_las and lidar_sig.read is io.read and io.hdf5.HDF5_EXTENSIONS == (".h5", ".hdf5")
