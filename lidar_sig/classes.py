@@ -1,7 +1,7 @@
 """Class tables: semantic codes -> class name and colour, for augmented signatures (SPEC 5)."""
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -127,6 +127,19 @@ ISPRS_VAIHINGEN = ClassTable(
 # A cloud without labels has one class.
 UNLABELED = ClassTable("unlabeled", names=(), codes=(), colors=())
 BUILTIN = {"asprs": ASPRS, "paper": PAPER, "isprs-vaihingen": ISPRS_VAIHINGEN}
+
+
+def recorded_table(name, names, codes, colors, noise=None):
+    """A class table read back from a file (archive, catalogue): its noise codes as recorded,
+    or, for a record made before they were kept (``noise`` None), those of the built-in table
+    of the same name and classes (an ASPRS table without them would keep class 7 and 18 points
+    that its file's signatures left out)."""
+    table = ClassTable(str(name), names=tuple(names), codes=tuple(tuple(c) for c in codes),
+                       colors=tuple(tuple(c) for c in colors),
+                       noise=() if noise is None else tuple(int(v) for v in noise))
+    if noise is None and table.name in BUILTIN and replace(BUILTIN[table.name], noise=()) == table:
+        return BUILTIN[table.name]
+    return table
 
 
 def class_table(name):

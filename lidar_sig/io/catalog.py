@@ -14,7 +14,7 @@ import json
 
 import numpy as np
 
-from ..classes import ClassTable
+from ..classes import recorded_table
 from ..errors import LidarSigError, as_path
 from ..signature import Frame
 from .atomic import atomic_output
@@ -76,7 +76,8 @@ def write_catalog(path, header, tiles, *, overwrite=False):
             f.attrs["method"] = json.dumps(header["method"])
             f.attrs["classes"] = json.dumps({"name": classes.name, "names": list(classes.names),
                                              "codes": [list(map(int, c)) for c in classes.codes],
-                                             "colors": [list(map(int, c)) for c in classes.colors]})
+                                             "colors": [list(map(int, c)) for c in classes.colors],
+                                             "noise": [int(c) for c in classes.noise]})
             f.attrs["frame_size"] = header["frame"].size
             f.attrs["frame_margin"] = header["frame"].margin
             f.attrs["render"] = header["render"]
@@ -173,8 +174,7 @@ def _read(f, path):
         return LidarSigError(f"{what}; the catalogue is damaged or was edited by hand", path=path)
 
     table = json.loads(f.attrs["classes"])
-    classes = ClassTable(table["name"], names=tuple(table["names"]), codes=tuple(tuple(c) for c in table["codes"]),
-                         colors=tuple(tuple(c) for c in table["colors"]))
+    classes = recorded_table(table["name"], table["names"], table["codes"], table["colors"], table.get("noise"))
     header = {"method": json.loads(f.attrs["method"]), "classes": classes,
               "frame": Frame(int(f.attrs["frame_size"]), int(f.attrs["frame_margin"])),
               "render": str(f.attrs["render"]), "color_bins": int(f.attrs["color_bins"]),

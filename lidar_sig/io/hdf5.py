@@ -9,11 +9,10 @@ from __future__ import annotations
 import hashlib
 import io
 import json
-from dataclasses import replace
 
 import numpy as np
 
-from ..classes import BUILTIN, ClassTable
+from ..classes import recorded_table
 from ..errors import LidarSigError, as_path, counted
 from ..saliency import LN3
 from ..signature import METHOD_KEYS, Frame, Signature
@@ -245,12 +244,8 @@ def _read_signature(f, path):
     groups = [tuple(int(v) for v in codes[offsets[k]:offsets[k + 1]]) for k in range(len(names))]
     if "table" not in c.attrs:
         raise damaged("its class table has no name (attribute table of signature/classes)")
-    classes = ClassTable(str(c.attrs["table"]), names=tuple(names[:-1]), codes=tuple(groups[:-1]),
-                         colors=tuple(colors[:-1]))
-    if "noise_codes" in c:
-        classes = replace(classes, noise=tuple(int(v) for v in c["noise_codes"][()]))
-    elif classes.name in BUILTIN and replace(BUILTIN[classes.name], noise=()) == classes:
-        classes = BUILTIN[classes.name]  # an archive from before noise codes were recorded
+    classes = recorded_table(str(c.attrs["table"]), names[:-1], groups[:-1], colors[:-1],
+                             c["noise_codes"][()] if "noise_codes" in c else None)
     frame = Frame(_int_attr(g.attrs, "frame_size", damaged), _int_attr(g.attrs, "frame_margin", damaged))
     counts = _part(g, "counts", path)
     expected = (len(classes), frame.size, frame.size)
