@@ -367,6 +367,36 @@ def test_withheld_and_noise_points_are_in_no_cell():
     assert kept.table["points_b"].sum() == len(noisy) and np.all(kept.table["l1"][kept.table["valid"]] > 0)
 
 
+def test_withheld_and_noise_points_count_in_neither_the_densities_nor_the_grid(tmp_path):
+    # the densities that choose the cell size and the fewest points, and the grid's extent,
+    # counted every point: noise made the cells' minimum larger than for the same scene
+    # without it, and withheld points 3 km away stretched the grid over them
+    xyz, labels = airborne_like(6000, seed=3)
+    rng = np.random.default_rng(9)
+    far = np.column_stack([rng.uniform(3000, 3040, (100, 2)), np.zeros(100)])  # withheld, 3 km east
+    noise = np.column_stack([rng.uniform(0, 40, (300, 2)), rng.uniform(30, 80, 300)])  # class 18
+
+    def noisy(seed_offset):
+        moved = xyz + [770_000.0 + seed_offset, 6_277_000.0, 0.0]
+        extra = np.vstack([far, noise]) + [770_000.0, 6_277_000.0, 0.0]
+        return PointCloud(np.vstack([moved, extra]), np.r_[labels, np.full(100, 2), np.full(300, 18)],
+                          crs="EPSG:2154", withheld=np.r_[np.zeros(6000, bool), np.ones(100, bool), np.zeros(300, bool)])
+
+    def clean(seed_offset):
+        return PointCloud(xyz + [770_000.0 + seed_offset, 6_277_000.0, 0.0], labels, crs="EPSG:2154")
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", LidarSigWarning)  # few cells: the level of detection says so
+        with_noise, without = changes(noisy(0.0), noisy(0.3)), changes(clean(0.0), clean(0.3))
+    assert with_noise.density == pytest.approx(without.density, rel=1e-12)
+    assert (with_noise.cell, with_noise.min_points) == (without.cell, without.min_points)
+    assert with_noise.grid == without.grid
+    for key in ("points_a", "points_b", "valid") + METRIC_KEYS:
+        assert np.allclose(with_noise.table[key], without.table[key], rtol=0, atol=1e-12, equal_nan=True), key
+    with_noise.save(tmp_path / "map.png")  # the top view is of the points used, inside the grid
+    assert (tmp_path / "map.png").stat().st_size > 0
+
+
 def test_cells_are_admitted_by_their_points_with_defined_saliency():
     # issue 16: spherical scales leave the points of a sparse cell undefined; a cell whose points
     # were all undefined was compared, raising a ValueError from its empty Egeom histogram

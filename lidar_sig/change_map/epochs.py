@@ -25,6 +25,10 @@ class Epoch:
     metadata: dict = field(default_factory=dict)
     kept: np.ndarray = None
 
+    def used(self, values):
+        """The rows of per-point ``values`` (coordinates, saliency) of the points the run used."""
+        return values if self.kept is None else values[self.kept]
+
 
 def compute_epoch(source, pipeline=None, *, columns=None):
     """The :class:`Epoch` of ``source`` (as :func:`read_epoch` takes it): read, and its saliency

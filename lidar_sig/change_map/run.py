@@ -109,16 +109,20 @@ def changes(a, b, *more, cell=AUTO, pipeline=None, min_points=AUTO, score=None, 
         raise LidarSigError("a class map merges class codes, but not every epoch has class labels; leave out "
                             "--class-map")
     units = clouds[0].units
-    densities = [density(c.xyz[:, :2], units.horizontal) for c in clouds]
+    # the points each run uses: withheld and noise points count neither in the densities nor
+    # in the grid's extent, as they are in no cell
+    kept = [pipeline.kept(c) if x is None else x.kept for x, c in zip(given, clouds)]
+    used = [c.xyz[:, :2] if k is None else c.xyz[k, :2] for c, k in zip(clouds, kept)]
+    densities = [density(xy, units.horizontal) for xy in used]
     if cell is None:
         cell = auto_cell(min(densities))
     if min_points is None:
         min_points = auto_min_points(min(densities), cell)
-    grid = Grid.covering(np.vstack([c.xyz[:, :2] for c in clouds]), cell / units.horizontal)
+    grid = Grid.covering(np.vstack(used), cell / units.horizontal)
     if grid.n_cells > MAX_CELLS:  # a far outlier, or a cell size meant in another unit
         raise LidarSigError(f"the epochs span {grid.cols:,} x {grid.rows:,} cells of {cell:g} m, more than "
                             f"{MAX_CELLS:,}; use a larger cell size (--cell) or remove far outlying points")
-    counts = [np.bincount(grid.cell_of(c.xyz[:, :2]), minlength=grid.n_cells) for c in clouds]
+    counts = [np.bincount(grid.cell_of(xy), minlength=grid.n_cells) for xy in used]
     for k in range(len(clouds) - 1):  # said before the saliency is computed
         filled = np.minimum(counts[k], counts[k + 1])
         if filled.max() < min_points:
@@ -127,11 +131,11 @@ def changes(a, b, *more, cell=AUTO, pipeline=None, min_points=AUTO, score=None, 
                                 f"{filled.max():,}); use a larger cell size (--cell) or a smaller minimum "
                                 "(--min-points)")
     epochs, seconds = [], []
-    for cloud, name, epoch in zip(clouds, names, given):
+    for cloud, name, epoch, used_points in zip(clouds, names, given, kept):
         start = time.perf_counter()
         if epoch is None:
             sal, stats = pipeline.saliency(cloud)
-            epoch = Epoch(name, cloud, sal, stats, kept=pipeline.kept(cloud))
+            epoch = Epoch(name, cloud, sal, stats, kept=used_points)
         seconds.append(time.perf_counter() - start)
         epochs.append(epoch)
     classes = table_of_classes if labelled else UNLABELED

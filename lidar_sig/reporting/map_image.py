@@ -66,7 +66,7 @@ def change_map_image(change_map, epoch="b", *, display=640, top=TOP):
 
     cm = change_map
     e = cm.a if epoch == "a" else cm.b
-    rgb, edges = _backdrop(cm.grid, e.cloud.xyz, e.saliency.values, display)
+    rgb, edges = _backdrop(cm.grid, e.used(e.cloud.xyz), e.used(e.saliency.values), display)
     t = cm.table
     valid, significant = t["valid"], t["significant"]
     top_value = float(np.nanmax(t["score"][valid])) if valid.any() else 1.0
@@ -85,7 +85,7 @@ def when_map_image(series, *, display=640):
     faded, cells without data grey; framed as :func:`change_map_image`."""
     last = series.maps[-1]
     e = series.epochs[-1]
-    rgb, edges = _backdrop(series.grid, e.cloud.xyz, e.saliency.values, display)
+    rgb, edges = _backdrop(series.grid, e.used(e.cloud.xyz), e.used(e.saliency.values), display)
     when = series.when()
     changed = np.nan_to_num(when) > 0
     compared = ~np.isnan(when)
