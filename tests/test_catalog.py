@@ -189,6 +189,8 @@ def test_a_catalogue_grown_by_one_tile_computes_only_that_tile(tmp_path):
     assert names(changed.updated) == ["b.laz"] and len(changed.unchanged) == 2
     with pytest.raises(ls.LidarSigError, match="another method"):
         build_catalog([tiles], out, ls.Pipeline(scales=ls.knn(10, 20)))
+    with pytest.raises(ls.LidarSigError, match="pipeline must be a lidar_sig.Pipeline"):  # was AttributeError
+        ls.Catalog.build([tiles], out, "asprs")
     assert not (tmp_path / "c.h5.work").exists()  # removed after complete runs
 
 

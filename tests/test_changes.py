@@ -379,8 +379,9 @@ def test_withheld_and_noise_points_count_in_neither_the_densities_nor_the_grid(t
     def noisy(seed_offset):
         moved = xyz + [770_000.0 + seed_offset, 6_277_000.0, 0.0]
         extra = np.vstack([far, noise]) + [770_000.0, 6_277_000.0, 0.0]
+        withheld = np.r_[np.zeros(6000, bool), np.ones(100, bool), np.zeros(300, bool)]
         return PointCloud(np.vstack([moved, extra]), np.r_[labels, np.full(100, 2), np.full(300, 18)],
-                          crs="EPSG:2154", withheld=np.r_[np.zeros(6000, bool), np.ones(100, bool), np.zeros(300, bool)])
+                          crs="EPSG:2154", withheld=withheld)
 
     def clean(seed_offset):
         return PointCloud(xyz + [770_000.0 + seed_offset, 6_277_000.0, 0.0], labels, crs="EPSG:2154")
@@ -565,6 +566,23 @@ def test_an_epoch_computed_once_serves_several_maps_with_its_method_only():
     assert cm.a is a
     with pytest.raises(LidarSigError, match="computed with another method"):
         changes(a, small_cloud(1), cell=10, min_points=100, pipeline=ls.Pipeline(strategy="optimal"))
+
+
+def test_bad_values_given_to_the_change_map_s_functions_are_named():
+    # a pipeline that is not one, a missing path and an unknown field raised AttributeError,
+    # TypeError and ValueError
+    from lidar_sig.change_map import compute_epoch
+
+    with pytest.raises(LidarSigError, match="pipeline must be a lidar_sig.Pipeline, got 'asprs'"):
+        compute_epoch(small_cloud(0), pipeline="asprs")
+    cm = changes(small_cloud(0), small_cloud(1), cell=10, min_points=100)
+    with pytest.raises(LidarSigError, match="takes a file path, got None"):
+        cm.save(None)
+    with pytest.raises(LidarSigError, match="no field 'nope'.*score"):
+        cm.raster("nope")
+    series = changes(small_cloud(0), small_cloud(1), small_cloud(2), cell=10, min_points=100)
+    with pytest.raises(LidarSigError, match="takes a file path, got None"):
+        series.save(None)
 
 
 # -- the map reads like a map (issue 17) --------------------------------------------------------

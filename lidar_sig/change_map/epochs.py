@@ -35,9 +35,9 @@ def compute_epoch(source, pipeline=None, *, columns=None):
     computed with ``pipeline`` (default ``Pipeline()``). Give it to
     :func:`~lidar_sig.change_map.changes` in place of the source to compute an epoch's saliency
     once for several change maps."""
-    from ..pipeline import Pipeline
+    from ..pipeline import pipeline_or_default
 
-    pipeline = pipeline or Pipeline()
+    pipeline = pipeline_or_default(pipeline)
     cloud = read_epoch(source, columns=columns)
     sal, stats = pipeline.saliency(cloud)
     return Epoch(cloud.path or "(in memory)", cloud, sal, stats, kept=pipeline.kept(cloud))

@@ -69,7 +69,7 @@ def changes(a, b, *more, cell=AUTO, pipeline=None, min_points=AUTO, score=None, 
     -------
     ChangeMap, or ChangeSeries for three epochs or more
     """
-    from ..pipeline import Pipeline
+    from ..pipeline import pipeline_or_default
 
     sources = (a, b) + more
     cell_rule = AUTO if _is_auto(cell) else "given"
@@ -80,12 +80,10 @@ def changes(a, b, *more, cell=AUTO, pipeline=None, min_points=AUTO, score=None, 
         raise LidarSigError(f"the confidence must be a number from 0.5 to 0.9999 (e.g. 0.95), got {confidence!r}")
     if score is not None and score not in METRIC_KEYS:
         raise LidarSigError(f"unknown score {score!r}; use one of {', '.join(METRIC_KEYS)}")
-    if pipeline is not None and not isinstance(pipeline, Pipeline):
-        raise LidarSigError(f"pipeline must be a lidar_sig.Pipeline, got {pipeline!r}")
     if not isinstance(frame, Frame):
         raise LidarSigError(f"frame must be a lidar_sig.Frame, got {frame!r}")
     seed = whole_number(seed, "seed")
-    pipeline = pipeline or Pipeline()
+    pipeline = pipeline_or_default(pipeline)
     table_of_classes = merge_classes(pipeline.classes, class_map)  # a bad map is refused before reading
     given = [x if isinstance(x, Epoch) else None for x in sources]  # saliency computed already
     for x in given:
