@@ -139,6 +139,17 @@ def test_archive_records_the_points_left_out_and_the_noise_codes(tmp_path):
     with h5py.File(path, "r+") as f:  # as archives made before noise codes were recorded
         del f["signature/classes/noise_codes"]
     assert ls.load_signature(path).classes == ls.ASPRS
+    # an archive made before keep_noise was recorded used every point: a cloud compared with it
+    # is computed so (it was computed with the noise left out: L1 0.02, s_SSIM 0.88 against itself)
+    old = tmp_path / "old.h5"
+    ls.Pipeline(progress=False, keep_noise=True).run(cloud).write(old)
+    with h5py.File(old, "r+") as f:
+        method = json.loads(f.attrs["method"])
+        del method["keep_noise"], f["signature/classes/noise_codes"]
+        f.attrs["method"] = json.dumps(method)
+    assert ls.load_signature(old).metadata["keep_noise"] is True
+    same = ls.compare_sources(old, cloud)
+    assert same.metrics["ssim"] == 1.0 and same.metrics["kl"] == 0.0 and same.b.summary()["excluded"] == 0
 
 
 def test_archive_of_one_withheld_point_says_so_in_the_singular(tmp_path):

@@ -270,6 +270,9 @@ def _read_signature(f, path):
         meta.update(_method(f.attrs))
     except (ValueError, TypeError, AttributeError):
         raise damaged("its method record is not readable") from None
+    # an archive made before withheld and noise points were left out used every point: a cloud
+    # compared with it is computed so (docs/archive.md)
+    meta.setdefault("keep_noise", True)
     if meta.get("scale_kind") == "knn" and isinstance(meta.get("resolved_scales"), list):
         # k values as whole numbers, as the pipeline gives them (earlier archives stored floats)
         try:
