@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import LidarSigError, as_path
+from ..errors import LidarSigError, as_path, counted
 from .distances import SCREENING, combine, metric_keys, pair_metrics, screening
 from .features import Features, sg_image, signature_features
 
@@ -81,7 +81,7 @@ class Catalog:
         return len(self.columns["name"])
 
     def __repr__(self):
-        return f"Catalog({str(self.path)!r}: {len(self)} tiles)"
+        return f"Catalog({str(self.path)!r}: {counted(len(self), 'tile')})"
 
     @property
     def names(self):

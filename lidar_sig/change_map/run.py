@@ -11,7 +11,7 @@ import numpy as np
 
 from ..class_schemes import class_scheme_warnings, merge_classes
 from ..classes import UNLABELED
-from ..errors import LidarSigError, LidarSigWarning, whole_number
+from ..errors import LidarSigError, LidarSigWarning, counted, whole_number
 from ..metrics import METRIC_KEYS, METRIC_NAMES
 from ..progress import step
 from ..signature import Frame, method_differences
@@ -125,9 +125,9 @@ def changes(a, b, *more, cell=AUTO, pipeline=None, min_points=AUTO, score=None, 
         filled = np.minimum(counts[k], counts[k + 1])
         if filled.max() < min_points:
             pair = "" if len(clouds) == 2 else f" {names[k]} and {names[k + 1]}"
-            raise LidarSigError(f"no cell of {cell:g} m holds {min_points:,} points in both epochs{pair} (at most "
-                                f"{filled.max():,}); use a larger cell size (--cell) or a smaller minimum "
-                                "(--min-points)")
+            raise LidarSigError(f"no cell of {cell:g} m holds {counted(min_points, 'point')} in both "
+                                f"epochs{pair} (at most {filled.max():,}); use a larger cell size (--cell) or a "
+                                "smaller minimum (--min-points)")
     epochs, seconds = [], []
     for cloud, name, epoch, used_points in zip(clouds, names, given, kept):
         start = time.perf_counter()
@@ -164,7 +164,7 @@ def _interval(k, epochs, binned, grid, classes, min_points, cell, render, frame,
     table = cell_table(grid, pair, min_points)
     if not table["valid"].any():  # the points are there, their saliency is not
         most = int(np.minimum(table["defined_a"], table["defined_b"]).max())
-        raise LidarSigError(f"no cell of {cell:g} m holds {min_points:,} points with defined saliency in both "
+        raise LidarSigError(f"no cell of {cell:g} m holds {counted(min_points, 'point')} with defined saliency in both "
                             f"{names[k]} and {names[k + 1]} (at most {most:,}); use a larger cell size (--cell), a "
                             "smaller minimum (--min-points) or larger scales")
     n_valid = int(table["valid"].sum())
