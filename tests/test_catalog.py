@@ -223,6 +223,16 @@ def test_withheld_and_noise_points_are_left_out_of_every_tile_and_query_alike(tm
         found = cat.similar(query, top=1)
         assert found.names() == ["t0.las"], query
         assert found.results[0]["distance"] == pytest.approx(0.0, abs=1e-9), (query, found.results[0])
+    # queries that are no tile, cloud or archive are named (an empty one was read as the folder
+    # '.'; a row out of range was 'cannot query a catalogue with a int')
+    with pytest.raises(ls.LidarSigError, match="the query is empty"):
+        cat.similar("")
+    with pytest.raises(ls.LidarSigError, match=r"no tile at row 3 .*3 tiles \(rows 0 to 2\)"):
+        cat.similar(3)
+    paper = tmp_path / "paper.h5"
+    ls.Pipeline(classes="paper", progress=False).run(copy).write(paper)
+    with pytest.raises(ls.LidarSigError, match="'paper' with noise codes 7, 18.*'asprs' with noise codes 7, 18"):
+        cat.similar(paper)
     noisy_las(tiles / "t3.las", n=3000, seed=23)
     grown = build_catalog([tiles], out, ls.Pipeline(progress=False))  # the same method: it grows
     assert names(grown.added) == ["t3.las"]
