@@ -30,12 +30,13 @@ def main(argv=None):
     previous = {s: signal.getsignal(s) for s in SIGNALS}
     if previous[signal.SIGINT] is not signal.SIG_IGN:  # a background job keeps ignoring Ctrl-C
         signal.signal(signal.SIGINT, signal.default_int_handler)
-    # what the SIGTERM handler raises, loaded whole before the handler can run (a SIGTERM
-    # while the command line was importing it raised an ImportError of a partly loaded module)
-    from . import errors  # noqa: F401
-    signal.signal(signal.SIGTERM, _terminate)
     try:
         try:
+            # what the SIGTERM handler raises, loaded whole before the handler can run (a SIGTERM
+            # while the command line was importing it raised an ImportError of a partly loaded
+            # module); a Ctrl-C while it loads is said like one while the libraries load
+            from . import errors  # noqa: F401
+            signal.signal(signal.SIGTERM, _terminate)
             from .cli import main as cli_main
         except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM while the command line loads
             signum = getattr(exc, "signum", signal.SIGINT)

@@ -129,18 +129,18 @@ UNLABELED = ClassTable("unlabeled", names=(), codes=(), colors=())
 BUILTIN = {"asprs": ASPRS, "paper": PAPER, "isprs-vaihingen": ISPRS_VAIHINGEN}
 
 
-
 def recorded_table(name, names, codes, colors, noise=None):
-    """The :class:`ClassTable` a file records: ``noise`` None when the file is from before
-    noise codes were recorded, and then a built-in table's own noise codes where the rest
-    matches it (archives, catalogues)."""
-    table = ClassTable(name, names=tuple(names), codes=tuple(tuple(int(v) for v in c) for c in codes),
-                       colors=tuple(tuple(int(v) for v in c) for c in colors))
-    if noise is not None:
-        return replace(table, noise=tuple(int(v) for v in noise))
-    if name in BUILTIN and replace(BUILTIN[name], noise=()) == table:
-        return BUILTIN[name]
+    """A class table read back from a file (archive, catalogue): its noise codes as recorded,
+    or, for a record made before they were kept (``noise`` None), those of the built-in table
+    of the same name and classes (an ASPRS table without them would keep class 7 and 18 points
+    that its file's signatures left out)."""
+    table = ClassTable(str(name), names=tuple(names), codes=tuple(tuple(int(v) for v in c) for c in codes),
+                       colors=tuple(tuple(int(v) for v in c) for c in colors),
+                       noise=() if noise is None else tuple(int(v) for v in noise))
+    if noise is None and table.name in BUILTIN and replace(BUILTIN[table.name], noise=()) == table:
+        return BUILTIN[table.name]
     return table
+
 
 def class_table(name):
     """A class table: built-in by name (asprs, paper, isprs-vaihingen), a TOML or JSON file of

@@ -138,9 +138,9 @@ def compare_sources(a, b, pipeline=None, *, render=None, columns=None, method_gi
         (an epoch): it is processed as one set in tiles (:mod:`lidar_sig.tiling`). When any of
         them is set, a LAS/LAZ file is processed in tiles too.
     """
-    from .pipeline import Pipeline
+    from .pipeline import pipeline_or_default
 
-    pipeline = pipeline or Pipeline()
+    pipeline = pipeline_or_default(pipeline)
     names = [input_name(x) for x in (a, b)]
     as_set = any(v is not None for v in (tiling or {}).values())
     loaded = [load_input(x, columns, as_set) for x in (a, b)]

@@ -287,6 +287,16 @@ class Pipeline:
         return Result(cloud, sal, signature, metadata)
 
 
+def pipeline_or_default(pipeline):
+    """``pipeline``, or ``Pipeline()`` for None; a LidarSigError naming anything else (the
+    functions that take an optional pipeline check it where it is given)."""
+    if pipeline is None:
+        return Pipeline()
+    if not isinstance(pipeline, Pipeline):
+        raise LidarSigError(f"pipeline must be a lidar_sig.Pipeline, got {pipeline!r}")
+    return pipeline
+
+
 def as_point_cloud(cloud, labels=None):
     """A PointCloud from what :meth:`Pipeline.run` accepts (see there)."""
     if isinstance(cloud, PointCloud):

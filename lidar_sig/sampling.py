@@ -77,9 +77,9 @@ def resilience(cloud, pipeline=None, *, fractions=DEFAULT_FRACTIONS, repeats=3, 
     ``seed``, so a run can be repeated); its signature is made with the same ``pipeline``
     (default ``Pipeline()``) and compared with the full cloud's under ``render``.
     """
-    from .pipeline import Pipeline, as_point_cloud
+    from .pipeline import as_point_cloud, pipeline_or_default
 
-    pipeline = pipeline or Pipeline()
+    pipeline = pipeline_or_default(pipeline)
     cloud = as_point_cloud(cloud)
     fractions = check_fractions(fractions)
     if int(repeats) < 1:

@@ -9,7 +9,7 @@ import pytest
 
 import lidar_sig as ls
 from command_line import run, run_process
-from conftest import IGN, NOISY, SAMPLES, need_data, noisy_las
+from conftest import IGN, NOISY, SAMPLES, airborne_like, need_data, noisy_las
 
 DOCUMENTED = ["/signature/counts", "/signature/sg", "/signature/sas", "/signature/mask",
               "/signature/triangle", "/signature/egeom_histogram", "/signature/saliency_histograms",
@@ -133,6 +133,31 @@ def test_archive_records_the_points_left_out_and_the_noise_codes(tmp_path):
     # a cloud compared with the archive is computed the archive's way: noise left out
     same = ls.compare_sources(path, cloud)
     assert same.metrics["ssim"] == 1.0 and same.metrics["kl"] == 0.0 and same.b.summary()["excluded"] == sum(NOISY.values())
+    # both sides count the cloud's points alike (the archive said those of its signature only)
+    assert same.a.summary()["points"] == same.b.summary()["points"] == len(cloud)
+    assert loaded.metadata["n_points"] == result.metadata["n_points"] == len(cloud)
     with h5py.File(path, "r+") as f:  # as archives made before noise codes were recorded
         del f["signature/classes/noise_codes"]
     assert ls.load_signature(path).classes == ls.ASPRS
+    # an archive made before keep_noise was recorded used every point: a cloud compared with it
+    # is computed so (it was computed with the noise left out: L1 0.02, s_SSIM 0.88 against itself)
+    old = tmp_path / "old.h5"
+    ls.Pipeline(progress=False, keep_noise=True).run(cloud).write(old)
+    with h5py.File(old, "r+") as f:
+        method = json.loads(f.attrs["method"])
+        del method["keep_noise"], f["signature/classes/noise_codes"]
+        f.attrs["method"] = json.dumps(method)
+    assert ls.load_signature(old).metadata["keep_noise"] is True
+    same = ls.compare_sources(old, cloud)
+    assert same.metrics["ssim"] == 1.0 and same.metrics["kl"] == 0.0 and same.b.summary()["excluded"] == 0
+
+
+def test_archive_of_one_withheld_point_says_so_in_the_singular(tmp_path):
+    xyz, labels = airborne_like(500, seed=3)
+    withheld = np.zeros(len(xyz), bool)
+    withheld[7] = True
+    path = tmp_path / "one.h5"
+    ls.Pipeline(scales=ls.knn(10), progress=False).run(ls.PointCloud(xyz, labels, withheld=withheld)).write(path)
+    text = "\n".join(ls.io.archive_summary(path))
+    assert "1 withheld or noise point left out" in text, text
+    assert ls.load_signature(path).metadata["n_points"] == len(xyz)

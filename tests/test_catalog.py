@@ -16,7 +16,7 @@ import pytest
 
 import lidar_sig as ls
 from browser import Browser, missing
-from conftest import IGN, airborne_like, need_data
+from conftest import IGN, NOISY, airborne_like, need_data, noisy_las
 from lidar_sig.catalog import build_catalog
 from lidar_sig.catalog.embedding import classical_mds
 from lidar_sig.catalog.footprint import convex_hull, neighbours, polygon_area, polygon_distance
@@ -189,7 +189,61 @@ def test_a_catalogue_grown_by_one_tile_computes_only_that_tile(tmp_path):
     assert names(changed.updated) == ["b.laz"] and len(changed.unchanged) == 2
     with pytest.raises(ls.LidarSigError, match="another method"):
         build_catalog([tiles], out, ls.Pipeline(scales=ls.knn(10, 20)))
+    with pytest.raises(ls.LidarSigError, match="pipeline must be a lidar_sig.Pipeline"):  # was AttributeError
+        ls.Catalog.build([tiles], out, "asprs")
     assert not (tmp_path / "c.h5.work").exists()  # removed after complete runs
+
+
+def test_withheld_and_noise_points_are_left_out_of_every_tile_and_query_alike(tmp_path):
+    # the catalogue's class table was written without its noise codes: read back, it kept class
+    # 7 and 18 points that the tiles had left out, so that a copy of a tile queried as a cloud
+    # was not at 0 from it, its archive was refused ("another frame or class table (512 px,
+    # 'asprs') than the catalogue (512 px, 'asprs')"), a tile added later kept its noise and a
+    # default Pipeline could not grow the catalogue
+    import h5py
+
+    tiles = tmp_path / "tiles"
+    tiles.mkdir()
+    for k in range(3):
+        noisy_las(tiles / f"t{k}.las", n=3000, seed=20 + k)
+    out = tmp_path / "c.h5"
+    assert build_catalog([tiles], out).complete
+    cat = ls.Catalog(out)
+    assert cat.classes == ls.ASPRS and cat.classes.noise == (7, 18)
+    own = ls.Pipeline(progress=False).run(tiles / "t0.las")
+    assert own.metadata["n_excluded"] == sum(NOISY.values())
+    tile = cat.signature("t0.las")
+    assert np.array_equal(tile.counts, own.signature.counts)
+    assert np.array_equal(tile.class_totals, own.signature.class_totals) and tile.class_totals[[7, 18]].sum() == 0
+    copy = tmp_path / "copy.las"
+    shutil.copy(tiles / "t0.las", copy)
+    archive = tmp_path / "t0.h5"
+    own.write(archive)
+    for query in (copy, archive):
+        found = cat.similar(query, top=1)
+        assert found.names() == ["t0.las"], query
+        assert found.results[0]["distance"] == pytest.approx(0.0, abs=1e-9), (query, found.results[0])
+    # queries that are no tile, cloud or archive are named (an empty one was read as the folder
+    # '.'; a row out of range was 'cannot query a catalogue with a int')
+    with pytest.raises(ls.LidarSigError, match="the query is empty"):
+        cat.similar("")
+    with pytest.raises(ls.LidarSigError, match=r"no tile at row 3 .*3 tiles \(rows 0 to 2\)"):
+        cat.similar(3)
+    paper = tmp_path / "paper.h5"
+    ls.Pipeline(classes="paper", progress=False).run(copy).write(paper)
+    with pytest.raises(ls.LidarSigError, match="'paper' with noise codes 7, 18.*'asprs' with noise codes 7, 18"):
+        cat.similar(paper)
+    noisy_las(tiles / "t3.las", n=3000, seed=23)
+    grown = build_catalog([tiles], out, ls.Pipeline(progress=False))  # the same method: it grows
+    assert names(grown.added) == ["t3.las"]
+    added = ls.Catalog(out).signature("t3.las")
+    assert np.array_equal(added.class_totals, ls.Pipeline(progress=False).run(tiles / "t3.las").signature.class_totals)
+    assert added.class_totals[[7, 18]].sum() == 0
+    with h5py.File(out, "r+") as f:  # as catalogues made before the noise codes were recorded
+        table = json.loads(f.attrs["classes"])
+        del table["noise"]
+        f.attrs["classes"] = json.dumps(table)
+    assert ls.Catalog(out).classes == ls.ASPRS
 
 
 def test_a_failed_tile_is_named_and_resume_reuses_finished_tiles(tmp_path):

@@ -367,6 +367,37 @@ def test_withheld_and_noise_points_are_in_no_cell():
     assert kept.table["points_b"].sum() == len(noisy) and np.all(kept.table["l1"][kept.table["valid"]] > 0)
 
 
+def test_withheld_and_noise_points_count_in_neither_the_densities_nor_the_grid(tmp_path):
+    # the densities that choose the cell size and the fewest points, and the grid's extent,
+    # counted every point: noise made the cells' minimum larger than for the same scene
+    # without it, and withheld points 3 km away stretched the grid over them
+    xyz, labels = airborne_like(6000, seed=3)
+    rng = np.random.default_rng(9)
+    far = np.column_stack([rng.uniform(3000, 3040, (100, 2)), np.zeros(100)])  # withheld, 3 km east
+    noise = np.column_stack([rng.uniform(0, 40, (300, 2)), rng.uniform(30, 80, 300)])  # class 18
+
+    def noisy(seed_offset):
+        moved = xyz + [770_000.0 + seed_offset, 6_277_000.0, 0.0]
+        extra = np.vstack([far, noise]) + [770_000.0, 6_277_000.0, 0.0]
+        withheld = np.r_[np.zeros(6000, bool), np.ones(100, bool), np.zeros(300, bool)]
+        return PointCloud(np.vstack([moved, extra]), np.r_[labels, np.full(100, 2), np.full(300, 18)],
+                          crs="EPSG:2154", withheld=withheld)
+
+    def clean(seed_offset):
+        return PointCloud(xyz + [770_000.0 + seed_offset, 6_277_000.0, 0.0], labels, crs="EPSG:2154")
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", LidarSigWarning)  # few cells: the level of detection says so
+        with_noise, without = changes(noisy(0.0), noisy(0.3)), changes(clean(0.0), clean(0.3))
+    assert with_noise.density == pytest.approx(without.density, rel=1e-12)
+    assert (with_noise.cell, with_noise.min_points) == (without.cell, without.min_points)
+    assert with_noise.grid == without.grid
+    for key in ("points_a", "points_b", "valid") + METRIC_KEYS:
+        assert np.allclose(with_noise.table[key], without.table[key], rtol=0, atol=1e-12, equal_nan=True), key
+    with_noise.save(tmp_path / "map.png")  # the top view is of the points used, inside the grid
+    assert (tmp_path / "map.png").stat().st_size > 0
+
+
 def test_cells_are_admitted_by_their_points_with_defined_saliency():
     # issue 16: spherical scales leave the points of a sparse cell undefined; a cell whose points
     # were all undefined was compared, raising a ValueError from its empty Egeom histogram
@@ -535,6 +566,23 @@ def test_an_epoch_computed_once_serves_several_maps_with_its_method_only():
     assert cm.a is a
     with pytest.raises(LidarSigError, match="computed with another method"):
         changes(a, small_cloud(1), cell=10, min_points=100, pipeline=ls.Pipeline(strategy="optimal"))
+
+
+def test_bad_values_given_to_the_change_map_s_functions_are_named():
+    # a pipeline that is not one, a missing path and an unknown field raised AttributeError,
+    # TypeError and ValueError
+    from lidar_sig.change_map import compute_epoch
+
+    with pytest.raises(LidarSigError, match="pipeline must be a lidar_sig.Pipeline, got 'asprs'"):
+        compute_epoch(small_cloud(0), pipeline="asprs")
+    cm = changes(small_cloud(0), small_cloud(1), cell=10, min_points=100)
+    with pytest.raises(LidarSigError, match="takes a file path, got None"):
+        cm.save(None)
+    with pytest.raises(LidarSigError, match="no field 'nope'.*score"):
+        cm.raster("nope")
+    series = changes(small_cloud(0), small_cloud(1), small_cloud(2), cell=10, min_points=100)
+    with pytest.raises(LidarSigError, match="takes a file path, got None"):
+        series.save(None)
 
 
 # -- the map reads like a map (issue 17) --------------------------------------------------------

@@ -337,6 +337,21 @@ def test_cli_summary_says_how_many_points_were_left_out(tmp_path):
     assert f"withheld: {NOISY['withheld']} points" in info.stdout, info.stderr
 
 
+def test_info_says_one_withheld_point_in_the_singular(tmp_path, capsys):
+    from lidar_sig.cli import main
+
+    xyz, labels = airborne_like(200, seed=5)
+    las = laspy.create(point_format=6, file_version="1.4")
+    las.x, las.y, las.z = xyz.T
+    las.classification = labels
+    withheld = np.zeros(len(xyz), bool)
+    withheld[3] = True
+    las.withheld = withheld
+    las.write(tmp_path / "one.las")
+    assert main(["info", str(tmp_path / "one.las")]) == 0
+    assert "withheld: 1 point (left out" in capsys.readouterr().out
+
+
 def test_noise_codes_follow_the_class_table():
     # a labelled cloud of any format: 7 and 18 are noise in the ASPRS tables, 7 a shrub in Vaihingen's
     xyz, labels = airborne_like(2000, seed=4)

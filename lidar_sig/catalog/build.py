@@ -68,12 +68,14 @@ def build_catalog(inputs, output, pipeline=None, *, backend=None, work=None, res
     removed after a complete run. Returns a :class:`CatalogRun`."""
     from ..io import HDF5_EXTENSIONS, check_output
     from ..io.catalog import is_catalog, read_catalog
-    from ..pipeline import Pipeline
+    from ..pipeline import pipeline_or_default
     from ..tiling.execute import InProcess
     from ..tiling.sources import expand
     from ..tiling.work import prepare_work, remove_work
 
     start = time.perf_counter()
+    given = pipeline is not None
+    pipeline = pipeline_or_default(pipeline)  # a LidarSigError for anything but a Pipeline
     output = as_path(output, "the catalogue's output")
     if output.suffix.lower() not in HDF5_EXTENSIONS:
         raise LidarSigError("a catalogue is written as .h5", path=output)
@@ -88,10 +90,9 @@ def build_catalog(inputs, output, pipeline=None, *, backend=None, work=None, res
             raise LidarSigError("exists and is not a lidar_sig survey catalogue; give a new name, or --overwrite to "
                                 "replace it", path=output)
         old = read_catalog(output)
-        pipeline = _growing_pipeline(old[0], pipeline, method_given, output)
+        pipeline = _growing_pipeline(old[0], pipeline if given else None, method_given, output)
     else:
         check_output(output, overwrite=overwrite)
-        pipeline = pipeline or Pipeline()
     backend = backend or InProcess()
     work = Path(work) if work is not None else output.with_name(output.name + ".work")
     work = prepare_work(work, resume, keep=[*files, output])

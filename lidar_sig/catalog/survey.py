@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import LidarSigError, as_path
+from ..errors import LidarSigError, as_path, counted
 from .distances import SCREENING, combine, metric_keys, pair_metrics, screening
 from .features import Features, sg_image, signature_features
 
@@ -81,7 +81,7 @@ class Catalog:
         return len(self.columns["name"])
 
     def __repr__(self):
-        return f"Catalog({str(self.path)!r}: {len(self)} tiles)"
+        return f"Catalog({str(self.path)!r}: {counted(len(self), 'tile')})"
 
     @property
     def names(self):
@@ -205,10 +205,15 @@ class Catalog:
         from ..cloud import PointCloud
         from ..signature import Signature
 
-        if isinstance(query, (str, Path, int, np.integer)) and not isinstance(query, bool) and str(query):
+        if isinstance(query, str) and not query.strip():
+            raise LidarSigError("the query is empty; give a tile's name, a cloud or an archive")
+        if isinstance(query, (str, Path, int, np.integer)) and not isinstance(query, bool):
             i = self.index(query)
             if i is not None:
                 return Query(self.columns["name"][i], "tile", self.features.row(i), self.sg([i])[i], i)
+            if isinstance(query, (int, np.integer)):
+                raise LidarSigError(f"no tile at row {query} of the catalogue {self.path}: it holds "
+                                    f"{counted(len(self), 'tile')} (rows 0 to {len(self) - 1})")
         if isinstance(query, Signature):
             return self._query_of(query, query.metadata.get("source") or "(in memory)", "archive")
         if isinstance(query, PointCloud):
@@ -243,9 +248,9 @@ class Catalog:
 
         if signature.frame != self.frame or signature.classes != self.classes \
                 or len(signature.egeom_counts) != self.columns["egeom"].shape[1]:
-            raise LidarSigError(f"{name} was made with another frame or class table ({signature.frame.size} px, "
-                                f"{signature.classes.name!r}) than the catalogue ({self.frame.size} px, "
-                                f"{self.classes.name!r}); make it with the catalogue's settings, or give the cloud")
+            raise LidarSigError(f"{name} was made with another frame or class table ({_settings(signature)}) than "
+                                f"the catalogue ({_settings(self)}); make it with the catalogue's settings, or give "
+                                "the cloud")
         differ = method_differences(signature.metadata, self.method)
         if differ:
             raise LidarSigError(f"{name} was made with another method than the catalogue (" + "; ".join(differ)
@@ -296,3 +301,10 @@ class Catalog:
         if metric != "ssim":
             np.fill_diagonal(matrix, 0.0)
         return Distances(self.names, matrix, metric)
+
+
+def _settings(made):
+    """The frame and class table of a signature or catalogue, as said in a message: the table's
+    noise codes too, which tell two tables of one name apart."""
+    noise = ", ".join(map(str, made.classes.noise)) or "none"
+    return f"{made.frame.size} px, class table {made.classes.name!r} with noise codes {noise}"

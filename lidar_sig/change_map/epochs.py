@@ -25,15 +25,19 @@ class Epoch:
     metadata: dict = field(default_factory=dict)
     kept: np.ndarray = None
 
+    def used(self, values):
+        """The rows of per-point ``values`` (coordinates, saliency) of the points the run used."""
+        return values if self.kept is None else values[self.kept]
+
 
 def compute_epoch(source, pipeline=None, *, columns=None):
     """The :class:`Epoch` of ``source`` (as :func:`read_epoch` takes it): read, and its saliency
     computed with ``pipeline`` (default ``Pipeline()``). Give it to
     :func:`~lidar_sig.change_map.changes` in place of the source to compute an epoch's saliency
     once for several change maps."""
-    from ..pipeline import Pipeline
+    from ..pipeline import pipeline_or_default
 
-    pipeline = pipeline or Pipeline()
+    pipeline = pipeline_or_default(pipeline)
     cloud = read_epoch(source, columns=columns)
     sal, stats = pipeline.saliency(cloud)
     return Epoch(cloud.path or "(in memory)", cloud, sal, stats, kept=pipeline.kept(cloud))

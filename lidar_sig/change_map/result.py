@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from ..crs import crs_name
-from ..errors import LidarSigError, whole_number
+from ..errors import LidarSigError, as_path, whole_number
 from ..metrics import METRIC_KEYS, METRIC_NAMES, METRICS
 from ..progress import step
 from ..signature import Frame
@@ -134,6 +134,8 @@ class ChangeMap:
     def raster(self, name):
         """(rows, cols) float64 raster of the table's field ``name``, row 0 north; NaN where
         the cell has no data (for metrics and the score)."""
+        if not isinstance(name, str) or name not in self.table.dtype.names:
+            raise LidarSigError(f"the change map has no field {name!r}; use one of {', '.join(self.table.dtype.names)}")
         return np.asarray(self.table[name], dtype=np.float64).reshape(self.grid.rows, self.grid.cols)
 
     def ranked(self, n=None):
@@ -237,7 +239,7 @@ class ChangeMap:
         """Write by extension: ``.tif``/``.tiff`` a GeoTIFF of the score, its level of
         detection, significance and every metric (needs rasterio: ``pip install
         lidar-sig[geo]``), ``.png`` the map, ``.html`` the report."""
-        ext = Path(path).suffix.lower()
+        ext = as_path(path, "saving a change map").suffix.lower()
         if ext in (".tif", ".tiff"):
             from ..io.geotiff import write_geotiff
 

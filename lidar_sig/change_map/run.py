@@ -11,7 +11,7 @@ import numpy as np
 
 from ..class_schemes import class_scheme_warnings, merge_classes
 from ..classes import UNLABELED
-from ..errors import LidarSigError, LidarSigWarning, whole_number
+from ..errors import LidarSigError, LidarSigWarning, counted, whole_number
 from ..metrics import METRIC_KEYS, METRIC_NAMES
 from ..progress import step
 from ..signature import Frame, method_differences
@@ -69,7 +69,7 @@ def changes(a, b, *more, cell=AUTO, pipeline=None, min_points=AUTO, score=None, 
     -------
     ChangeMap, or ChangeSeries for three epochs or more
     """
-    from ..pipeline import Pipeline
+    from ..pipeline import pipeline_or_default
 
     sources = (a, b) + more
     cell_rule = AUTO if _is_auto(cell) else "given"
@@ -80,12 +80,10 @@ def changes(a, b, *more, cell=AUTO, pipeline=None, min_points=AUTO, score=None, 
         raise LidarSigError(f"the confidence must be a number from 0.5 to 0.9999 (e.g. 0.95), got {confidence!r}")
     if score is not None and score not in METRIC_KEYS:
         raise LidarSigError(f"unknown score {score!r}; use one of {', '.join(METRIC_KEYS)}")
-    if pipeline is not None and not isinstance(pipeline, Pipeline):
-        raise LidarSigError(f"pipeline must be a lidar_sig.Pipeline, got {pipeline!r}")
     if not isinstance(frame, Frame):
         raise LidarSigError(f"frame must be a lidar_sig.Frame, got {frame!r}")
     seed = whole_number(seed, "seed")
-    pipeline = pipeline or Pipeline()
+    pipeline = pipeline_or_default(pipeline)
     table_of_classes = merge_classes(pipeline.classes, class_map)  # a bad map is refused before reading
     given = [x if isinstance(x, Epoch) else None for x in sources]  # saliency computed already
     for x in given:
@@ -109,29 +107,33 @@ def changes(a, b, *more, cell=AUTO, pipeline=None, min_points=AUTO, score=None, 
         raise LidarSigError("a class map merges class codes, but not every epoch has class labels; leave out "
                             "--class-map")
     units = clouds[0].units
-    densities = [density(c.xyz[:, :2], units.horizontal) for c in clouds]
+    # the points each run uses: withheld and noise points count neither in the densities nor
+    # in the grid's extent, as they are in no cell
+    kept = [pipeline.kept(c) if x is None else x.kept for x, c in zip(given, clouds)]
+    used = [c.xyz[:, :2] if k is None else c.xyz[k, :2] for c, k in zip(clouds, kept)]
+    densities = [density(xy, units.horizontal) for xy in used]
     if cell is None:
         cell = auto_cell(min(densities))
     if min_points is None:
         min_points = auto_min_points(min(densities), cell)
-    grid = Grid.covering(np.vstack([c.xyz[:, :2] for c in clouds]), cell / units.horizontal)
+    grid = Grid.covering(np.vstack(used), cell / units.horizontal)
     if grid.n_cells > MAX_CELLS:  # a far outlier, or a cell size meant in another unit
         raise LidarSigError(f"the epochs span {grid.cols:,} x {grid.rows:,} cells of {cell:g} m, more than "
                             f"{MAX_CELLS:,}; use a larger cell size (--cell) or remove far outlying points")
-    counts = [np.bincount(grid.cell_of(c.xyz[:, :2]), minlength=grid.n_cells) for c in clouds]
+    counts = [np.bincount(grid.cell_of(xy), minlength=grid.n_cells) for xy in used]
     for k in range(len(clouds) - 1):  # said before the saliency is computed
         filled = np.minimum(counts[k], counts[k + 1])
         if filled.max() < min_points:
             pair = "" if len(clouds) == 2 else f" {names[k]} and {names[k + 1]}"
-            raise LidarSigError(f"no cell of {cell:g} m holds {min_points:,} points in both epochs{pair} (at most "
-                                f"{filled.max():,}); use a larger cell size (--cell) or a smaller minimum "
-                                "(--min-points)")
+            raise LidarSigError(f"no cell of {cell:g} m holds {counted(min_points, 'point')} in both "
+                                f"epochs{pair} (at most {filled.max():,}); use a larger cell size (--cell) or a "
+                                "smaller minimum (--min-points)")
     epochs, seconds = [], []
-    for cloud, name, epoch in zip(clouds, names, given):
+    for cloud, name, epoch, used_points in zip(clouds, names, given, kept):
         start = time.perf_counter()
         if epoch is None:
             sal, stats = pipeline.saliency(cloud)
-            epoch = Epoch(name, cloud, sal, stats, kept=pipeline.kept(cloud))
+            epoch = Epoch(name, cloud, sal, stats, kept=used_points)
         seconds.append(time.perf_counter() - start)
         epochs.append(epoch)
     classes = table_of_classes if labelled else UNLABELED
@@ -162,7 +164,7 @@ def _interval(k, epochs, binned, grid, classes, min_points, cell, render, frame,
     table = cell_table(grid, pair, min_points)
     if not table["valid"].any():  # the points are there, their saliency is not
         most = int(np.minimum(table["defined_a"], table["defined_b"]).max())
-        raise LidarSigError(f"no cell of {cell:g} m holds {min_points:,} points with defined saliency in both "
+        raise LidarSigError(f"no cell of {cell:g} m holds {counted(min_points, 'point')} with defined saliency in both "
                             f"{names[k]} and {names[k + 1]} (at most {most:,}); use a larger cell size (--cell), a "
                             "smaller minimum (--min-points) or larger scales")
     n_valid = int(table["valid"].sum())

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import LidarSigError
+from ..errors import LidarSigError, as_path
 from ..progress import step
 
 #: Value of the "when" band in a cell compared in some interval but never significant.
@@ -76,7 +76,7 @@ class ChangeSeries:
         """Write by extension: ``.tif``/``.tiff`` every interval's bands (as a change map's,
         described "interval k (Ek -> Ek+1): ...") then "when"; ``.png`` the map of "when";
         ``.html`` the report with each interval's map."""
-        ext = Path(path).suffix.lower()
+        ext = as_path(path, "saving a change series").suffix.lower()
         if ext in (".tif", ".tiff"):
             from ..io.geotiff import write_geotiff
 

@@ -5,6 +5,8 @@ option) with exit status 2; an interrupt (Ctrl-C, SIGTERM) with 130 or 143, outp
 were; a note from the library (LidarSigWarning) is one line too and does not stop the run
 (:mod:`lidar_sig.cli.group`). One module per command; :func:`main` runs them.
 """
+import signal
+
 import click
 
 from . import (catalog, changes, compare, info, outliers, plugins, resilience, saliency, signature,  # noqa: F401
@@ -26,8 +28,9 @@ def main(argv=None):
         click.echo(f"lidar-sig: error: {message}{' ' if message.endswith('?') else '; '}see `{command} --help`",
                    err=True)
         return exc.exit_code
-    except click.exceptions.Abort:  # Ctrl-C while click itself was prompting or parsing
-        click.echo("lidar-sig: interrupted (SIGINT)", err=True)
-        return 130
+    except click.exceptions.Abort as exc:  # Ctrl-C or SIGTERM while click itself was parsing or closing
+        signum = getattr(exc.__cause__, "signum", signal.SIGINT)  # SIGTERM comes as errors.Interrupted
+        click.echo(f"lidar-sig: interrupted ({signal.Signals(signum).name})", err=True)
+        return 128 + signum
     return status if isinstance(status, int) else 0
 

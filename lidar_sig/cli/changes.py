@@ -4,7 +4,7 @@ import json
 
 import click
 
-from ..errors import LidarSigError
+from ..errors import LidarSigError, counted
 from .group import cli
 from .options import Choice, Default, columns_option, metric_keys, overwrite_option, pipeline_options, render_option
 
@@ -71,7 +71,7 @@ def changes_command(epochs, output, cell, min_points, score, confidence, class_m
     maps = result.maps if isinstance(result, ChangeSeries) else [result]
     first = maps[0]
     click.echo(f"{first.grid.rows} x {first.grid.cols} cells of {first.cell:g} m ({_rule(first.cell_rule)}), "
-               f"compared where both epochs hold {first.min_points:,} points with defined saliency "
+               f"compared where both epochs hold {counted(first.min_points, 'point')} with defined saliency "
                f"({_rule(first.min_points_rule)}); densities "
                + ", ".join(f"{d:.3g}" for d in _densities(result)) + " points/m²")
     for k, cm in enumerate(maps):

@@ -33,7 +33,7 @@ def info(path, columns):
         crs = [type(v).__name__ for v in h.vlrs if "Coordinate" in type(v).__name__ or "GeoKey" in type(v).__name__]
         click.echo(f"  CRS record: {', '.join(crs) if crs else 'none'}")
     if cloud.withheld is not None:
-        click.echo(f"  withheld: {int(cloud.withheld.sum()):,} points (left out of runs unless --keep-noise)")
+        click.echo(f"  withheld: {counted(int(cloud.withheld.sum()), 'point')} (left out of runs unless --keep-noise)")
     if cloud.labels is None:
         click.echo("  labels: none")
     else:

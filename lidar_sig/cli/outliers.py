@@ -5,7 +5,7 @@ from pathlib import Path
 
 import click
 
-from ..errors import LidarSigError
+from ..errors import LidarSigError, counted
 from ..io import check_outputs, output_group
 from .group import cli
 from .options import overwrite_option
@@ -47,8 +47,8 @@ def outliers(catalogue, output, report, reach, top, as_json, overwrite, quiet):
         return
     if quiet:
         return
-    click.echo(f"{len(found.results):,} tiles, neighbours within {found.reach:.3g} m; score = mean robust z of the "
-               "median screening distance to the neighbours and to the survey")
+    click.echo(f"{counted(len(found.results), 'tile')}, neighbours within {found.reach:.3g} m; "
+               "score = mean robust z of the median screening distance to the neighbours and to the survey")
     for note in found.notes:
         click.echo(f"lidar-sig: note: {note}", err=True)
     click.echo(f"{'rank':>4}  {'score':>6}  {'z neighb.':>9}  {'z survey':>8}  tile  (classes that make the difference)")

@@ -77,8 +77,9 @@ def write_archive(path, signature, *, saliency=None, labels=None, sources=(), re
                 if meta.get(key) is not None:
                     f.attrs[key] = str(meta[key])
             # the totals the loader checks the parts against come from the parts themselves (a
-            # sum of signatures keeps the metadata of its first term)
-            meta["n_points"] = int(signature.class_totals.sum())
+            # sum of signatures keeps the metadata of its first term); the points of the cloud
+            # are those of the signature and those the run left out, as the run counts them
+            meta["n_points"] = int(signature.class_totals.sum()) + int(meta.get("n_excluded", 0))
             meta["n_undefined"] = int(signature.n_undefined)
             for key in _INT_ATTRS:
                 if key in meta:
@@ -269,6 +270,9 @@ def _read_signature(f, path):
         meta.update(_method(f.attrs))
     except (ValueError, TypeError, AttributeError):
         raise damaged("its method record is not readable") from None
+    # an archive made before withheld and noise points were left out used every point: a cloud
+    # compared with it is computed so (docs/archive.md)
+    meta.setdefault("keep_noise", True)
     if meta.get("scale_kind") == "knn" and isinstance(meta.get("resolved_scales"), list):
         # k values as whole numbers, as the pipeline gives them (earlier archives stored floats)
         try:
@@ -283,7 +287,8 @@ def _check_totals(counts, egeom, totals, n_undefined, attrs, damaged):
     """The parts of an archive agree with each other and with its recorded totals: the count
     raster and the Egeom histogram hold the same (defined) points; the class totals hold those
     and the undefined ones, each class at least its points in the raster; the root attributes
-    n_points and n_undefined say the same."""
+    n_points (those and the withheld and noise points left out, n_excluded) and n_undefined say
+    the same."""
     n_defined = int(counts.sum())
     if int(egeom.sum()) != n_defined:
         raise damaged(f"its Egeom histogram counts {counted(int(egeom.sum()), 'point')} but its count raster "
@@ -292,10 +297,14 @@ def _check_totals(counts, egeom, totals, n_undefined, attrs, damaged):
     if totals is not None and (int(totals.sum()) != n_all or np.any(totals < counts.sum(axis=(1, 2)))):
         raise damaged(f"its class totals ({counted(int(totals.sum()), 'point')}) disagree with its count raster "
                       f"({counted(n_defined, 'point')}) and its {counted(n_undefined, 'undefined point')}")
-    for name, value in (("n_points", n_all), ("n_undefined", n_undefined)):
+    n_excluded = _int_attr(attrs, "n_excluded", damaged) if "n_excluded" in attrs else 0
+    if n_excluded < 0:
+        raise damaged("it holds negative counts")
+    for name, value in (("n_points", n_all + n_excluded), ("n_undefined", n_undefined)):
         if name in attrs and _int_attr(attrs, name, damaged) != value:
+            left_out = f", {counted(n_excluded, 'withheld or noise point')} left out" if n_excluded else ""
             raise damaged(f"its {name} attribute ({int(attrs[name]):,}) disagrees with its signature "
-                          f"({counted(n_defined, 'point')} with a saliency, {n_undefined:,} undefined)")
+                          f"({counted(n_defined, 'point')} with a saliency, {n_undefined:,} undefined{left_out})")
 
 
 def _int_attr(attrs, name, damaged):
@@ -341,7 +350,7 @@ def archive_summary(path):
              f"  descriptor {m.get('descriptor', '?')}, strategy {m.get('strategy', '?')}, "
              f"{attrs.get('scales', '?')}, {m.get('weights', '?')} weights",
              f"  signature: {counted(sig.n_points, 'point')}, {sig.n_undefined:,} undefined, "
-             f"{int(m.get('n_excluded', 0)):,} withheld or noise points left out, frame {sig.frame.size} px, "
+             f"{counted(int(m.get('n_excluded', 0)), 'withheld or noise point')} left out, frame {sig.frame.size} px, "
              f"class table {sig.classes.name!r}",
              f"  per-point datasets: {'yes, ' + format(n_rows, ',') + ' points' if has_points else 'no'}"]
     for name, count in zip(sig.classes.class_names, sig.class_totals):

@@ -11,6 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import counted
+
 #: ColorBrewer YlOrRd, light (no change) to dark red (most change), for the score.
 SEQUENTIAL = np.array([(255, 255, 204), (255, 237, 160), (254, 217, 118), (254, 178, 76), (253, 141, 60),
                        (252, 78, 42), (227, 26, 28), (189, 0, 38), (128, 0, 38)], dtype=np.float64)
@@ -66,7 +68,7 @@ def change_map_image(change_map, epoch="b", *, display=640, top=TOP):
 
     cm = change_map
     e = cm.a if epoch == "a" else cm.b
-    rgb, edges = _backdrop(cm.grid, e.cloud.xyz, e.saliency.values, display)
+    rgb, edges = _backdrop(cm.grid, e.used(e.cloud.xyz), e.used(e.saliency.values), display)
     t = cm.table
     valid, significant = t["valid"], t["significant"]
     top_value = float(np.nanmax(t["score"][valid])) if valid.any() else 1.0
@@ -85,7 +87,7 @@ def when_map_image(series, *, display=640):
     faded, cells without data grey; framed as :func:`change_map_image`."""
     last = series.maps[-1]
     e = series.epochs[-1]
-    rgb, edges = _backdrop(series.grid, e.cloud.xyz, e.saliency.values, display)
+    rgb, edges = _backdrop(series.grid, e.used(e.cloud.xyz), e.used(e.saliency.values), display)
     when = series.when()
     changed = np.nan_to_num(when) > 0
     compared = ~np.isnan(when)
@@ -252,7 +254,8 @@ def _score_legend(cm, top_value):
     _swatch(legend, x0 + 330, 44, mid, FADED, False)
     cv2.putText(legend, "within the level of detection", (x0 + 354, 55), _FONT, _SMALL, _INK, 1, cv2.LINE_AA)
     _swatch(legend, x0, 66, _NODATA, 1.0, False)
-    cv2.putText(legend, f"no data (< {cm.min_points:,} defined points)", (x0 + 24, 77), _FONT, _SMALL, _INK, 1, cv2.LINE_AA)
+    cv2.putText(legend, f"no data (< {counted(cm.min_points, 'defined point')})", (x0 + 24, 77), _FONT, _SMALL,
+                _INK, 1, cv2.LINE_AA)
     cv2.putText(legend, "numbers: most changed first", (x0 + 330, 77), _FONT, _SMALL, _INK, 1, cv2.LINE_AA)
     return legend
 

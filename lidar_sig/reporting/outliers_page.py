@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import counted
 from ..progress import step
 from . import page
 from .document import Report
@@ -61,7 +62,7 @@ def outliers_report(outliers, *, top=None):
             shown_near[r["rank"]] = [int(j) for j in near]
     title = f"lidar_sig outliers: {Path(str(cat.path)).name}"
     method = cat.method
-    summary = (f"<p>Catalogue <code>{page.esc(cat.path)}</code>: {len(cat):,} tiles; signatures "
+    summary = (f"<p>Catalogue <code>{page.esc(cat.path)}</code>: {counted(len(cat), 'tile')}; signatures "
                f"{page.esc(method.get('descriptor', '?'))} {page.esc(method.get('strategy', '?'))}, "
                f"{page.esc(scales_text(method))}, {page.esc(method.get('weights', '?'))} weights, each tile's "
                "saliency computed on the tile alone.</p>"
@@ -83,8 +84,8 @@ def outliers_report(outliers, *, top=None):
     table = page.table(("rank", "tile", "score", "z neighbours", "z survey", "neighbours", "points",
                         "points/m&sup2;", "classes that make the difference"), rows, numeric=(0, 2, 3, 4, 5, 6, 7),
                        cls="outliers")
-    more = (f'<p class="muted">The {len(o.results) - TABLE_ROWS:,} other tiles are in the JSON and the GeoPackage '
-            "outputs.</p>" if len(o.results) > TABLE_ROWS else "")
+    more = (f'<p class="muted">The {counted(len(o.results) - TABLE_ROWS, "other tile")} are in the JSON and the '
+            "GeoPackage outputs.</p>" if len(o.results) > TABLE_ROWS else "")
     maps = "".join(page.image(pngs[f"map_{g}.png"], f"map of outlier scores ({crs_name(cat.header['crs'][g]) or 'no CRS'})",
                               caption="Tile footprints (convex hulls of their points) coloured by score; "
                                       "the top outliers are numbered.") for g in groups)

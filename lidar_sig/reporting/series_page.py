@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from ..errors import counted
 from ..progress import step
 from . import page
 from .changes_page import cells_table, settings_text
@@ -23,7 +24,7 @@ def series_report(series, *, top=TOP):
             pngs[f"interval{k}.png"] = encode_png(change_map_image(cm, "b", top=top))
     names = [Path(e.name).name for e in series.epochs]
     title = f"lidar_sig change series: {', '.join(names)}"
-    epochs = "".join(f"<li>E{k} <code>{page.esc(e.name)}</code> ({len(e.cloud):,} points)</li>"
+    epochs = "".join(f"<li>E{k} <code>{page.esc(e.name)}</code> ({counted(len(e.cloud), 'point')})</li>"
                      for k, e in enumerate(series.epochs, 1))
     warnings = list(dict.fromkeys(w for cm in series.maps for w in cm.warnings))
     parts = [f"<ul>{epochs}</ul><p>Epochs in time order; each interval compares two consecutive epochs on one "

@@ -146,7 +146,10 @@ def test_sigterm_at_any_moment_leaves_a_whole_output_or_none(tmp_path, command, 
         else:  # the signal came once the output was in place: said, the output whole
             assert proc.returncode == 128 + signal.SIGTERM, err
             lines = said(err)
-            assert len(lines) == 1 and "whole" in lines[0], err
+            assert len(lines) == 1 and "SIGTERM" in lines[0], err
+            # compare writes no file: a signal after its table (still in the command) is said
+            # without outputs to speak of
+            assert command == "compare" or "whole" in lines[0], err
     elif proc.returncode == -signal.SIGTERM:
         # killed by the signal itself while Python was still starting, before the command line
         # could install its handler: nothing had been opened for writing yet
@@ -176,3 +179,36 @@ def test_signal_while_starting_is_one_line(tmp_path, signum):
     assert_interrupted(proc, signum, read)
     assert not os.listdir(tmp_path)
 
+
+def test_ctrl_c_while_the_handlers_module_loads_is_one_line():
+    # lidar_sig.errors was loaded outside the guard of the start: a Ctrl-C then was a traceback
+    code = ("import sys\n"
+            "class Interrupting:\n"
+            "    def find_spec(self, name, path=None, target=None):\n"
+            "        if name == 'lidar_sig.errors':\n"
+            "            raise KeyboardInterrupt\n"
+            "sys.meta_path.insert(0, Interrupting())\n"
+            "from lidar_sig.__main__ import main\n"
+            "sys.argv = ['lidar-sig', 'plugins']\n"
+            "main()\n")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
+                          stdin=subprocess.DEVNULL, preexec_fn=_interruptible)
+    assert proc.returncode == 128 + signal.SIGINT, (proc.returncode, proc.stderr)
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and "interrupted (SIGINT) while starting" in lines[0], proc.stderr
+
+
+def test_sigterm_while_click_parses_is_said_as_sigterm(monkeypatch, capsys):
+    # click turns any KeyboardInterrupt outside the command into Abort: a SIGTERM while it parsed
+    # the options (or closed the command's context) was said as SIGINT, status 130
+    from lidar_sig.cli import main
+    from lidar_sig.cli.group import cli
+    from lidar_sig.errors import Interrupted
+
+    def signalled(*args, **kwargs):
+        raise Interrupted(signal.SIGTERM)
+
+    monkeypatch.setattr(cli, "make_context", signalled)
+    assert main(["plugins"]) == 128 + signal.SIGTERM
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and "interrupted (SIGTERM)" in lines[0], lines
