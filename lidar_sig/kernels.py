@@ -186,6 +186,31 @@ def voting_eigenvalues(xyz, rows, idx, counts, sigma, weights):
     return out
 
 
+@njit(cache=True)
+def order_eigenvalues(ev, out, round_off):
+    """Each row of ``ev`` (M, 3) sorted descending into ``out``, values in
+    [-round_off x the row's largest magnitude, 0) set to 0; rows holding NaN copied as they
+    are. Returns the index of the first row with a value below that bound (clearly negative),
+    -1 when there is none (:func:`lidar_sig.plugins.base.descending`). One pass, no
+    temporaries: it runs on every block's (B, S, 3) eigenvalues."""
+    for i in range(ev.shape[0]):
+        a, b, c = ev[i, 0], ev[i, 1], ev[i, 2]
+        if a != a or b != b or c != c:
+            out[i, 0], out[i, 1], out[i, 2] = a, b, c
+            continue
+        if a < b:
+            a, b = b, a
+        if b < c:
+            b, c = c, b
+            if a < b:
+                a, b = b, a
+        bound = -round_off * max(abs(a), abs(c))
+        if c < bound:
+            return i
+        out[i, 0], out[i, 1], out[i, 2] = max(a, 0.0), max(b, 0.0), max(c, 0.0)
+    return -1
+
+
 @njit(cache=True, parallel=True)
 def saliency_rows(ev, out):
     """(Cl, Cs, Cp) of each row of sorted eigenvalues ``ev`` (M, 3) into ``out`` (M, 3); NaN

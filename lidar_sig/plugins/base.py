@@ -66,13 +66,15 @@ def descending(ev, name):
     if ev.ndim < 1 or ev.shape[-1] != 3:
         raise LidarSigError(f"descriptor {name!r} gave eigenvalues of shape {ev.shape}, not three per tensor; "
                             "fix the descriptor's eigenvalues()")
-    ev = -np.sort(-ev, axis=-1)  # descending; NaN sorts last either way
-    with np.errstate(invalid="ignore"):
-        scale = np.abs(ev).max(axis=-1, keepdims=True)
-        wrong = ev < -ROUND_OFF * scale
-    if wrong.any():
-        at = np.argwhere(wrong)[0]
-        raise LidarSigError(f"descriptor {name!r} gave a negative eigenvalue ({ev[tuple(at)]:.6g} where the "
-                            f"largest is {scale[tuple(at[:-1])][0]:.6g}): a tensor's eigenvalues must be >= 0 "
+    from ..kernels import order_eigenvalues  # numba, loaded when saliency is first computed
+
+    ev = np.ascontiguousarray(ev)
+    out = np.empty_like(ev)
+    rows = ev.reshape(-1, 3)
+    wrong = order_eigenvalues(rows, out.reshape(-1, 3), ROUND_OFF)
+    if wrong >= 0:
+        row = np.sort(rows[wrong])[::-1]
+        raise LidarSigError(f"descriptor {name!r} gave a negative eigenvalue ({row[2]:.6g} where the "
+                            f"largest is {np.abs(row).max():.6g}): a tensor's eigenvalues must be >= 0 "
                             "(SPEC 1); fix the descriptor's eigenvalues()")
-    return np.maximum(ev, 0.0)  # NaN stays NaN
+    return out
