@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from .classes import MAX_CODE, ClassTable
-from .errors import LidarSigError
+from .errors import LidarSigError, a_kind
 
 #: Share of a cloud's points in classes the other cloud does not use above which the clouds are
 #: said to be classified differently.
@@ -61,7 +61,7 @@ def parse_class_map(value):
             part = _checked(_parse_text(item), item)
         else:
             raise LidarSigError(f"a class map is text like {EXAMPLE!r}, a dict {{name: [codes]}} or a .toml/.json "
-                                f"file, got a {type(item).__name__}")
+                                f"file, got {a_kind(item)}")
         for name in part:
             if name in merged:
                 raise LidarSigError(f"class map: {name!r} is given twice; list all its codes once")

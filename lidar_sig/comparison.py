@@ -15,7 +15,7 @@ from pathlib import Path
 
 from .class_schemes import class_scheme_warnings
 from .cloud import PointCloud
-from .errors import LidarSigError
+from .errors import LidarSigError, a_kind
 from .metrics import compare as compare_signatures
 from .progress import step
 from .signature import RENDERINGS, Signature, method_differences
@@ -206,7 +206,7 @@ def load_input(x, columns=None, as_set=False):
         if Path(x).suffix.lower() in HDF5_EXTENSIONS:
             return load_signature(x)
         return read(x, columns=columns)
-    raise LidarSigError(f"cannot compare a {type(x).__name__}; give a file path, a PointCloud or a Signature")
+    raise LidarSigError(f"cannot compare {a_kind(x)}; give a file path, a PointCloud or a Signature")
 
 
 def _archive_pipeline(signature, pipeline, method_given, name):

@@ -61,8 +61,17 @@ def as_path(value, what):
     ``what`` takes a path and what it got (its type, not its repr: an array's is many lines)."""
     if isinstance(value, (str, os.PathLike)) and str(value) != "":
         return Path(value)
-    got = "an empty path" if isinstance(value, str) else ("None" if value is None else f"a {type(value).__name__}")
+    got = "an empty path" if isinstance(value, str) else a_kind(value)
     raise LidarSigError(f"{what} takes a file path, got {got}")
+
+
+def a_kind(value):
+    """What ``value`` is, for a message: "None", "an int", "a list" (its type, not its repr:
+    an array's is many lines)."""
+    if value is None:
+        return "None"
+    name = type(value).__name__
+    return f"{'an' if name[:1].lower() in 'aeiou' else 'a'} {name}"
 
 
 def counted(n, noun, plural=None):

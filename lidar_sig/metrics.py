@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import LidarSigError, whole_number
+from .errors import LidarSigError, a_kind, whole_number
 from .saliency import LN3
 from .signature import to_uint8
 
@@ -332,7 +332,7 @@ def compare(a, b, *, render="smooth", color_bins=8):
     for name, sig in (("a", a), ("b", b)):
         if not isinstance(sig, Signature):
             raise LidarSigError(f"compare takes two signatures (result.signature or load_signature(path)); "
-                                f"{name} is {'None' if sig is None else 'a ' + type(sig).__name__}")
+                                f"{name} is {a_kind(sig)}")
     color_bins = whole_number(color_bins, "color_bins (bins per RGB channel)", low=2, high=MAX_COLOR_BINS)
     a.check_comparable(b)
     mask = a.frame.mask()

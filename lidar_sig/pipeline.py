@@ -12,7 +12,7 @@ from . import __version__
 from .classes import UNLABELED, class_table
 from .cloud import PointCloud, kept_points
 from .compile import announce_compilation, load_kernels
-from .errors import LidarSigError, LidarSigWarning, counted
+from .errors import LidarSigError, LidarSigWarning, a_kind, counted
 from .io.open3d import from_open3d, is_open3d
 from .neighbors import WEIGHTS, NeighborIndex, unique_points
 from .plugins import get_descriptor, get_strategy
@@ -311,7 +311,7 @@ def as_point_cloud(cloud, labels=None):
         from .io import read
 
         return read(cloud)
-    raise LidarSigError(f"cannot run on a {type(cloud).__name__}; give a PointCloud, a file path, an "
+    raise LidarSigError(f"cannot run on {a_kind(cloud)}; give a PointCloud, a file path, an "
                         "(N, 3) numpy array or an Open3D point cloud")
 
 

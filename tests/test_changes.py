@@ -580,6 +580,11 @@ def test_bad_values_given_to_the_change_map_s_functions_are_named():
         cm.save(None)
     with pytest.raises(LidarSigError, match="no field 'nope'.*score"):
         cm.raster("nope")
+    for cell in (10**9, -1, 1.5):  # a cell beyond the grid gave two empty signatures
+        with pytest.raises(LidarSigError, match=f"no cell {cell!r} in a grid of {cm.grid.n_cells} cells"):
+            cm.signatures(cell)
+    with pytest.raises(LidarSigError, match="cannot read an epoch from an int"):  # was "a int"
+        changes(5, small_cloud(1), cell=10)
     series = changes(small_cloud(0), small_cloud(1), small_cloud(2), cell=10, min_points=100)
     with pytest.raises(LidarSigError, match="takes a file path, got None"):
         series.save(None)

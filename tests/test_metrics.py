@@ -182,3 +182,17 @@ def test_comparing_clouds_leaves_them_unchanged():
         assert labelled.labels is not None and np.array_equal(labelled.labels, labels)
         assert np.array_equal(labelled.xyz, xyz) and np.array_equal(bare.xyz, xyz2) and bare.labels is None
     assert out is not None and ls.compare_sources(labelled, bare, pipe).metrics["kl"] is None
+
+
+def test_values_of_the_wrong_kind_are_named_with_their_article():
+    # "a int" was said where a number came instead of a cloud, a source or a signature
+    from lidar_sig.comparison import compare_sources
+    from lidar_sig.errors import a_kind
+
+    assert [a_kind(v) for v in (None, 3, "x", [1], object())] == ["None", "an int", "a str", "a list", "an object"]
+    with pytest.raises(ls.LidarSigError, match="cannot run on an int"):
+        ls.Pipeline(progress=False).run(3)
+    with pytest.raises(ls.LidarSigError, match="cannot compare an int"):
+        compare_sources(3, 4)
+    with pytest.raises(ls.LidarSigError, match="b is an int"):
+        ls.compare(ls.Pipeline(progress=False).run(ls.PointCloud(*airborne_like(2000))).signature, 3)

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import LidarSigError, as_path, counted
+from ..errors import LidarSigError, a_kind, as_path, counted
 from .distances import SCREENING, combine, metric_keys, pair_metrics, screening
 from .features import Features, sg_image, signature_features
 
@@ -219,7 +219,7 @@ class Catalog:
         if isinstance(query, PointCloud):
             return self._query_of(self._run(query), query.path or "(in memory)", "cloud")
         if not isinstance(query, (str, Path)):
-            raise LidarSigError(f"cannot query a catalogue with a {type(query).__name__}; give a tile's name, a "
+            raise LidarSigError(f"cannot query a catalogue with {a_kind(query)}; give a tile's name, a "
                                 "file path, a PointCloud or a Signature")
         from ..io import HDF5_EXTENSIONS, load_signature, read
 

@@ -10,7 +10,7 @@ import numpy as np
 
 from ..cloud import PointCloud
 from ..crs import crs_name, same_crs
-from ..errors import LidarSigError
+from ..errors import LidarSigError, a_kind
 
 
 @dataclass
@@ -66,7 +66,7 @@ def read_epoch(source, *, columns=None):
     elif isinstance(source, (str, Path)):
         return read(source, columns=columns)
     else:
-        raise LidarSigError(f"cannot read an epoch from a {type(source).__name__}; give a file, a folder of "
+        raise LidarSigError(f"cannot read an epoch from {a_kind(source)}; give a file, a folder of "
                             "tiles, a list of files or a PointCloud")
     clouds = [read(p, columns=columns) for p in paths]
     if len(clouds) == 1:

@@ -152,6 +152,9 @@ class ChangeMap:
 
     def signatures(self, flat):
         """(Signature of A, Signature of B) of cell ``flat``, as the metrics saw them."""
+        if isinstance(flat, bool) or not isinstance(flat, (int, np.integer)) or not 0 <= flat < self.grid.n_cells:
+            raise LidarSigError(f"no cell {flat!r} in a grid of {self.grid.n_cells:,} cells; give a flat cell index "
+                                "from the table (row x columns + col)")
         labelled = bool(self.class_table.names)
         return tuple(cell_signature(e, np.flatnonzero(epoch_cells(e, self.grid) == flat),
                                     self.class_table, labelled, self.frame) for e in (self.a, self.b))
