@@ -268,11 +268,17 @@ class Signature:
                                 + "; ".join(differ) + "); make both with the same settings")
 
     def __add__(self, other):
-        """Signature of the union of two disjoint clouds (counts are additive)."""
+        """Signature of the union of two disjoint clouds (counts are additive, and so are the
+        metadata's counts of points, ``n_*``; the other metadata is the first's)."""
         self.check_comparable(other)
+        metadata = dict(self.metadata)
+        for key, value in other.metadata.items():
+            if key.startswith("n_") and isinstance(value, (int, np.integer)) \
+                    and isinstance(metadata.get(key), (int, np.integer)):
+                metadata[key] = int(metadata[key]) + int(value)
         return Signature(self.counts + other.counts, self.frame, self.classes,
                          self.egeom_counts + other.egeom_counts,
-                         self.n_undefined + other.n_undefined, dict(self.metadata),
+                         self.n_undefined + other.n_undefined, metadata,
                          self.class_totals + other.class_totals)
 
 

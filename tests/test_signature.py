@@ -40,6 +40,18 @@ def test_counts_are_additive_over_disjoint_parts():
     assert whole.class_counts[[2, 5, 6]].tolist() == [np.sum(labels == c) for c in (2, 5, 6)]
 
 
+def test_the_sum_of_two_signatures_adds_their_counts_of_points_left_out():
+    # the sum kept the first term's n_excluded: an archive of a sum said too few were left out
+    rng = np.random.default_rng(2)
+    sal = rng.dirichlet([1, 1, 1], 100)
+    a, b = _sig(sal[:60], np.full(60, 2)), _sig(sal[60:], np.full(40, 2))
+    a.metadata.update(n_excluded=3, n_duplicates=1, descriptor="c3dcm")
+    b.metadata.update(n_excluded=4, n_duplicates=0, descriptor="c3dcm")
+    total = a + b
+    assert total.metadata["n_excluded"] == 7 and total.metadata["n_duplicates"] == 1
+    assert total.metadata["descriptor"] == "c3dcm" and a.metadata["n_excluded"] == 3  # terms unchanged
+
+
 def test_signature_is_independent_of_point_order():
     rng = np.random.default_rng(2)
     sal = rng.dirichlet([1, 1, 1], 3000)
