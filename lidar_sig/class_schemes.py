@@ -158,7 +158,7 @@ def merge_classes(table, class_map):
             codes.append(tuple(merged[target]))
             rgb.append(_mean_colour(table, merged[target], colours))
     try:
-        return ClassTable(f"{table.name}, merged", tuple(names), tuple(codes), tuple(rgb))
+        return ClassTable(f"{table.name}, merged", tuple(names), tuple(codes), tuple(rgb), noise=table.noise)
     except LidarSigError as exc:
         raise LidarSigError(f"class map: {exc}; name the merged class differently") from None
 

@@ -510,6 +510,7 @@ def test_merged_classes_take_their_codes_from_either_scheme():
     assert names[index[4]] == "ground" and names[index[5]] == "building" and names[index[6]] == "other"
     colour = table.colors[table.names.index("vegetation-or-other")]
     assert all(0 <= v <= 255 for v in colour)
+    assert table.noise == ASPRS.noise == (7, 18)  # merging classes keeps the codes left out as noise
     with pytest.raises(LidarSigError, match="name the merged class differently"):
         merge_classes(ASPRS, "3=ground")  # "ground" still names class 2
 
