@@ -204,3 +204,19 @@ def test_report_opens_in_headless_chromium_with_every_image_and_metric(demo, tmp
     assert [c for c in console if c[0] in ("SEVERE", "ERROR", "WARNING")] == []
     picture = decode(shot.read_bytes())
     assert picture.shape[1] == 1280 and picture.shape[0] > 3000  # the whole page, not one screen
+
+
+def test_the_top_view_draws_the_points_the_run_used(tmp_path):
+    # withheld and noise points (high noise far above the roofs) were drawn grey over the scene
+    from conftest import noisy_las
+    from lidar_sig.comparison import side_of
+    from lidar_sig.reporting.sections import top_view
+
+    scene = noisy_las(tmp_path / "noisy.laz")
+    cloud = ls.read(tmp_path / "noisy.laz")
+    clean = ls.PointCloud(cloud.xyz[scene], cloud.labels[scene], crs=cloud.crs)
+    pipe = ls.Pipeline(progress=False)
+    # the same points with the same saliency, drawn by the same code: equal bytes on any CPU
+    assert top_view(side_of(pipe.run(cloud))) == top_view(side_of(pipe.run(clean)))
+    kept = ls.Pipeline(progress=False, keep_noise=True)
+    assert top_view(side_of(kept.run(cloud))) != top_view(side_of(kept.run(clean)))

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..cloud import kept_points
 from ..progress import step
 from . import page
 
@@ -128,9 +129,16 @@ def top_view(side, span=None):
     from ..render import encode_png, top_view_image
 
     result = side.result
-    unit = "m" if result.cloud.units.horizontal == 1.0 else result.cloud.units.name
-    with step("top view", points=len(result.cloud)):
-        return encode_png(top_view_image(result.cloud.xyz, result.saliency.values, unit=unit, span=span))
+    cloud = result.cloud
+    unit = "m" if cloud.units.horizontal == 1.0 else cloud.units.name
+    # the points the run used: withheld and noise points (high noise above the roofs) would be
+    # drawn grey over the scene
+    noise = None if result.metadata.get("keep_noise") else result.signature.classes.noise
+    kept = kept_points(cloud.labels, cloud.withheld, noise)
+    xyz, values = (cloud.xyz, result.saliency.values) if kept is None else \
+        (cloud.xyz[kept], result.saliency.values[kept])
+    with step("top view", points=len(xyz)):
+        return encode_png(top_view_image(xyz, values, unit=unit, span=span))
 
 
 def shared_span(sides):
