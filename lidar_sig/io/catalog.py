@@ -9,7 +9,6 @@ per tile).
 """
 from __future__ import annotations
 
-import io
 import json
 
 import numpy as np
@@ -17,11 +16,10 @@ import numpy as np
 from ..classes import recorded_table
 from ..errors import LidarSigError, as_path
 from ..signature import Frame
-from .atomic import atomic_output
+from .h5 import described_dataset, hdf5_output
 
 FORMAT = "lidar_sig survey catalogue"
 FORMAT_VERSION = 1
-_GZIP = {"compression": "gzip", "compression_opts": 4, "shuffle": True}
 
 #: Per-tile columns: name -> (dtype, description, units). Text columns have dtype "str".
 COLUMNS = {
@@ -44,69 +42,48 @@ COLUMNS = {
 }
 
 
-def _dataset(group, name, data, description, units=None):
-    import h5py
-
-    if isinstance(data, list):  # text
-        ds = group.create_dataset(name, data=np.array(data, dtype=object), dtype=h5py.string_dtype())
-    else:
-        ds = group.create_dataset(name, data=data, **(_GZIP if np.size(data) > 64 else {}))
-    ds.attrs["description"] = description
-    if units:
-        ds.attrs["units"] = units
-    return ds
-
-
 def write_catalog(path, header, tiles, *, overwrite=False):
     """Write a catalogue: ``header`` (method dict, classes ClassTable, frame Frame, render,
     color_bins, spread dict) and ``tiles`` (dicts holding every field of COLUMNS, plus ``hull``
     (K, 2) and the sparse counts ``counts_at``, ``counts``)."""
-    import h5py
-
-    from .. import __version__
-
     crs_list = sorted({t["crs"] or "" for t in tiles})
     classes = header["classes"]
-    buffer = io.BytesIO()
-    with atomic_output(path, overwrite=overwrite) as tmp:
-        with h5py.File(buffer, "w") as f:
-            f.attrs["format"] = FORMAT
-            f.attrs["format_version"] = FORMAT_VERSION
-            f.attrs["lidar_sig_version"] = __version__
-            f.attrs["method"] = json.dumps(header["method"])
-            f.attrs["classes"] = json.dumps({"name": classes.name, "names": list(classes.names),
-                                             "codes": [list(map(int, c)) for c in classes.codes],
-                                             "colors": [list(map(int, c)) for c in classes.colors],
-                                             "noise": [int(c) for c in classes.noise]})
-            f.attrs["frame_size"] = header["frame"].size
-            f.attrs["frame_margin"] = header["frame"].margin
-            f.attrs["render"] = header["render"]
-            f.attrs["color_bins"] = int(header["color_bins"])
-            f.attrs["spread"] = json.dumps(header["spread"])
-            _dataset(f, "crs", crs_list, "the tiles' CRSs as WKT ('' for none)")
-            g = f.create_group("tiles")
-            g.attrs["description"] = "one row per tile"
-            g.attrs["n_tiles"] = len(tiles)
-            for name, (dtype, description, units) in COLUMNS.items():
-                if name == "crs":
-                    data = np.array([crs_list.index(t["crs"] or "") for t in tiles], np.int64)
-                elif dtype == "str":
-                    data = [str(t[name]) for t in tiles]
-                else:
-                    data = np.array([t[name] for t in tiles], dtype=dtype)
-                _dataset(g, name, data, description, units)
-            hulls = [np.asarray(t["hull"], np.float64).reshape(-1, 2) for t in tiles]
-            _dataset(g, "hull_offsets", _offsets(hulls), "tile i's hull is hull_xy[hull_offsets[i]:hull_offsets[i+1]]")
-            _dataset(g, "hull_xy", np.concatenate(hulls) if hulls else np.empty((0, 2)),
-                     "convex hull of each tile's points in plan view, counter-clockwise", "CRS units")
-            at = [np.asarray(t["counts_at"], np.int64) for t in tiles]
-            _dataset(g, "counts_offsets", _offsets(at), "tile i's counts are rows counts_offsets[i]:counts_offsets[i+1]")
-            _dataset(g, "counts_index", np.concatenate(at) if at else np.empty(0, np.int64),
-                     "flat index (class, row, col) of each non-zero pixel of the signature's count raster")
-            values = [np.asarray(t["counts"], np.int64) for t in tiles]
-            _dataset(g, "counts_value", np.concatenate(values) if values else np.empty(0, np.int64),
-                     "points of that class in that pixel", "points")
-        tmp.write_bytes(buffer.getbuffer())
+    with hdf5_output(path, FORMAT, FORMAT_VERSION, overwrite=overwrite) as f:
+        f.attrs["method"] = json.dumps(header["method"])
+        f.attrs["classes"] = json.dumps({"name": classes.name, "names": list(classes.names),
+                                         "codes": [list(map(int, c)) for c in classes.codes],
+                                         "colors": [list(map(int, c)) for c in classes.colors],
+                                         "noise": [int(c) for c in classes.noise]})
+        f.attrs["frame_size"] = header["frame"].size
+        f.attrs["frame_margin"] = header["frame"].margin
+        f.attrs["render"] = header["render"]
+        f.attrs["color_bins"] = int(header["color_bins"])
+        f.attrs["spread"] = json.dumps(header["spread"])
+        described_dataset(f, "crs", crs_list, "the tiles' CRSs as WKT ('' for none)")
+        g = f.create_group("tiles")
+        g.attrs["description"] = "one row per tile"
+        g.attrs["n_tiles"] = len(tiles)
+        for name, (dtype, description, units) in COLUMNS.items():
+            if name == "crs":
+                data = np.array([crs_list.index(t["crs"] or "") for t in tiles], np.int64)
+            elif dtype == "str":
+                data = [str(t[name]) for t in tiles]
+            else:
+                data = np.array([t[name] for t in tiles], dtype=dtype)
+            described_dataset(g, name, data, description, units)
+        hulls = [np.asarray(t["hull"], np.float64).reshape(-1, 2) for t in tiles]
+        described_dataset(g, "hull_offsets", _offsets(hulls),
+                          "tile i's hull is hull_xy[hull_offsets[i]:hull_offsets[i+1]]")
+        described_dataset(g, "hull_xy", np.concatenate(hulls) if hulls else np.empty((0, 2)),
+                          "convex hull of each tile's points in plan view, counter-clockwise", "CRS units")
+        at = [np.asarray(t["counts_at"], np.int64) for t in tiles]
+        described_dataset(g, "counts_offsets", _offsets(at),
+                          "tile i's counts are rows counts_offsets[i]:counts_offsets[i+1]")
+        described_dataset(g, "counts_index", np.concatenate(at) if at else np.empty(0, np.int64),
+                          "flat index (class, row, col) of each non-zero pixel of the signature's count raster")
+        values = [np.asarray(t["counts"], np.int64) for t in tiles]
+        described_dataset(g, "counts_value", np.concatenate(values) if values else np.empty(0, np.int64),
+                          "points of that class in that pixel", "points")
 
 
 def _offsets(parts):

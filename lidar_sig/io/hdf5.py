@@ -7,7 +7,6 @@ from which files (with SHA-256). docs/archive.md lists the layout. Written atomi
 from __future__ import annotations
 
 import hashlib
-import io
 import json
 
 import numpy as np
@@ -16,7 +15,7 @@ from ..classes import recorded_table
 from ..errors import LidarSigError, as_path, counted
 from ..saliency import LN3
 from ..signature import METHOD_KEYS, Frame, Signature
-from .atomic import atomic_output
+from .h5 import described_dataset, hdf5_output
 from .formats import HDF5_EXTENSIONS  # noqa: F401 (a name of this module too)
 
 FORMAT = "lidar_sig signature archive"
@@ -25,7 +24,6 @@ FORMAT_VERSION = 2
 _TEXT_ATTRS = ("descriptor", "strategy", "scales", "scale_kind", "scale_units", "weights", "units", "crs")
 _INT_ATTRS = ("n_points", "n_undefined", "n_capped", "n_duplicates", "n_excluded", "max_neighbors",
               "min_neighbors")
-_GZIP = {"compression": "gzip", "compression_opts": 4, "shuffle": True}
 
 
 def sha256_of(path):
@@ -37,14 +35,6 @@ def sha256_of(path):
     return digest.hexdigest()
 
 
-def _dataset(group, name, data, description, units=None, compress=True):
-    ds = group.create_dataset(name, data=data, **(_GZIP if compress and np.size(data) > 64 else {}))
-    ds.attrs["description"] = description
-    if units:
-        ds.attrs["units"] = units
-    return ds
-
-
 def write_archive(path, signature, *, saliency=None, labels=None, sources=(), render="smooth",
                   overwrite=False, tiling=None):
     """Write ``signature`` (and, if given, per-point ``saliency`` and ``labels``) to ``path``.
@@ -54,91 +44,77 @@ def write_archive(path, signature, *, saliency=None, labels=None, sources=(), re
     of tiles was processed (attribute ``tiling``, JSON; absent for one block). The stored Sg
     and Sas images are rendered as ``render``; the counts keep every rendering.
     """
-    import h5py
-
-    from .. import __version__
-
     meta = dict(signature.metadata)
     source_list = [dict(p) if isinstance(p, dict) else {"path": str(p), "sha256": sha256_of(p)} for p in sources]
-    # The archive is built in memory and its bytes written by Python: a full disk or a signal
-    # then stops our write, not one inside the HDF5 library (which may crash on a full disk).
-    buffer = io.BytesIO()
-    with atomic_output(path, overwrite=overwrite) as tmp:
-        with h5py.File(buffer, "w") as f:
-            f.attrs["format"] = FORMAT
-            f.attrs["format_version"] = FORMAT_VERSION
-            f.attrs["lidar_sig_version"] = __version__
-            f.attrs["sources"] = json.dumps(source_list)
-            if tiling is not None:
-                f.attrs["tiling"] = json.dumps(tiling)
-            f.attrs["method"] = json.dumps({k: meta[k] for k in METHOD_KEYS if k in meta})
-            f.attrs["render"] = render
-            for key in _TEXT_ATTRS:
-                if meta.get(key) is not None:
-                    f.attrs[key] = str(meta[key])
-            # the totals the loader checks the parts against come from the parts themselves (a
-            # sum of signatures keeps the metadata of its first term); the points of the cloud
-            # are those of the signature and those the run left out, as the run counts them
-            meta["n_points"] = int(signature.class_totals.sum()) + int(meta.get("n_excluded", 0))
-            meta["n_undefined"] = int(signature.n_undefined)
-            for key in _INT_ATTRS:
-                if key in meta:
-                    f.attrs[key] = int(meta[key])
-            if "resolved_scales" in meta:
-                knn = meta.get("scale_kind") == "knn"  # neighbour counts are whole numbers
-                f.attrs["resolved_scales"] = np.asarray(meta["resolved_scales"], dtype=np.int64 if knn else np.float64)
-                f.attrs["resolved_scales_units"] = "neighbours" if knn else "metres"
-            if "metres_per_unit" in meta:
-                f.attrs["metres_per_unit"] = np.asarray(meta["metres_per_unit"], dtype=np.float64)
-            f.attrs["descriptor_params"] = json.dumps(meta.get("descriptor_params", {}))
-            _write_signature(f.create_group("signature"), signature, render)
-            if saliency is not None:
-                _write_points(f.create_group("points"), saliency, labels)
-        tmp.write_bytes(buffer.getbuffer())
+    with hdf5_output(path, FORMAT, FORMAT_VERSION, overwrite=overwrite) as f:
+        f.attrs["sources"] = json.dumps(source_list)
+        if tiling is not None:
+            f.attrs["tiling"] = json.dumps(tiling)
+        f.attrs["method"] = json.dumps({k: meta[k] for k in METHOD_KEYS if k in meta})
+        f.attrs["render"] = render
+        for key in _TEXT_ATTRS:
+            if meta.get(key) is not None:
+                f.attrs[key] = str(meta[key])
+        # the totals the loader checks the parts against come from the parts themselves (a
+        # sum of signatures keeps the metadata of its first term); the points of the cloud
+        # are those of the signature and those the run left out, as the run counts them
+        meta["n_points"] = int(signature.class_totals.sum()) + int(meta.get("n_excluded", 0))
+        meta["n_undefined"] = int(signature.n_undefined)
+        for key in _INT_ATTRS:
+            if key in meta:
+                f.attrs[key] = int(meta[key])
+        if "resolved_scales" in meta:
+            knn = meta.get("scale_kind") == "knn"  # neighbour counts are whole numbers
+            f.attrs["resolved_scales"] = np.asarray(meta["resolved_scales"], dtype=np.int64 if knn else np.float64)
+            f.attrs["resolved_scales_units"] = "neighbours" if knn else "metres"
+        if "metres_per_unit" in meta:
+            f.attrs["metres_per_unit"] = np.asarray(meta["metres_per_unit"], dtype=np.float64)
+        f.attrs["descriptor_params"] = json.dumps(meta.get("descriptor_params", {}))
+        _write_signature(f.create_group("signature"), signature, render)
+        if saliency is not None:
+            _write_points(f.create_group("points"), saliency, labels)
 
 
 def _write_signature(g, sig, render):
-    import h5py
-
     frame, classes = sig.frame, sig.classes
     g.attrs["description"] = "signature: per-class count raster of saliency positions in the reference triangle"
     g.attrs["frame_size"] = frame.size
     g.attrs["frame_margin"] = frame.margin
     g.attrs["n_undefined"] = sig.n_undefined
     dtype = np.uint32 if sig.counts.max(initial=0) < 2**32 else np.uint64
-    _dataset(g, "counts", sig.counts.astype(dtype),
-             "points of each class (axis 0, class table order) per pixel (row, col)", "points")
+    described_dataset(g, "counts", sig.counts.astype(dtype),
+                      "points of each class (axis 0, class table order) per pixel (row, col)", "points")
     sg, sas = sig.render(render)
-    _dataset(g, "sg", sg.astype(np.float32), f"geometric signature Sg, {render} rendering", "1")
-    _dataset(g, "sas", sas.astype(np.float32), f"augmented semantic signature Sas, RGB, {render} rendering", "1")
-    _dataset(g, "class_totals", sig.class_totals.astype(np.int64),
-             "points of each class in the cloud, undefined saliency included (semantic metrics)", "points")
-    _dataset(g, "mask", frame.mask().astype(np.uint8), "1 for pixels of the reference triangle")
-    tri = _dataset(g, "triangle", frame.vertices,
-                   "reference triangle vertices V_l, V_s, V_p (line, surface, point) as (x, y)", "pixels")
+    described_dataset(g, "sg", sg.astype(np.float32), f"geometric signature Sg, {render} rendering", "1")
+    described_dataset(g, "sas", sas.astype(np.float32), f"augmented semantic signature Sas, RGB, {render} rendering",
+                      "1")
+    described_dataset(g, "class_totals", sig.class_totals.astype(np.int64),
+                      "points of each class in the cloud, undefined saliency included (semantic metrics)", "points")
+    described_dataset(g, "mask", frame.mask().astype(np.uint8), "1 for pixels of the reference triangle")
+    tri = described_dataset(g, "triangle", frame.vertices,
+                            "reference triangle vertices V_l, V_s, V_p (line, surface, point) as (x, y)", "pixels")
     tri.attrs["axes"] = "x to the right, y downwards, pixel (row, col) covers [col, col+1) x [row, row+1)"
-    eh = _dataset(g, "egeom_histogram", sig.egeom_counts,
-                  "histogram of geometric entropy Egeom over [0, ln 3]", "points")
+    eh = described_dataset(g, "egeom_histogram", sig.egeom_counts,
+                           "histogram of geometric entropy Egeom over [0, ln 3]", "points")
     eh.attrs["range"] = np.array([0.0, LN3])
     eh.attrs["range_units"] = "nats"
-    sh = _dataset(g, "saliency_histograms", saliency_histograms(sig),
-                  "per class (axis 0) histograms of Cl, Cs, Cp (axis 1) over [0, 1] (axis 2), "
-                  "from the pixel positions of the count raster", "points")
+    sh = described_dataset(g, "saliency_histograms", saliency_histograms(sig),
+                           "per class (axis 0) histograms of Cl, Cs, Cp (axis 1) over [0, 1] (axis 2), "
+                           "from the pixel positions of the count raster", "points")
     sh.attrs["range"] = np.array([0.0, 1.0])
     c = g.create_group("classes")
     c.attrs["description"] = "class table: name, RGB colour and label codes per class, 'other' last"
     c.attrs["table"] = classes.name
-    names = c.create_dataset("names", data=np.array(classes.class_names, dtype=object),
-                             dtype=h5py.string_dtype())
-    names.attrs["description"] = "class names, 'other' last"
-    _dataset(c, "colors", np.rint(classes.class_colors * 255).astype(np.uint8), "RGB colour per class", "0-255")
+    described_dataset(c, "names", list(classes.class_names), "class names, 'other' last")
+    described_dataset(c, "colors", np.rint(classes.class_colors * 255).astype(np.uint8), "RGB colour per class",
+                      "0-255")
     codes = [list(cs) for cs in classes.codes] + [[]]
-    _dataset(c, "codes", np.array([v for cs in codes for v in cs], dtype=np.int64),
-             "label codes of all classes, concatenated")
-    _dataset(c, "code_offsets", np.cumsum([0] + [len(cs) for cs in codes]).astype(np.int64),
-             "class k has codes[code_offsets[k]:code_offsets[k+1]]")
-    _dataset(c, "noise_codes", np.array(classes.noise, dtype=np.int64),
-             "label codes of noise points, left out of the run unless keep_noise")
+    described_dataset(c, "codes", np.array([v for cs in codes for v in cs], dtype=np.int64),
+                      "label codes of all classes, concatenated")
+    described_dataset(c, "code_offsets", np.cumsum([0] + [len(cs) for cs in codes]).astype(np.int64),
+                      "class k has codes[code_offsets[k]:code_offsets[k+1]]")
+    described_dataset(c, "noise_codes", np.array(classes.noise, dtype=np.int64),
+                      "label codes of noise points, left out of the run unless keep_noise")
 
 
 def saliency_histograms(sig, bins=50):
@@ -161,14 +137,14 @@ def _write_points(g, sal, labels):
     g.attrs["description"] = "per-point results, in the order of the source file's points"
     for name, data, desc in (("cl", sal.cl, "line-type saliency Cl"), ("cs", sal.cs, "surface-type saliency Cs"),
                              ("cp", sal.cp, "point-type saliency Cp")):
-        _dataset(g, name, data.astype(np.float32), desc + " (NaN where undefined)", "1")
-    _dataset(g, "egeom", sal.egeom.astype(np.float32), "geometric entropy Egeom (NaN where undefined)", "nats")
-    _dataset(g, "geom_class", sal.geom_class, "geometric class: 1 line, 2 surface, 3 point, 0 undefined")
+        described_dataset(g, name, data.astype(np.float32), desc + " (NaN where undefined)", "1")
+    described_dataset(g, "egeom", sal.egeom.astype(np.float32), "geometric entropy Egeom (NaN where undefined)", "nats")
+    described_dataset(g, "geom_class", sal.geom_class, "geometric class: 1 line, 2 surface, 3 point, 0 undefined")
     if sal.optimal_scale is not None:
-        _dataset(g, "optimal_scale", sal.optimal_scale.astype(np.int16),
-                 "index of the chosen scale in the ascending scales, -1 if undefined")
+        described_dataset(g, "optimal_scale", sal.optimal_scale.astype(np.int16),
+                          "index of the chosen scale in the ascending scales, -1 if undefined")
     if labels is not None:
-        _dataset(g, "labels", np.asarray(labels).astype(np.int32), "semantic label code (ASPRS for LAS)")
+        described_dataset(g, "labels", np.asarray(labels).astype(np.int32), "semantic label code (ASPRS for LAS)")
 
 
 def _open(path):
