@@ -10,8 +10,9 @@ start of the command line are quick and a Ctrl-C at that moment is handled like 
 """
 __version__ = "0.1.0"
 
-import importlib
 import warnings
+
+from .lazy import lazy_names
 
 # numba probes the TBB threading layer first and warns when an older TBB (such as the one
 # Open3D ships) is on the path; it then uses OpenMP or its own work queue, which is all we need.
@@ -31,18 +32,4 @@ _EXPORTS = {
 __all__ = sorted(_EXPORTS)
 
 
-def __getattr__(name):
-    if name in _EXPORTS:
-        value = getattr(importlib.import_module(f".{_EXPORTS[name]}", __name__), name)
-        globals()[name] = value
-        return value
-    try:  # a submodule, e.g. lidar_sig.scales
-        return importlib.import_module(f".{name}", __name__)
-    except ModuleNotFoundError as exc:
-        if exc.name != f"{__name__}.{name}":
-            raise
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}") from None
-
-
-def __dir__():
-    return sorted(set(globals()) | set(_EXPORTS))
+__getattr__, __dir__ = lazy_names(__name__, _EXPORTS)

@@ -6,11 +6,11 @@ or one of its names below is first used (PEP 562): the command line starts witho
 """
 from __future__ import annotations
 
-import importlib
 import os
 from pathlib import Path
 
 from ..errors import LidarSigError, as_path
+from ..lazy import lazy_names
 from ..progress import step
 from .atomic import atomic_output, check_output, check_outputs, output_group
 from .formats import CLOUD_EXTENSIONS, HDF5_EXTENSIONS, LAS_EXTENSIONS, OPEN3D_EXTENSIONS, TEXT_EXTENSIONS
@@ -27,21 +27,7 @@ __all__ = ["read", "write_cloud", "parse_columns", "CLOUD_EXTENSIONS", "atomic_o
            "archive_summary", "LAS_EXTENSIONS", "TEXT_EXTENSIONS", "HDF5_EXTENSIONS"]
 
 
-def __getattr__(name):
-    if name in _EXPORTS:
-        value = getattr(importlib.import_module(f".{_EXPORTS[name]}", __name__), name)
-        globals()[name] = value
-        return value
-    try:  # a submodule, e.g. lidar_sig.io.hdf5
-        return importlib.import_module(f".{name}", __name__)
-    except ModuleNotFoundError as exc:
-        if exc.name != f"{__name__}.{name}":
-            raise
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}") from None
-
-
-def __dir__():
-    return sorted(set(globals()) | set(_EXPORTS))
+__getattr__, __dir__ = lazy_names(__name__, _EXPORTS)
 
 
 def read(path, *, columns=None):
