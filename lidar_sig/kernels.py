@@ -12,6 +12,18 @@ from numba import njit, prange
 
 
 @njit(cache=True, inline="always")
+def descending3(a, b, c):
+    """Three values sorted descending: three compare-exchanges."""
+    if a < b:
+        a, b = b, a
+    if b < c:
+        b, c = c, b
+    if a < b:
+        a, b = b, a
+    return a, b, c
+
+
+@njit(cache=True, inline="always")
 def _rotate(app, aqq, apq, arp, arq):
     # One Jacobi rotation zeroing a_pq; r is the third index (Numerical Recipes, 11.1).
     if apq == 0.0:
@@ -38,13 +50,7 @@ def _eigvalsh3_jacobi(a00, a11, a22, a01, a02, a12):
         a02 = 0.0
         a11, a22, a01, a02 = _rotate(a11, a22, a12, a01, a02)
         a12 = 0.0
-    if a00 < a11:
-        a00, a11 = a11, a00
-    if a11 < a22:
-        a11, a22 = a22, a11
-    if a00 < a11:
-        a00, a11 = a11, a00
-    return a00, a11, a22
+    return descending3(a00, a11, a22)
 
 
 # Relative eigenvalue gap under which the closed form hands over to Jacobi: there the
@@ -198,12 +204,7 @@ def order_eigenvalues(ev, out, round_off):
         if a != a or b != b or c != c:
             out[i, 0], out[i, 1], out[i, 2] = a, b, c
             continue
-        if a < b:
-            a, b = b, a
-        if b < c:
-            b, c = c, b
-            if a < b:
-                a, b = b, a
+        a, b, c = descending3(a, b, c)
         bound = -round_off * max(abs(a), abs(c))
         if c < bound:
             return i
