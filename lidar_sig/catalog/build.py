@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import LidarSigError, as_path, reason
+from ..errors import LidarSigError, a_kind, as_path, reason
 from ..progress import progress, step
 from .distances import spreads
 from .features import COLOR_BINS, RENDER, Features, sg_image
@@ -81,6 +81,8 @@ def build_catalog(inputs, output, pipeline=None, *, backend=None, work=None, res
         raise LidarSigError("a catalogue is written as .h5", path=output)
     if isinstance(inputs, (str, Path)):
         inputs = [inputs]
+    if inputs is not None and not isinstance(inputs, (list, tuple)):
+        raise LidarSigError(f"inputs must be a path or a list of LAS/LAZ tiles and folders, got {a_kind(inputs)}")
     if not inputs:
         raise LidarSigError("give at least one LAS/LAZ tile or folder of tiles")
     files = [str(f) for f in expand(inputs)]
@@ -94,6 +96,8 @@ def build_catalog(inputs, output, pipeline=None, *, backend=None, work=None, res
     else:
         check_output(output, overwrite=overwrite)
     backend = backend or InProcess()
+    if not callable(getattr(backend, "run", None)):
+        raise LidarSigError(f"backend must be one of lidar_sig.executor(...), got {a_kind(backend)}")
     work = Path(work) if work is not None else output.with_name(output.name + ".work")
     work = prepare_work(work, resume, keep=[*files, output])
     run = CatalogRun(str(output), execution=backend.description, grown=old is not None)
@@ -113,6 +117,12 @@ def build_catalog(inputs, output, pipeline=None, *, backend=None, work=None, res
             if summary.get("resumed"):
                 run.resumed.append(path)
             finished.append(path)
+    if not finished and old is None and run.failed:  # nothing to write: the inputs are at fault
+        remove_work(work)
+        if len(files) == 1:
+            raise LidarSigError(run.failed[files[0]], path=files[0])
+        raise LidarSigError(f"no catalogue written: none of the {len(files)} tiles could be computed ("
+                            + "; ".join(run.missing[:3]) + ("; ..." if len(run.missing) > 3 else "") + ")")
     if finished or old is None or overwrite:
         tiles = _merge(old, [_load(work, p) for p in sorted(finished)], output)
         if tiles:

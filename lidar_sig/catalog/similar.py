@@ -71,7 +71,8 @@ def similar(catalog, query, *, top=10, metric=None, shortlist=None, columns=None
         raise LidarSigError(f"unknown metric {metric!r}; use distance or one of {', '.join(keys)}")
     n = len(catalog)
     top = min(whole_number(top, "top (how many tiles to list)", low=1), n)
-    size = shortlist_size(top, n) if shortlist is None else min(n, whole_number(shortlist, "shortlist", low=top))
+    what = f"shortlist (--shortlist: the tiles given every metric, at least the {top} listed, --top)"
+    size = shortlist_size(top, n) if shortlist is None else min(n, whole_number(shortlist, what, low=top))
     q = catalog.query(query, columns=columns)
     spread = catalog.spread
     screen = {k: v[0] for k, v in screening(q.features, catalog.features, catalog.labelled).items()}

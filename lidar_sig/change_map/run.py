@@ -116,6 +116,8 @@ def changes(a, b, *more, cell=AUTO, pipeline=None, min_points=AUTO, score=None, 
         cell = auto_cell(min(densities))
     if min_points is None:
         min_points = auto_min_points(min(densities), cell)
+    for k in range(len(clouds) - 1):  # before the grid: disjoint epochs would span a needless one
+        _check_overlap(used[k], used[k + 1], names[k], names[k + 1])
     grid = Grid.covering(np.vstack(used), cell / units.horizontal)
     if grid.n_cells > MAX_CELLS:  # a far outlier, or a cell size meant in another unit
         raise LidarSigError(f"the epochs span {grid.cols:,} x {grid.rows:,} cells of {cell:g} m, more than "
@@ -126,8 +128,7 @@ def changes(a, b, *more, cell=AUTO, pipeline=None, min_points=AUTO, score=None, 
         if filled.max() < min_points:
             pair = "" if len(clouds) == 2 else f" {names[k]} and {names[k + 1]}"
             raise LidarSigError(f"no cell of {cell:g} m holds {counted(min_points, 'point')} in both "
-                                f"epochs{pair} (at most {filled.max():,}); use a larger cell size (--cell) or a "
-                                "smaller minimum (--min-points)")
+                                f"epochs{pair} (at most {filled.max():,}); {_fewer_points(min_points_rule)}")
     epochs, seconds = [], []
     for cloud, name, epoch, used_points in zip(clouds, names, given, kept):
         start = time.perf_counter()
@@ -146,7 +147,7 @@ def changes(a, b, *more, cell=AUTO, pipeline=None, min_points=AUTO, score=None, 
     maps = []
     for k in range(len(epochs) - 1):
         maps.append(_interval(k, epochs, binned, grid, classes, min_points, cell, render, frame, confidence, seed,
-                              score, method, units, names))
+                              score, method, units, names, min_points_rule))
         cm = maps[-1]
         cm.cell_rule, cm.min_points_rule = cell_rule, min_points_rule
         cm.density = (densities[k], densities[k + 1])
@@ -158,15 +159,15 @@ def changes(a, b, *more, cell=AUTO, pipeline=None, min_points=AUTO, score=None, 
 
 
 def _interval(k, epochs, binned, grid, classes, min_points, cell, render, frame, confidence, seed, score, method,
-              units, names):
+              units, names, min_points_rule):
     """The ChangeMap of epochs k and k + 1: table, metrics, levels of detection, ranking."""
     pair = binned[k:k + 2]
     table = cell_table(grid, pair, min_points)
     if not table["valid"].any():  # the points are there, their saliency is not
         most = int(np.minimum(table["defined_a"], table["defined_b"]).max())
         raise LidarSigError(f"no cell of {cell:g} m holds {counted(min_points, 'point')} with defined saliency in both "
-                            f"{names[k]} and {names[k + 1]} (at most {most:,}); use a larger cell size (--cell), a "
-                            "smaller minimum (--min-points) or larger scales")
+                            f"{names[k]} and {names[k + 1]} (at most {most:,}); {_fewer_points(min_points_rule)} "
+                            "or larger scales")
     n_valid = int(table["valid"].sum())
     timings = {}
     start = time.perf_counter()
@@ -188,6 +189,27 @@ def _interval(k, epochs, binned, grid, classes, min_points, cell, render, frame,
                    warnings=notes, timings=timings)
     cm.rank_by(score)
     return cm
+
+
+def _check_overlap(xy_a, xy_b, name_a, name_b):
+    """A LidarSigError when the extents of two epochs' (N, 2) points are disjoint: they share no
+    land to compare."""
+    low_a, high_a = xy_a.min(axis=0), xy_a.max(axis=0)
+    low_b, high_b = xy_b.min(axis=0), xy_b.max(axis=0)
+    if np.any(high_a < low_b) or np.any(high_b < low_a):
+        def extent(low, high):
+            return f"x {low[0]:.1f} to {high[0]:.1f}, y {low[1]:.1f} to {high[1]:.1f}"
+
+        raise LidarSigError(f"{name_a} ({extent(low_a, high_a)}) and {name_b} ({extent(low_b, high_b)}) do not "
+                            "overlap; give epochs of the same area")
+
+
+def _fewer_points(min_points_rule):
+    """The fix when no cell holds enough points: with --min-points auto, a fifth of a full cell,
+    a larger cell needs more points, so only a smaller one helps."""
+    if min_points_rule == AUTO:
+        return "use a smaller cell size (--cell) or give a smaller minimum (--min-points)"
+    return "use a larger cell size (--cell) or a smaller minimum (--min-points)"
 
 
 def _scheme_warnings(binned, classes, names, *, ranked_by=None):

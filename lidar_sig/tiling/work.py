@@ -25,6 +25,8 @@ def prepare_work(work, resume, keep=()):
         if p == work or work in p.parents:
             raise LidarSigError(f"would hold {p}, but the work folder is removed after the run; give "
                                 "--work-dir a folder of its own", path=work)
+    if work.exists() and not work.is_dir():
+        raise LidarSigError("is a file, not a folder; give --work-dir a new or empty folder", path=work)
     if work.exists() and any(work.iterdir()) and not (work / WORK_MARK).is_file():
         raise LidarSigError("is not empty and not a lidar_sig work folder; give a new or empty folder as "
                             "--work-dir", path=work)

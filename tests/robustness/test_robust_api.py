@@ -77,7 +77,7 @@ def test_arrays_run_like_clouds():
 
 def test_result_write_refuses_a_bad_path_or_overwrite(tmp_path):
     result = ls.Pipeline(scales=ls.knn(10)).run(XYZ)
-    for path, named in ((None, "file path"), (3, "got a int")):
+    for path, named in ((None, "file path"), (3, "got an int")):
         with pytest.raises(ls.LidarSigError, match=named):
             result.write(path)
     (tmp_path / "o.laz").write_bytes(b"keep")
