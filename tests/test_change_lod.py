@@ -47,6 +47,20 @@ def test_with_few_cells_the_level_covers_sampling_noise_only():
     assert level.significant.tolist() == [False] * 6 + [True]
 
 
+def test_a_cell_whose_second_epoch_holds_one_class_is_significant_when_it_changed():
+    # a cell whose buildings were all removed: the resamples of epoch B (ground only) compare
+    # exactly equal (delta_KL 0) while those of A do not; the spread of the replicates' logs,
+    # with the zeros floored at 1e-12, made its level of detection 42,252 against a score of 5.6
+    rng = np.random.default_rng(5)
+    null = rng.lognormal(np.log(5e-4), 0.8, (16, 6))
+    scores = null.mean(axis=1) * rng.lognormal(0.0, 0.3, 16)
+    null[11] = [1.8e-3, 1.4e-4, 9.7e-4, 0.0, 0.0, 0.0]
+    scores[11] = 5.6
+    level = level_of_detection(scores, null, np.ones(16, bool))
+    assert level.sigma[11] < 2.0 and level.lod[11] < 0.1
+    assert level.significant.tolist() == [c == 11 for c in range(16)]
+
+
 def test_cells_not_compared_undefined_metrics_and_identical_cells_give_no_significance():
     null = np.array([[0.0, 0.0, 0.0, 0.0], [0.1, 0.2, 0.1, 0.15], [0.1, 0.1, 0.1, 0.1]] * 4)
     scores = np.array([0.0, 0.12, np.nan] * 4)

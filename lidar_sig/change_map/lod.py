@@ -6,7 +6,8 @@ Two parts, combined on the log scale of the scores:
 - **Sampling** (per cell): the cell's points of each epoch resampled with replacement at both
   epochs' counts and compared, :data:`REPLICATES` times from each epoch
   (:func:`lidar_sig.change_map.cells.null_metrics`). Their mean ``mu0`` is the score of
-  unchanged land sampled as this cell is; ``sigma`` the spread of their logs.
+  unchanged land sampled as this cell is; ``sigma`` the spread of their logs, from their mean
+  and variance as for a lognormal sample (a replicate may be 0).
 - **Survey** (over all compared cells): ``l = ln(score / mu0)`` of every cell; its median
   ``beta`` is what differs between the two surveys everywhere (density, noise, sensor, a
   classification scheme), its robust spread ``tau`` (1.4826 x MAD) how much that varies from
@@ -46,7 +47,7 @@ class Level:
     (``significant`` False) where a cell is not compared.
 
     ``mu0``: mean replicate score (unchanged land, this cell's sampling); ``sigma``: spread of
-    the replicates' logs; ``z``: how far the cell's score lies above its expected value, in
+    the replicates' logs (sqrt(ln(1 + CV²)) of the replicates); ``z``: how far the cell's score lies above its expected value, in
     spreads; ``lod``: the score above which the cell changed significantly; ``beta``, ``tau``:
     the survey part (median and robust spread of ln(score / mu0) over the compared cells);
     ``survey``: whether it was estimated (at least :data:`MIN_CELLS` cells).
@@ -84,9 +85,16 @@ def level_of_detection(scores, null, valid, *, confidence=CONFIDENCE):
     significant = np.zeros(n, bool)
     if not use.any():
         return Level(mu0, sigma, z, lod, significant, 0.0, 0.0, False, confidence)
-    replicates = np.maximum(null[use], VALUE_FLOOR)
-    mu0[use] = replicates.mean(axis=1)
-    sigma[use] = np.maximum(np.log(replicates).std(axis=1, ddof=1), SPREAD_FLOOR)
+    replicates = null[use]
+    mean = replicates.mean(axis=1)
+    mu0[use] = np.maximum(mean, VALUE_FLOOR)
+    # the spread of the replicates' logs from their mean and variance, as of a lognormal sample
+    # (var ln X = ln(1 + CV²)): a replicate of 0, where one epoch's cell holds a single class
+    # and compares exactly equal with itself, is a small value here, where its logarithm
+    # (floored) made the spread, and the level of detection, thousands of times too large
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cv2 = np.where(mean > 0, replicates.var(axis=1, ddof=1) / mean ** 2, 0.0)
+    sigma[use] = np.maximum(np.sqrt(np.log1p(cv2)), SPREAD_FLOOR)
     ratio = np.log(np.maximum(scores[use], VALUE_FLOOR) / mu0[use])
     survey = int(use.sum()) >= MIN_CELLS
     if survey:
