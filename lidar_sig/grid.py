@@ -50,9 +50,10 @@ def _select(d, ix, n, k):
             return
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _insertion_sort(d, ix, n):
-    """Sort d[:n] ascending in place, ix follows (fast for the ~100 items of a neighbourhood)."""
+    """Sort d[:n] ascending in place, ix follows: fast for a few items, or for items already
+    near their places."""
     for a in range(1, n):
         v = d[a]
         w = ix[a]
@@ -63,6 +64,46 @@ def _insertion_sort(d, ix, n):
             b -= 1
         d[b + 1] = v
         ix[b + 1] = w
+
+
+#: Up to this many nearest, a quickselect and an insertion sort; more go through buckets.
+_FEW = 16
+
+
+@njit(cache=True)
+def _nearest_sorted(d, ix, m, n, span, bucket, counts, tmp_d, tmp_i, out_d, out_i):
+    """The ``n`` smallest of d[:m] (each in [0, span]) into out_d[:n] ascending, out_i following.
+
+    A bucket sort: the candidates are filed, in one branch-free pass, into about m / 4 buckets
+    of equal width in squared distance, then an insertion sort finishes the buckets that hold
+    the n smallest, each item moving only within its bucket. Around a point on a surface the
+    number of points grows as the squared distance, so the buckets fill about evenly; any
+    distribution is still sorted exactly (clustered distances only cost more moves). The work
+    arrays hold at least m items, ``counts`` at least m // 4 + 1.
+    """
+    nb = max(1, m // 4)
+    scale = nb / span if span > 0.0 else 0.0
+    counts[:nb + 1] = 0
+    for a in range(m):
+        b = min(int(d[a] * scale), nb - 1)
+        bucket[a] = b
+        counts[b + 1] += 1
+    for b in range(nb):
+        counts[b + 1] += counts[b]
+    for a in range(m):
+        b = bucket[a]
+        pos = counts[b]
+        tmp_d[pos] = d[a]
+        tmp_i[pos] = ix[a]
+        counts[b] = pos + 1
+    end = 0  # counts[b] is now the end of bucket b: sort the buckets up to the n-th item's
+    for b in range(nb):
+        end = counts[b]
+        if end >= n:
+            break
+    _insertion_sort(tmp_d, tmp_i, end)
+    out_d[:n] = tmp_d[:n]
+    out_i[:n] = tmp_i[:n]
 
 
 @njit(cache=True)
@@ -164,8 +205,11 @@ def nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, origin, h,
         shell_end = np.empty(s_max + 2, np.int64)
         buf_d = np.empty(4096)
         buf_i = np.empty(4096, np.int64)
-        bucket = np.empty(k, np.int64)
+        bucket = np.empty(max(k, 4096), np.int64)
         scale_counts = np.empty(r2s.size + 1, np.int64)
+        tmp_d = np.empty(4096)  # the k-nearest bucket sort's work space, grown with buf_d
+        tmp_i = np.empty(4096, np.int64)
+        bucket_counts = np.empty(4096 // 4 + 1, np.int64)
         prev = -1
         prev_dk = 0.0
         g0 = chunk * n_groups // n_chunks
@@ -210,6 +254,8 @@ def nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, origin, h,
                     if s_need > s_max:
                         settled = False
                         break
+                    if knn_mode and s_need >= s_cover:
+                        t2 = np.inf  # the shells hold every voxel: take every point
                     while n_shells <= s_need:
                         n_ranges = _shell(ci, cj, ck, n_shells, dims, cell_keys, lut, cell_start, rs, re, rc, n_ranges)
                         shell_end[n_shells] = n_ranges
@@ -244,14 +290,22 @@ def nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, origin, h,
                     continue
                 if knn_mode:
                     n = min(m, k)
-                    if m > n:
-                        _select(buf_d, buf_i, m, n)
-                    _insertion_sort(buf_d, buf_i, n)
-                    hd[:n] = buf_d[:n]
-                    hi[:n] = buf_i[:n]
+                    if n <= _FEW:
+                        if m > n:
+                            _select(buf_d, buf_i, m, n)
+                        _insertion_sort(buf_d, buf_i, n)
+                        hd[:n] = buf_d[:n]
+                        hi[:n] = buf_i[:n]
+                    else:
+                        if m > tmp_d.size:
+                            tmp_d = np.empty(buf_d.size)
+                            tmp_i = np.empty(buf_d.size, np.int64)
+                            bucket = np.empty(buf_d.size, np.int64)
+                            bucket_counts = np.empty(buf_d.size // 4 + 1, np.int64)
+                        _nearest_sorted(buf_d, buf_i, m, n, t2, bucket, bucket_counts, tmp_d, tmp_i, hd, hi)
                     if n == k:
                         prev = q
-                        prev_dk = np.sqrt(buf_d[n - 1])
+                        prev_dk = np.sqrt(hd[n - 1])
                 else:
                     out_total[qpos] = m  # before the cap
                     n = _partition_radius(buf_d, buf_i, m, r2s, k, hd, hi, bucket, scale_counts)
@@ -275,6 +329,31 @@ def count_within(d2, n, limits, counts):
             while c < n[b] and d2[b, c] <= limit:
                 c += 1
             counts[b, s] = c
+
+
+@njit(cache=True, parallel=True)
+def nearest_by_scan(pts, queries, k, out_d2, out_idx, out_n, out_rows):
+    """The k nearest of ``pts`` to each point ``queries[a]``, sorted, into row ``out_rows[a]`` of
+    ``out_d2`` and ``out_idx`` (``out_n`` the count): a scan of every point, for the few queries
+    the voxel shells cannot settle. Squared distances are computed as :func:`nearest` does."""
+    n_pts = pts.shape[0]
+    k = min(k, n_pts)
+    for a in prange(queries.size):
+        q = queries[a]
+        d = np.empty(n_pts)
+        ix = np.arange(n_pts)
+        for j in range(n_pts):
+            dx = pts[j, 0] - pts[q, 0]
+            dy = pts[j, 1] - pts[q, 1]
+            dz = pts[j, 2] - pts[q, 2]
+            d[j] = dx * dx + dy * dy + dz * dz
+        if n_pts > k:
+            _select(d, ix, n_pts, k)
+        _insertion_sort(d, ix, k)
+        row = out_rows[a]
+        out_d2[row, :k] = d[:k]
+        out_idx[row, :k] = ix[:k]
+        out_n[row] = k
 
 
 #: Voxels of the dense voxel -> occupied-voxel look-up table, at most (else binary search).
