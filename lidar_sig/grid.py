@@ -332,6 +332,75 @@ def count_within(d2, n, limits, counts):
 
 
 @njit(cache=True, parallel=True)
+def third_nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, origin, h, queries, group_start,
+                  s_max, n_chunks, out_d2, done):
+    """Squared distance from each query to its third-nearest point, the query itself first (so its
+    second-nearest other point): the k = 3 search of the area weights without a candidate list.
+
+    Each query keeps its three smallest squared distances while it scans its own voxel, then the
+    voxels of the next Chebyshev shell that can still hold a nearer point, and stops once no point
+    beyond the shells scanned can be nearer (a point outside shell s is farther than s voxel sides
+    plus the query's distance to its own voxel's faces). ``queries``, ``group_start`` as in
+    :func:`nearest`; ``done[i]`` is False where ``s_max`` shells did not settle the query.
+    """
+    n_groups = group_start.size - 1
+    n_chunks = max(1, min(n_groups, n_chunks))
+    cap = (2 * s_max + 1) ** 3
+    s_cover = max(dims[0], max(dims[1], dims[2]))
+    for chunk in prange(n_chunks):
+        rs = np.empty(cap, np.int64)
+        re = np.empty(cap, np.int64)
+        rc = np.empty(cap, np.int64)
+        shell_end = np.empty(s_max + 2, np.int64)
+        g0 = chunk * n_groups // n_chunks
+        g1 = (chunk + 1) * n_groups // n_chunks
+        for g in range(g0, g1):
+            c = cell_of[queries[group_start[g]]]
+            ci, cj, ck = cell_ijk[c, 0], cell_ijk[c, 1], cell_ijk[c, 2]
+            n_shells = 0
+            n_ranges = 0
+            for qpos in range(group_start[g], group_start[g + 1]):
+                q = queries[qpos]
+                qx, qy, qz = pts[q, 0], pts[q, 1], pts[q, 2]
+                lx = qx - (origin[0] + ci * h)
+                ly = qy - (origin[1] + cj * h)
+                lz = qz - (origin[2] + ck * h)
+                margin = max(0.0, min(min(lx, h - lx), min(min(ly, h - ly), min(lz, h - lz))))
+                b0 = b1 = b2 = np.inf
+                settled = False
+                for s in range(s_max + 1):
+                    while n_shells <= s:
+                        n_ranges = _shell(ci, cj, ck, n_shells, dims, cell_keys, lut, cell_start, rs, re, rc, n_ranges)
+                        shell_end[n_shells] = n_ranges
+                        n_shells += 1
+                    first = shell_end[s - 1] if s > 0 else 0
+                    for r in range(first, shell_end[s]):
+                        if s > 0 and _box_d2(origin, h, cell_ijk, rc[r], qx, qy, qz) > b2:
+                            continue
+                        for j in range(rs[r], re[r]):
+                            dx = pts[j, 0] - qx
+                            dy = pts[j, 1] - qy
+                            dz = pts[j, 2] - qz
+                            d2 = dx * dx + dy * dy + dz * dz
+                            if d2 < b2:
+                                if d2 < b1:
+                                    b2 = b1
+                                    if d2 < b0:
+                                        b1 = b0
+                                        b0 = d2
+                                    else:
+                                        b1 = d2
+                                else:
+                                    b2 = d2
+                    reach = s * h + margin  # no point beyond shell s is nearer than this
+                    if reach * reach >= b2 * (1.0 + 1e-12) or s >= s_cover:  # round-off kept out
+                        settled = b2 < np.inf
+                        break
+                out_d2[qpos] = b2
+                done[qpos] = settled
+
+
+@njit(cache=True, parallel=True)
 def nearest_by_scan(pts, queries, k, out_d2, out_idx, out_n, out_rows):
     """The k nearest of ``pts`` to each point ``queries[a]``, sorted, into row ``out_rows[a]`` of
     ``out_d2`` and ``out_idx`` (``out_n`` the count): a scan of every point, for the few queries
@@ -392,6 +461,21 @@ class VoxelGrid:
             self.lut = np.full(n_cells, -1, np.int64)
             self.lut[self.cell_keys] = np.arange(len(self.cell_keys))
 
+    def _groups(self, queries):
+        """``queries`` as int64 and the starts of their runs of one voxel."""
+        queries = np.asarray(queries, dtype=np.int64)
+        breaks = np.flatnonzero(np.diff(self.cell_of[queries])) + 1
+        return queries, np.concatenate([[0], breaks, [len(queries)]]).astype(np.int64)
+
+    def third_distances(self, queries, d2, done, s_max=4):
+        """Squared distance of each sorted-order point ``queries[i]`` to its third-nearest point,
+        itself included, into ``d2[i]``; ``done[i]`` False where ``s_max`` shells did not settle
+        it (:func:`third_nearest`)."""
+        queries, group_start = self._groups(queries)
+        third_nearest(self.points, self.cell_of, self.cell_ijk, self.cell_start, self.cell_keys, self.lut,
+                      self.dims, self.origin, self.cell, queries, group_start, int(s_max),
+                      8 * get_num_threads(), d2, done)
+
     def search(self, queries, d2, idx, n, total, done, ks=None, radii2=None, cap=512, s_max=4):
         """Neighbours of the sorted-order points ``queries`` into ``d2``, ``idx``, ``n``,
         ``total`` (spherical mode) and ``done``.
@@ -399,10 +483,7 @@ class VoxelGrid:
         Give ``ks`` (k-nearest scales, ascending) or ``radii2`` (squared radii, ascending, at
         most ``cap`` nearest). Row i gets n[i] neighbours; the rest of the row is left as is.
         """
-        queries = np.asarray(queries, dtype=np.int64)
-        cells = self.cell_of[queries]
-        breaks = np.flatnonzero(np.diff(cells)) + 1  # runs of queries in one voxel
-        group_start = np.concatenate([[0], breaks, [len(queries)]]).astype(np.int64)
+        queries, group_start = self._groups(queries)
         if radii2 is None:
             ks = np.asarray(ks, dtype=np.int64)
             r2s = np.empty(0)

@@ -275,6 +275,16 @@ class NeighborIndex:
         k = min(3, n)  # the point itself and two others
         rows = np.arange(n) if rows is None else np.asarray(rows, dtype=np.int64)
         d_second = np.zeros(len(rows))
+        if k == 3:  # no candidate lists: each query keeps its three nearest as it scans
+            third, done = np.empty(len(rows)), np.zeros(len(rows), np.bool_)
+            self.grid.third_distances(rows, third, done, s_max=_KNN_SHELLS)
+            todo = np.flatnonzero(~done)
+            if len(todo):
+                d2, idx = np.empty((len(todo), k)), np.empty((len(todo), k), np.int64)
+                found, total = np.zeros(len(todo), np.int64), np.zeros(len(todo), np.int64)
+                self._complete(rows[todo], d2, idx, found, total, done[todo], k, kind="knn")
+                third[todo] = d2[:, k - 1]
+            return np.sqrt(third)
         step = self.block_size()
         for start in range(0, len(rows), step):
             part = slice(start, start + step)
