@@ -400,8 +400,7 @@ def _robust_density(xyz):
 def _knn_cell(k, density, volume):
     """Voxel side for k-nearest search: 1.5 times the k-th neighbour distance at the cloud's
     density, so that most queries find their k nearest within the voxels next to theirs (a poor
-    guess costs time, never correctness; 1.5 was the fastest of 0.5 to 2 on AHN3 for k = 48
-    and 108, and agreed on a second AHN3 tile and an IGN tile). Not smaller than the side at
+    guess costs time, never correctness; docs/performance.md has the measurements). Not smaller than the side at
     which the core box holds more voxels than the grid's dense look-up table (small k on a tall
     box would otherwise fall back to binary searches)."""
     from .grid import LUT_CELLS
