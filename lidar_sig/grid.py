@@ -50,9 +50,10 @@ def _select(d, ix, n, k):
             return
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _insertion_sort(d, ix, n):
-    """Sort d[:n] ascending in place, ix follows (fast for the ~100 items of a neighbourhood)."""
+    """Sort d[:n] ascending in place, ix follows: fast for a few items, or for items already
+    near their places."""
     for a in range(1, n):
         v = d[a]
         w = ix[a]
@@ -63,6 +64,46 @@ def _insertion_sort(d, ix, n):
             b -= 1
         d[b + 1] = v
         ix[b + 1] = w
+
+
+#: Up to this many nearest, a quickselect and an insertion sort; more go through buckets.
+_FEW = 16
+
+
+@njit(cache=True)
+def _nearest_sorted(d, ix, m, n, span, bucket, counts, tmp_d, tmp_i, out_d, out_i):
+    """The ``n`` smallest of d[:m] (each in [0, span]) into out_d[:n] ascending, out_i following.
+
+    A bucket sort: the candidates are filed, in one branch-free pass, into about m / 4 buckets
+    of equal width in squared distance, then an insertion sort finishes the buckets that hold
+    the n smallest, each item moving only within its bucket. Around a point on a surface the
+    number of points grows as the squared distance, so the buckets fill about evenly; any
+    distribution is still sorted exactly (clustered distances only cost more moves). The work
+    arrays hold at least m items, ``counts`` at least m // 4 + 1.
+    """
+    nb = max(1, m // 4)
+    scale = nb / span if span > 0.0 else 0.0
+    counts[:nb + 1] = 0
+    for a in range(m):
+        b = min(int(d[a] * scale), nb - 1)
+        bucket[a] = b
+        counts[b + 1] += 1
+    for b in range(nb):
+        counts[b + 1] += counts[b]
+    for a in range(m):
+        b = bucket[a]
+        pos = counts[b]
+        tmp_d[pos] = d[a]
+        tmp_i[pos] = ix[a]
+        counts[b] = pos + 1
+    end = 0  # counts[b] is now the end of bucket b: sort the buckets up to the n-th item's
+    for b in range(nb):
+        end = counts[b]
+        if end >= n:
+            break
+    _insertion_sort(tmp_d, tmp_i, end)
+    out_d[:n] = tmp_d[:n]
+    out_i[:n] = tmp_i[:n]
 
 
 @njit(cache=True)
@@ -164,8 +205,11 @@ def nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, origin, h,
         shell_end = np.empty(s_max + 2, np.int64)
         buf_d = np.empty(4096)
         buf_i = np.empty(4096, np.int64)
-        bucket = np.empty(k, np.int64)
+        bucket = np.empty(max(k, 4096), np.int64)
         scale_counts = np.empty(r2s.size + 1, np.int64)
+        tmp_d = np.empty(4096)  # the k-nearest bucket sort's work space, grown with buf_d
+        tmp_i = np.empty(4096, np.int64)
+        bucket_counts = np.empty(4096 // 4 + 1, np.int64)
         prev = -1
         prev_dk = 0.0
         g0 = chunk * n_groups // n_chunks
@@ -210,6 +254,8 @@ def nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, origin, h,
                     if s_need > s_max:
                         settled = False
                         break
+                    if knn_mode and s_need >= s_cover:
+                        t2 = np.inf  # the shells hold every voxel: take every point
                     while n_shells <= s_need:
                         n_ranges = _shell(ci, cj, ck, n_shells, dims, cell_keys, lut, cell_start, rs, re, rc, n_ranges)
                         shell_end[n_shells] = n_ranges
@@ -244,14 +290,22 @@ def nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, origin, h,
                     continue
                 if knn_mode:
                     n = min(m, k)
-                    if m > n:
-                        _select(buf_d, buf_i, m, n)
-                    _insertion_sort(buf_d, buf_i, n)
-                    hd[:n] = buf_d[:n]
-                    hi[:n] = buf_i[:n]
+                    if n <= _FEW:
+                        if m > n:
+                            _select(buf_d, buf_i, m, n)
+                        _insertion_sort(buf_d, buf_i, n)
+                        hd[:n] = buf_d[:n]
+                        hi[:n] = buf_i[:n]
+                    else:
+                        if m > tmp_d.size:
+                            tmp_d = np.empty(buf_d.size)
+                            tmp_i = np.empty(buf_d.size, np.int64)
+                            bucket = np.empty(buf_d.size, np.int64)
+                            bucket_counts = np.empty(buf_d.size // 4 + 1, np.int64)
+                        _nearest_sorted(buf_d, buf_i, m, n, t2, bucket, bucket_counts, tmp_d, tmp_i, hd, hi)
                     if n == k:
                         prev = q
-                        prev_dk = np.sqrt(buf_d[n - 1])
+                        prev_dk = np.sqrt(hd[n - 1])
                 else:
                     out_total[qpos] = m  # before the cap
                     n = _partition_radius(buf_d, buf_i, m, r2s, k, hd, hi, bucket, scale_counts)
@@ -275,6 +329,100 @@ def count_within(d2, n, limits, counts):
             while c < n[b] and d2[b, c] <= limit:
                 c += 1
             counts[b, s] = c
+
+
+@njit(cache=True, parallel=True)
+def third_nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, origin, h, queries, group_start,
+                  s_max, n_chunks, out_d2, done):
+    """Squared distance from each query to its third-nearest point, the query itself first (so its
+    second-nearest other point): the k = 3 search of the area weights without a candidate list.
+
+    Each query keeps its three smallest squared distances while it scans its own voxel, then the
+    voxels of the next Chebyshev shell that can still hold a nearer point, and stops once no point
+    beyond the shells scanned can be nearer (a point outside shell s is farther than s voxel sides
+    plus the query's distance to its own voxel's faces). ``queries``, ``group_start`` as in
+    :func:`nearest`; ``done[i]`` is False where ``s_max`` shells did not settle the query.
+    """
+    n_groups = group_start.size - 1
+    n_chunks = max(1, min(n_groups, n_chunks))
+    cap = (2 * s_max + 1) ** 3
+    s_cover = max(dims[0], max(dims[1], dims[2]))
+    for chunk in prange(n_chunks):
+        rs = np.empty(cap, np.int64)
+        re = np.empty(cap, np.int64)
+        rc = np.empty(cap, np.int64)
+        shell_end = np.empty(s_max + 2, np.int64)
+        g0 = chunk * n_groups // n_chunks
+        g1 = (chunk + 1) * n_groups // n_chunks
+        for g in range(g0, g1):
+            c = cell_of[queries[group_start[g]]]
+            ci, cj, ck = cell_ijk[c, 0], cell_ijk[c, 1], cell_ijk[c, 2]
+            n_shells = 0
+            n_ranges = 0
+            for qpos in range(group_start[g], group_start[g + 1]):
+                q = queries[qpos]
+                qx, qy, qz = pts[q, 0], pts[q, 1], pts[q, 2]
+                lx = qx - (origin[0] + ci * h)
+                ly = qy - (origin[1] + cj * h)
+                lz = qz - (origin[2] + ck * h)
+                margin = max(0.0, min(min(lx, h - lx), min(min(ly, h - ly), min(lz, h - lz))))
+                b0 = b1 = b2 = np.inf
+                settled = False
+                for s in range(s_max + 1):
+                    while n_shells <= s:
+                        n_ranges = _shell(ci, cj, ck, n_shells, dims, cell_keys, lut, cell_start, rs, re, rc, n_ranges)
+                        shell_end[n_shells] = n_ranges
+                        n_shells += 1
+                    first = shell_end[s - 1] if s > 0 else 0
+                    for r in range(first, shell_end[s]):
+                        if s > 0 and _box_d2(origin, h, cell_ijk, rc[r], qx, qy, qz) > b2:
+                            continue
+                        for j in range(rs[r], re[r]):
+                            dx = pts[j, 0] - qx
+                            dy = pts[j, 1] - qy
+                            dz = pts[j, 2] - qz
+                            d2 = dx * dx + dy * dy + dz * dz
+                            if d2 < b2:
+                                if d2 < b1:
+                                    b2 = b1
+                                    if d2 < b0:
+                                        b1 = b0
+                                        b0 = d2
+                                    else:
+                                        b1 = d2
+                                else:
+                                    b2 = d2
+                    reach = s * h + margin  # no point beyond shell s is nearer than this
+                    if reach * reach >= b2 * (1.0 + 1e-12) or s >= s_cover:  # round-off kept out
+                        settled = b2 < np.inf
+                        break
+                out_d2[qpos] = b2
+                done[qpos] = settled
+
+
+@njit(cache=True, parallel=True)
+def nearest_by_scan(pts, queries, k, out_d2, out_idx, out_n, out_rows):
+    """The k nearest of ``pts`` to each point ``queries[a]``, sorted, into row ``out_rows[a]`` of
+    ``out_d2`` and ``out_idx`` (``out_n`` the count): a scan of every point, for the few queries
+    the voxel shells cannot settle. Squared distances are computed as :func:`nearest` does."""
+    n_pts = pts.shape[0]
+    k = min(k, n_pts)
+    for a in prange(queries.size):
+        q = queries[a]
+        d = np.empty(n_pts)
+        ix = np.arange(n_pts)
+        for j in range(n_pts):
+            dx = pts[j, 0] - pts[q, 0]
+            dy = pts[j, 1] - pts[q, 1]
+            dz = pts[j, 2] - pts[q, 2]
+            d[j] = dx * dx + dy * dy + dz * dz
+        if n_pts > k:
+            _select(d, ix, n_pts, k)
+        _insertion_sort(d, ix, k)
+        row = out_rows[a]
+        out_d2[row, :k] = d[:k]
+        out_idx[row, :k] = ix[:k]
+        out_n[row] = k
 
 
 #: Voxels of the dense voxel -> occupied-voxel look-up table, at most (else binary search).
@@ -313,6 +461,21 @@ class VoxelGrid:
             self.lut = np.full(n_cells, -1, np.int64)
             self.lut[self.cell_keys] = np.arange(len(self.cell_keys))
 
+    def _groups(self, queries):
+        """``queries`` as int64 and the starts of their runs of one voxel."""
+        queries = np.asarray(queries, dtype=np.int64)
+        breaks = np.flatnonzero(np.diff(self.cell_of[queries])) + 1
+        return queries, np.concatenate([[0], breaks, [len(queries)]]).astype(np.int64)
+
+    def third_distances(self, queries, d2, done, s_max=4):
+        """Squared distance of each sorted-order point ``queries[i]`` to its third-nearest point,
+        itself included, into ``d2[i]``; ``done[i]`` False where ``s_max`` shells did not settle
+        it (:func:`third_nearest`)."""
+        queries, group_start = self._groups(queries)
+        third_nearest(self.points, self.cell_of, self.cell_ijk, self.cell_start, self.cell_keys, self.lut,
+                      self.dims, self.origin, self.cell, queries, group_start, int(s_max),
+                      8 * get_num_threads(), d2, done)
+
     def search(self, queries, d2, idx, n, total, done, ks=None, radii2=None, cap=512, s_max=4):
         """Neighbours of the sorted-order points ``queries`` into ``d2``, ``idx``, ``n``,
         ``total`` (spherical mode) and ``done``.
@@ -320,10 +483,7 @@ class VoxelGrid:
         Give ``ks`` (k-nearest scales, ascending) or ``radii2`` (squared radii, ascending, at
         most ``cap`` nearest). Row i gets n[i] neighbours; the rest of the row is left as is.
         """
-        queries = np.asarray(queries, dtype=np.int64)
-        cells = self.cell_of[queries]
-        breaks = np.flatnonzero(np.diff(cells)) + 1  # runs of queries in one voxel
-        group_start = np.concatenate([[0], breaks, [len(queries)]]).astype(np.int64)
+        queries, group_start = self._groups(queries)
         if radii2 is None:
             ks = np.asarray(ks, dtype=np.int64)
             r2s = np.empty(0)

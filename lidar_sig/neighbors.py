@@ -27,6 +27,9 @@ import numpy as np
 _BLOCK_BYTES = 96 * 2**20
 # Voxel shells a k-nearest query may grow before it is handed to the k-d tree.
 _KNN_SHELLS = 6
+# Queries x points up to which unsettled k-nearest queries scan every point instead of building a
+# k-d tree (about 0.05 s; a tree of 640,000 points takes 0.15 s to build, for a handful of queries).
+_SCAN_ALL = 50_000_000
 #: Neighbour weights: "area" (see the module docstring) or "none" (plain means, the paper's).
 WEIGHTS = ("area", "none")
 #: k-nearest neighbourhoods take every point tied with the k-th neighbour (squared distance
@@ -185,8 +188,10 @@ class NeighborIndex:
             self.s_max = _KNN_SHELLS
         else:
             self.width = min(self.max_neighbors, n)
-            cell = float(self.scales.max())
-            self.s_max = 1  # a voxel as large as the radius: its 27 neighbours hold the sphere
+            # a voxel as large as the radius stretched by the tie rule: its 27 neighbours hold the
+            # sphere, even for a query on a voxel's face
+            cell = radius_reach(float(self.scales.max()))
+            self.s_max = 1
         self.grid = VoxelGrid(xyz, cell)
         self.xyz = self.grid.points
         self.order = self.grid.order
@@ -270,6 +275,16 @@ class NeighborIndex:
         k = min(3, n)  # the point itself and two others
         rows = np.arange(n) if rows is None else np.asarray(rows, dtype=np.int64)
         d_second = np.zeros(len(rows))
+        if k == 3:  # no candidate lists: each query keeps its three nearest as it scans
+            third, done = np.empty(len(rows)), np.zeros(len(rows), np.bool_)
+            self.grid.third_distances(rows, third, done, s_max=_KNN_SHELLS)
+            todo = np.flatnonzero(~done)
+            if len(todo):
+                d2, idx = np.empty((len(todo), k)), np.empty((len(todo), k), np.int64)
+                found, total = np.zeros(len(todo), np.int64), np.zeros(len(todo), np.int64)
+                self._complete(rows[todo], d2, idx, found, total, done[todo], k, kind="knn")
+                third[todo] = d2[:, k - 1]
+            return np.sqrt(third)
         step = self.block_size()
         for start in range(0, len(rows), step):
             part = slice(start, start + step)
@@ -292,10 +307,15 @@ class NeighborIndex:
         return self._tree
 
     def _complete(self, rows, d2, idx, n, total, done, width, kind=None):
-        # Queries the voxel shells could not settle (isolated points far from the rest, or a
-        # sphere's query on the face of a voxel), listed sorted by distance.
+        # Queries the voxel shells could not settle (isolated points far from the rest), listed
+        # sorted by distance: a few by a scan of every point, more by a k-d tree.
         kind = kind or self.kind
         todo = np.flatnonzero(~done)
+        if kind == "knn" and len(todo) * len(self.xyz) <= _SCAN_ALL:
+            from .grid import nearest_by_scan
+
+            nearest_by_scan(self.xyz, rows[todo], width, d2, idx, n, todo)
+            return
         q = self.xyz[rows[todo]]
         if kind == "knn":
             dist, nb = self._kdtree().query(q, k=width)
@@ -378,12 +398,13 @@ def _robust_density(xyz):
 
 
 def _knn_cell(k, density, volume):
-    """Voxel side for k-nearest search: about the k-th neighbour distance at the cloud's density
-    (a poor guess costs time, never correctness). Not smaller than the side at which the core
-    box holds more voxels than the grid's dense look-up table (small k on a tall box would
-    otherwise fall back to binary searches)."""
+    """Voxel side for k-nearest search: 1.5 times the k-th neighbour distance at the cloud's
+    density, so that most queries find their k nearest within the voxels next to theirs (a poor
+    guess costs time, never correctness; docs/performance.md has the measurements). Not smaller than the side at
+    which the core box holds more voxels than the grid's dense look-up table (small k on a tall
+    box would otherwise fall back to binary searches)."""
     from .grid import LUT_CELLS
 
-    cell = 0.9 * np.sqrt(k / (np.pi * density))
+    cell = 1.5 * np.sqrt(k / (np.pi * density))
     cell = max(cell, (volume / LUT_CELLS) ** (1.0 / 3.0))
     return float(cell) if np.isfinite(cell) and cell > 0 else 1.0

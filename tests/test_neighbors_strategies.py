@@ -52,6 +52,44 @@ def test_knn_on_real_like_cloud_with_outliers_matches_kdtree():
     assert (got[:, 100:][extra] <= np.repeat(ref[:, 99:], width - 100, axis=1)[extra] * np.sqrt(1 + TIE)).all()
 
 
+def test_knn_lists_are_sorted_where_distances_crowd_into_few_values():
+    # a lattice: every distance repeats many times, so the bucket sort of the candidates meets
+    # crowded buckets and long runs of ties; the lists must still be exactly the k nearest, sorted
+    g = np.arange(12, dtype=float)
+    xyz = np.stack(np.meshgrid(g, g, g[:4], indexing="ij"), -1).reshape(-1, 3) * 0.5
+    index = NeighborIndex(xyz, "knn", np.array([30, 60]))
+    batch = index.query(np.arange(len(xyz)))
+    ref, _ = cKDTree(index.xyz).query(index.xyz, k=60)
+    np.testing.assert_allclose(batch.dist[:, :60], ref, rtol=1e-12)
+    assert (np.diff(batch.d2[:, :60], axis=1) >= 0).all()
+
+
+@pytest.mark.parametrize("scan_all", [0, 10**9])
+def test_unsettled_queries_by_tree_or_by_scan_give_the_same_neighbours(monkeypatch, scan_all):
+    # isolated points far from a dense patch: the voxel shells cannot settle them, and they are
+    # completed either by a k-d tree or, when few, by a scan of every point
+    import lidar_sig.neighbors as neighbors
+
+    monkeypatch.setattr(neighbors, "_SCAN_ALL", scan_all)
+    rng = np.random.default_rng(3)
+    xyz = np.vstack([rng.uniform(0, 10, (2000, 3)) * [1, 1, 0.2], rng.uniform(200, 900, (30, 3))])
+    index = NeighborIndex(xyz, "knn", np.array([10, 20]), weights="area")
+    batch = index.query(np.arange(len(xyz)))
+    ref, _ = cKDTree(index.xyz).query(index.xyz, k=20)
+    np.testing.assert_allclose(batch.dist[:, :20], ref, rtol=1e-12)
+    second, _ = cKDTree(index.xyz).query(index.xyz, k=3)
+    np.testing.assert_allclose(index.second_distances(), second[:, 2], rtol=1e-12)
+
+
+@pytest.mark.parametrize("n", [2, 3])
+def test_second_distances_of_a_few_far_apart_points(n):
+    # so far apart that no voxel shell around one point reaches another: the farthest then
+    xyz = np.array([[0.0, 0.0, 0.0], [1000.0, 0.0, 0.0], [0.0, 3000.0, 0.0]])[:n]
+    index = NeighborIndex(xyz, "knn", np.array([n]))
+    d = np.linalg.norm(index.xyz[:, None] - index.xyz[None], axis=2)
+    np.testing.assert_allclose(index.second_distances(), np.sort(d, axis=1)[:, n - 1], rtol=1e-12)
+
+
 def test_reach_holds_the_neighbourhood_and_no_point_beyond_can_join(pts):
     # what a tile's halo is checked against: every neighbour lies within the reach, and a
     # point beyond it is farther than the tie rule lets in (brute-force distances)
