@@ -295,11 +295,6 @@ def source_of(ids):
     return np.asarray(ids) >> ID_BITS
 
 
-def index_of(ids):
-    """Index in its file of point identifiers."""
-    return np.asarray(ids) & ((1 << ID_BITS) - 1)
-
-
 def tile_side_for(points_per_tile, density):
     """Tile side (metres) holding about ``points_per_tile`` points at ``density`` per m²."""
     return math.sqrt(points_per_tile / max(density, 1e-12))

@@ -13,8 +13,12 @@ from pathlib import Path
 import numpy as np
 
 from ..signature import Signature
-from .core import SetContext, Tiling, positions_of, tile_name, tile_saliency, tile_second_distances
+from .core import SetContext, Tiling, tile_name, tile_saliency, tile_second_distances
 from .sources import Cells, load_cells, source_of, stage_part
+
+
+#: Per-point results: (Cl, Cs, Cp) and the chosen scale index (-1: none or undefined).
+POINT_VALUES = np.dtype([("values", "f8", 3), ("chosen", "i8")])
 
 
 @dataclass(frozen=True)
@@ -61,8 +65,30 @@ class Plan:
 
 
 def result_path(work, ij):
-    """The file of tile ``ij``'s result in the work folder."""
+    """The file of tile ``ij``'s result in the work folder (its statistics and signature; it is
+    written last, so that its presence means the tile's per-point files are whole)."""
     return Path(work) / "tiles" / f"{tile_name(*ij)}.npz"
+
+
+def points_paths(work, ij):
+    """The files of tile ``ij``'s per-point results: the point identifiers, ascending, and
+    their (Cl, Cs, Cp) and chosen scale index (records of POINT_VALUES), in the same order."""
+    folder = Path(work) / "tiles"
+    return folder / f"{tile_name(*ij)}.ids.npy", folder / f"{tile_name(*ij)}.values.npy"
+
+
+def second_path(work, ij):
+    """The file of tile ``ij``'s second-neighbour distances, ascending (one per distinct
+    location of its core points)."""
+    return Path(work) / "second" / f"{tile_name(*ij)}.npy"
+
+
+def _save(path, array):
+    """``array`` as ``path`` (.npy), whole or not at all."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp.npy")
+    np.save(tmp, array)
+    os.replace(tmp, path)
 
 
 def stage_task(work, source, part, start, stop, cells, noise_codes):
@@ -72,8 +98,12 @@ def stage_task(work, source, part, start, stop, cells, noise_codes):
 
 
 def second_task(plan, ij):
-    """Second-neighbour distances of one tile's core locations (a task)."""
-    return tile_second_distances(plan.load_points, plan.tiling, ij, plan.ctx)
+    """Second-neighbour distances of one tile's core locations (a task), kept ascending in the
+    work folder for the set's median (:func:`lidar_sig.tiling.median.sorted_median`); returns
+    how many."""
+    d = np.sort(tile_second_distances(plan.load_points, plan.tiling, ij, plan.ctx))
+    _save(second_path(plan.work, ij), d)
+    return len(d)
 
 
 def tile_task(plan, ij):
@@ -85,30 +115,38 @@ def tile_task(plan, ij):
         with np.load(path) as done:
             if str(done["key"]) == key:
                 return {**json.loads(str(done["stats"])), "resumed": True}
+        path.unlink()  # another run's: its per-point files are about to be replaced
     t0 = time.perf_counter()
-    r = tile_saliency(plan.pipeline, plan.load_points, plan.tiling, ij, plan.ctx)
-    # the core points' class codes, from the tile's box widened by round-off (core points are
-    # decided by a floor of the same coordinates, which can put a point an ulp outside the box)
-    x0, y0, x1, y1 = plan.tiling.box(*ij)
-    eps = 1e-6 * max(plan.tiling.size, 1.0)
-    _, ids, labels = plan.load((x0 - eps, y0 - eps, x1 + eps, y1 + eps))
-    mine = np.isin(ids, r.ids)
-    if int(mine.sum()) != len(r.ids):
-        raise RuntimeError(f"{tile_name(*ij)}: {len(r.ids) - int(mine.sum())} core points not found again "
-                           "for their class codes")
-    codes = np.empty(len(r.ids), np.int64)
-    codes[positions_of(r.ids, ids[mine])] = labels[mine]
+    first = {}
+
+    def load(bounds):  # the tile's own block keeps its class codes: no second read for them
+        xyz, ids, labels = plan.load(bounds)
+        if not first:
+            first.update(xyz=xyz, labels=labels)
+        return xyz, ids
+
+    r = tile_saliency(plan.pipeline, load, plan.tiling, ij, plan.ctx)
+    codes = np.empty(0, np.int64)
+    if first:  # core points in the order of the first block, as tile_saliency lists them
+        core = np.all(plan.tiling.index(first["xyz"]) == np.asarray(ij), axis=1)
+        codes = first["labels"][core]
     sig = Signature.from_saliency(r.values, plan.classes.index(codes), classes=plan.classes,
                                   frame=plan.pipeline.frame)
     flat = sig.counts.ravel()
     nz = np.flatnonzero(flat)
+    sids, per_source = np.unique(source_of(r.ids), return_counts=True)
     stats = {**r.stats, "n_undefined": sig.n_undefined, "seconds": time.perf_counter() - t0,
-             "sources": sorted(int(s) for s in np.unique(source_of(r.ids))), "resumed": False}
+             "sources": {str(int(s)): int(c) for s, c in zip(sids, per_source)}, "resumed": False}
+    order = np.argsort(r.ids, kind="stable")  # by identifier: each file's points in its order
+    rec = np.empty(len(order), POINT_VALUES)
+    rec["values"] = r.values[order]
+    rec["chosen"] = r.chosen[order] if r.chosen is not None else -1
+    ids_path, values_path = points_paths(plan.work, ij)
+    _save(ids_path, r.ids[order])
+    _save(values_path, rec)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp.npz")
-    np.savez(tmp, ids=r.ids, values=r.values,
-             chosen=r.chosen if r.chosen is not None else np.empty(0, np.int64),
-             counts_at=nz, counts=flat[nz], egeom_counts=sig.egeom_counts, class_totals=sig.class_totals,
-             key=np.array(key), stats=np.array(json.dumps(stats)))
+    np.savez(tmp, counts_at=nz, counts=flat[nz], egeom_counts=sig.egeom_counts, class_totals=sig.class_totals,
+             has_chosen=np.array(r.chosen is not None), key=np.array(key), stats=np.array(json.dumps(stats)))
     os.replace(tmp, path)  # a tile's result exists whole or not at all
     return stats
