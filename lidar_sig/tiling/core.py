@@ -41,6 +41,11 @@ MARGIN = 1e-9
 #: neighbours: larger voxels than 3 neighbours would give leave fewer queries to the k-d tree
 #: and took a third of the time on generated airborne scenes.
 SECOND_GRID_K = 64
+#: ...and its queries may grow 12 voxel shells (the pipeline's 6) before going to the k-d tree:
+#: a tile's few isolated points (3 of 1.8 million in a generated airborne tile) otherwise cost a
+#: tree of the whole block, 40% of the search. Such points lie farther than the area-weight cap,
+#: so their weight is the cap whichever way their distance is found.
+SECOND_SHELLS = 12
 
 
 @dataclass(frozen=True)
@@ -185,20 +190,25 @@ def check_tileable(pipeline):
                             "(its prepare step) and cannot run in tiles; process each file alone")
 
 
-def first_halo(pipeline, ctx):
-    """A halo width (metres) that usually suffices: the largest radius, or twice the expected
-    k-th neighbour distance at the set's density, plus the area-weight cap."""
+def first_halo(pipeline, ctx, *, weights_known=False):
+    """A halo width (metres) that usually suffices: the largest radius, or four times the
+    expected k-th neighbour distance at the set's density (twice left about 40 of 2.5 million
+    points of a generated airborne tile, in tree crowns, to be recomputed in blocks of their
+    own: 10% of the tile's time), plus the area-weight cap unless the neighbours' weights are
+    known already (``weights_known``: they need no second neighbour inside)."""
     if pipeline.scales.kind == "knn":
-        reach = 2.0 * math.sqrt(max(ctx.scales) / (math.pi * ctx.density))
+        reach = 4.0 * math.sqrt(max(ctx.scales) / (math.pi * ctx.density))
     else:
         reach = radius_reach(max(ctx.scales) * (1.0 + MARGIN))
-    return reach + (ctx.area_cap or 0.0)
+    return reach + (0.0 if weights_known else ctx.area_cap or 0.0)
 
 
-def block_saliency(pipeline, xyz, query, edge, scales, area_cap):
+def block_saliency(pipeline, xyz, query, edge, scales, area_cap, second=None):
     """Saliency of the block points ``query`` (bool mask) computed on the block ``xyz`` (centred
     metres) at the set's resolved ``scales``, and whether each is certainly that of the whole
-    set (``edge``: each point's distance to the block's edge, metres).
+    set (``edge``: each point's distance to the block's edge, metres). ``second``: each block
+    point's second-neighbour distance in the whole set, when known (the weights are then the
+    set's, and need no check against the edge).
 
     Returns ``(location, values, chosen, ok, capped)``: ``location`` (M,) the distinct
     location of every block point; ``values`` (L, 3), ``chosen`` (L,) or None, ``ok`` (L,) and
@@ -213,10 +223,17 @@ def block_saliency(pipeline, xyz, query, edge, scales, area_cap):
     queried = np.zeros(m, bool)
     queried[location[query]] = True
     scales = np.asarray(scales)
+    second_loc = None
+    if second is not None and pipeline.weights == "area":  # copies of a location share its distance
+        second_loc = np.empty(m)
+        second_loc[location] = second
     index = NeighborIndex(support, pipeline.scales.kind, scales, max_neighbors=pipeline.max_neighbors,
-                          min_neighbors=pipeline.min_neighbors, weights=pipeline.weights, area_cap=area_cap)
+                          min_neighbors=pipeline.min_neighbors, weights=pipeline.weights, area_cap=area_cap,
+                          second=second_loc)
     edge_sorted = edge_loc[index.order]
-    if pipeline.weights == "area" and m < 3:  # no second neighbour inside: only a whole set is sure
+    if second_loc is not None:  # the set's own distances: every weight is the set's
+        weight_ok = np.ones(m, bool)
+    elif pipeline.weights == "area" and m < 3:  # no second neighbour inside: only a whole set is sure
         weight_ok = np.isinf(edge_sorted)
     elif pipeline.weights == "area":  # sqrt(weight) is the capped second-neighbour distance
         weight_ok = np.sqrt(index.weights) * (1.0 + MARGIN) < edge_sorted
@@ -257,16 +274,18 @@ def block_saliency(pipeline, xyz, query, edge, scales, area_cap):
     return location, values, chosen, ok, capped
 
 
-def tile_saliency(pipeline, load, tiling, ij, ctx, *, halo=None):
+def tile_saliency(pipeline, load, tiling, ij, ctx, *, halo=None, second_of=None):
     """Saliency of the core points of processing tile ``ij`` (see the module docstring).
 
     ``load(bounds) -> (xyz, ids)`` returns the set's points within plan-view bounds (x0, y0,
     x1, y1) in centred metres, with identifiers; core points are those ``tiling`` puts in
-    ``ij``. Returns a :class:`TileResult` in the order of the first load.
+    ``ij``. ``second_of(xyz, ids)``, when given, returns the points' second-neighbour distances
+    in the whole set (:func:`tile_second_distances` of every tile), so that no block searches
+    them again. Returns a :class:`TileResult` in the order of the first load.
     """
     check_tileable(pipeline)
     box = tiling.box(*ij)
-    width = first_halo(pipeline, ctx) if halo is None else float(halo)
+    width = first_halo(pipeline, ctx, weights_known=second_of is not None) if halo is None else float(halo)
     xyz, ids = load(Halo(box, width, ctx.lo, ctx.hi).bounds)
     core = np.all(tiling.index(xyz) == np.asarray(ij), axis=1)
     out_ids = ids[core]
@@ -293,8 +312,9 @@ def tile_saliency(pipeline, load, tiling, ij, ctx, *, halo=None):
             if by_id is None:
                 by_id = np.argsort(out_ids, kind="stable")
             pos = by_id[np.searchsorted(out_ids[by_id], ids[want])]
+        second = None if second_of is None else second_of(xyz, ids)
         location, vals, pick, ok, cut = block_saliency(pipeline, xyz, want, halo_.edge_distance(xyz),
-                                                       ctx.scales, ctx.area_cap)
+                                                       ctx.scales, ctx.area_cap, second)
         loc = location[want]
         if core_location is None:
             core_location = np.empty(len(out_ids), np.int64)
@@ -310,8 +330,10 @@ def tile_saliency(pipeline, load, tiling, ij, ctx, *, halo=None):
             n_recomputed += int(failed.sum())
             widest = max(widest, 2.0 * width)
             pending += _regroup(xyz[want][failed], pos[failed], 2.0 * width)
-    stats = {"n_points": len(out_ids), "n_locations": len(np.unique(core_location)),
-             "n_capped": len(np.unique(core_location[capped])), "n_recomputed": n_recomputed, "halo": widest}
+    per_location = np.bincount(core_location)  # counting, not sorting: a tile holds millions
+    stats = {"n_points": len(out_ids), "n_locations": int(np.count_nonzero(per_location)),
+             "n_capped": int(np.count_nonzero(np.bincount(core_location[capped], minlength=1))),
+             "n_recomputed": n_recomputed, "halo": widest}
     return TileResult(out_ids, values, chosen, stats)
 
 
@@ -333,17 +355,25 @@ def tile_second_distances(load, tiling, ij, ctx, *, halo=None):
     """Second-neighbour distance (metres) of each distinct location among tile ``ij``'s core
     points, checked against the halo like the saliency (for the set's area-weight cap); a
     location that fails is computed again with a halo twice as wide, near others that fail
-    (as for the saliency)."""
+    (as for the saliency).
+
+    Returns ``(ids, point_d, location_d)``: the core points' identifiers and each one's
+    distance (copies of a location share it), and the distance of each distinct location once
+    (what the set's median is taken over).
+    """
     box = tiling.box(*ij)
     # ten times the mean spacing: a second neighbour farther than that is rare (isolated points)
     width = 10.0 * math.sqrt(1.0 / (math.pi * ctx.density)) if halo is None else float(halo)
     xyz, ids = load(Halo(box, width, ctx.lo, ctx.hi).bounds)
     core = np.flatnonzero(np.all(tiling.index(xyz) == np.asarray(ij), axis=1))
+    if not len(core):
+        return ids[core], np.empty(0), np.empty(0)
     support, inverse = unique_points(xyz)
+    point_ids = ids[core]
     if inverse is None:
-        loc = core
+        loc, per_point = core, None
     else:  # one point per core location
-        loc, first = np.unique(inverse[core], return_index=True)
+        loc, first, per_point = np.unique(inverse[core], return_index=True, return_inverse=True)
         core = core[first]
     want_ids = ids[core]
     out = np.full(len(want_ids), np.nan)
@@ -362,15 +392,18 @@ def tile_second_distances(load, tiling, ij, ctx, *, halo=None):
         if halo_.whole or len(support) >= 3:  # fewer: the second neighbour is outside
             # a grid sized for SECOND_GRID_K neighbours: the 3-nearest search is fastest on it
             index = NeighborIndex(support, "knn", np.array([min(SECOND_GRID_K, len(support))]), min_neighbors=1)
-            rows = index.rows_of(loc)
-            by_voxel = np.argsort(rows)  # queries in the grid's order: each bounds the next (lidar_sig.grid)
-            d = np.empty(len(rows))
-            d[by_voxel] = index.second_distances(rows[by_voxel])
+            # queries in the grid's order: each bounds the next (lidar_sig.grid)
+            wanted = np.zeros(len(support), bool)
+            wanted[loc] = True
+            rows = np.flatnonzero(wanted[index.order])
+            by_location = np.empty(len(support))
+            by_location[index.order[rows]] = index.second_distances(rows, shells=SECOND_SHELLS)
+            d = by_location[loc]
             good = halo_.whole | (d * (1.0 + MARGIN) < halo_.edge_distance(support[loc]))
             out[todo[good]] = d[good]
         if not good.all():
             pending += _regroup(support[loc[~good]], todo[~good], 2.0 * width)
-    return out
+    return point_ids, out if per_point is None else out[per_point], out
 
 
 def positions_of(sorted_source, wanted):
@@ -422,7 +455,7 @@ def saliency_in_tiles(pipeline, cloud, tile_size, *, halo=None):
         return xyz[inside], ids[inside]
 
     if pipeline.weights == "area":
-        d = np.concatenate([tile_second_distances(load, tiling, ij, ctx) for ij in tiling.tiles()])
+        d = np.concatenate([tile_second_distances(load, tiling, ij, ctx)[2] for ij in tiling.tiles()])
         ctx = SetContext(ctx.centre, ctx.factors, ctx.lo, ctx.hi, ctx.scales, area_cap(d), ctx.density)
     values = np.full((len(xyz), 3), np.nan)
     chosen = None

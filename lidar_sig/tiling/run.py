@@ -33,11 +33,11 @@ from ..neighbors import AREA_CAP
 from ..progress import progress, step
 from .core import SetContext, Tiling, check_tile_size, check_tileable, context_of, tile_name
 from .results import SetRun, sum_signatures
-from .sources import Cells, cell_files, expand, scan, staged, tile_side_for
+from .sources import Cells, cell_files, densest, expand, scan, staged, tile_side_for
 from .median import sorted_median
 from .memory import DEFAULT_MEMORY, tile_points
-from .tasks import Plan, second_path, second_task, stage_task, tile_task
-from .work import prepare_work, save_area_cap, saved_area_cap
+from .tasks import Plan, second_paths, second_task, stage_task, tile_task
+from .work import forget_area_cap, prepare_work, save_area_cap, saved_area_cap
 
 #: Staging cells per tile side.
 CELLS_PER_TILE = 4
@@ -59,7 +59,8 @@ def run_set(pipeline, inputs, *, work, tile_size=None, backend=None, resume=Fals
     from .execute import InProcess
 
     check_tileable(pipeline)
-    if tile_size is not None:
+    sized = tile_size is None  # sized to the memory budget
+    if not sized:
         tile_size = check_tile_size(tile_size)
     as_path(work, "run_set's work (a folder for the run's scratch files)")
     if isinstance(inputs, (str, os.PathLike)):
@@ -78,7 +79,7 @@ def run_set(pipeline, inputs, *, work, tile_size=None, backend=None, resume=Fals
         extent = (hi[:2] - lo[:2]) * np.asarray(factors[:2])  # metres
         area = max(float(np.prod(extent)), 1e-12)
         n_points = sum(s.n_points for s in good)
-        if tile_size is None:  # from the headers: a tile's block within the budget, 2 tiles per worker at least
+        if sized:  # from the headers: a tile's block within the budget, 2 tiles per worker at least
             tile_size = min(tile_side_for(tile_points(memory), n_points / area),
                             tile_side_for(n_points / (2 * backend.workers), n_points / area))
         n_tiles = math.prod(max(1, math.ceil(e / tile_size)) for e in extent)
@@ -136,6 +137,8 @@ def run_set(pipeline, inputs, *, work, tile_size=None, backend=None, resume=Fals
                             + f", fewer than the largest scale needs ({need}); use a larger set or smaller scales"
                             + (" (--keep-noise uses every point)" if left_out else ""))
     ctx = context_of(lo, hi, factors, pipeline, n_points)
+    if sized:  # the headers' mean density can hide a denser part: no tile may hold more than the budget
+        tile_size = min(tile_size, tile_side_for(tile_points(memory), densest(records, cells, factors)))
     tiling = Tiling(ctx.lo, ctx.hi, float(tile_size))
     labelled = run.labelled = any(r["labelled"] for r in records.values())
     pipe = _quiet(pipeline)
@@ -146,6 +149,7 @@ def run_set(pipeline, inputs, *, work, tile_size=None, backend=None, resume=Fals
     if pipeline.weights == "area":
         cap = saved_area_cap(work, plan.key()) if resume else None
         if cap is None:
+            forget_area_cap(work)  # the distances it was found from are about to be replaced
             with step("area-weight cap", enabled=False, tiles=len(tiles)) as st:
                 for (_, ij), _, err in progress(backend.run(second_task, [(plan, ij) for ij in tiles]),
                                                 total=len(tiles), desc="area weights", enabled=progress_enabled,
@@ -155,7 +159,7 @@ def run_set(pipeline, inputs, *, work, tile_size=None, backend=None, resume=Fals
                 if run.failed_tiles:
                     return run
                 # the median over every distinct location, from the tiles' sorted files (not in memory)
-                cap = AREA_CAP * sorted_median([second_path(work, ij) for ij in tiles])
+                cap = AREA_CAP * sorted_median([second_paths(work, ij)[0] for ij in tiles])
                 st.note(cap=f"{cap:.4g} m")
             save_area_cap(work, plan.key(), cap)
         ctx = SetContext(ctx.centre, ctx.factors, ctx.lo, ctx.hi, ctx.scales, cap, ctx.density)

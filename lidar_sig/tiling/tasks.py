@@ -58,6 +58,27 @@ class Plan:
         xyz, ids, _ = self.load(bounds)
         return xyz, ids
 
+    def second_of(self, xyz, ids):
+        """(N,) second-neighbour distance in the whole set of the staged points ``xyz`` (centred
+        metres), ``ids``: from the files of the tiles whose core holds them (:func:`second_task`)."""
+        d = np.empty(len(ids))
+        tile = self.tiling.index(xyz)
+        key = tile[:, 0] * self.tiling.shape[1] + tile[:, 1]
+        order = np.lexsort((ids, key))  # by tile, then by identifier
+        key = key[order]
+        bounds = np.flatnonzero(np.diff(key)) + 1
+        for start, stop in zip(np.r_[0, bounds], np.r_[bounds, len(key)]):
+            ij = tuple(int(v) for v in tile[order[start]])
+            _, ids_path, d_path = second_paths(self.work, ij)
+            known = np.load(ids_path, mmap_mode="r")
+            mine = order[start:stop]
+            at = np.searchsorted(known, ids[mine])
+            if at.max(initial=0) >= len(known) or not np.array_equal(known[at], ids[mine]):
+                raise RuntimeError(f"{tile_name(*ij)}: points without a second-neighbour distance")
+            d[mine] = np.load(d_path, mmap_mode="r")[at]
+            del known  # unmapped: the pages read leave the process
+        return d
+
     def occupied(self, ij):
         """True when tile ``ij``'s box meets a staged cell: a tile that meets none has no core
         points."""
@@ -77,10 +98,13 @@ def points_paths(work, ij):
     return folder / f"{tile_name(*ij)}.ids.npy", folder / f"{tile_name(*ij)}.values.npy"
 
 
-def second_path(work, ij):
-    """The file of tile ``ij``'s second-neighbour distances, ascending (one per distinct
-    location of its core points)."""
-    return Path(work) / "second" / f"{tile_name(*ij)}.npy"
+def second_paths(work, ij):
+    """The files of tile ``ij``'s second-neighbour distances: one per distinct location of its
+    core points, ascending (for the set's median); its core points' identifiers, ascending; and
+    their distances in the same order (for the tiles' weights)."""
+    folder = Path(work) / "second"
+    name = tile_name(*ij)
+    return folder / f"{name}.npy", folder / f"{name}.ids.npy", folder / f"{name}.d.npy"
 
 
 def _save(path, array):
@@ -98,12 +122,17 @@ def stage_task(work, source, part, start, stop, cells, noise_codes):
 
 
 def second_task(plan, ij):
-    """Second-neighbour distances of one tile's core locations (a task), kept ascending in the
-    work folder for the set's median (:func:`lidar_sig.tiling.median.sorted_median`); returns
-    how many."""
-    d = np.sort(tile_second_distances(plan.load_points, plan.tiling, ij, plan.ctx))
-    _save(second_path(plan.work, ij), d)
-    return len(d)
+    """Second-neighbour distances of one tile's core points (a task), kept in the work folder
+    (:func:`second_paths`): for the set's median (:func:`lidar_sig.tiling.median.sorted_median`)
+    and for the tiles, which take them instead of searching again (:meth:`Plan.second_of`);
+    returns how many locations."""
+    ids, point_d, location_d = tile_second_distances(plan.load_points, plan.tiling, ij, plan.ctx)
+    order = np.argsort(ids, kind="stable")
+    locations_path, ids_path, d_path = second_paths(plan.work, ij)
+    _save(ids_path, ids[order])
+    _save(d_path, point_d[order])
+    _save(locations_path, np.sort(location_d))
+    return len(location_d)
 
 
 def tile_task(plan, ij):
@@ -125,7 +154,8 @@ def tile_task(plan, ij):
             first.update(xyz=xyz, labels=labels)
         return xyz, ids
 
-    r = tile_saliency(plan.pipeline, load, plan.tiling, ij, plan.ctx)
+    second_of = plan.second_of if plan.ctx.area_cap is not None else None  # the cap pass's distances
+    r = tile_saliency(plan.pipeline, load, plan.tiling, ij, plan.ctx, second_of=second_of)
     codes = np.empty(0, np.int64)
     if first:  # core points in the order of the first block, as tile_saliency lists them
         core = np.all(plan.tiling.index(first["xyz"]) == np.asarray(ij), axis=1)
@@ -134,9 +164,9 @@ def tile_task(plan, ij):
                                   frame=plan.pipeline.frame)
     flat = sig.counts.ravel()
     nz = np.flatnonzero(flat)
-    sids, per_source = np.unique(source_of(r.ids), return_counts=True)
+    per_source = np.bincount(source_of(r.ids))
     stats = {**r.stats, "n_undefined": sig.n_undefined, "seconds": time.perf_counter() - t0,
-             "sources": {str(int(s)): int(c) for s, c in zip(sids, per_source)}, "resumed": False}
+             "sources": {str(s): int(c) for s, c in enumerate(per_source) if c}, "resumed": False}
     order = np.argsort(r.ids, kind="stable")  # by identifier: each file's points in its order
     rec = np.empty(len(order), POINT_VALUES)
     rec["values"] = r.values[order]
