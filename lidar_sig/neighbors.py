@@ -164,10 +164,12 @@ class NeighborIndex:
         Each point's second-neighbour distance when it is known already (a tile of a set passes
         the whole set's, found by an earlier pass): area weights then take it instead of
         searching again.
+    shells : int, optional
+        Voxel shells a k-nearest query may grow before it goes to the k-d tree (default 6).
     """
 
     def __init__(self, xyz, kind, scales, *, max_neighbors=512, min_neighbors=3, weights="none",
-                 area_cap=None, second=None):
+                 area_cap=None, second=None, shells=_KNN_SHELLS):
         from .grid import VoxelGrid
 
         xyz = np.asarray(xyz, dtype=np.float64)
@@ -186,7 +188,7 @@ class NeighborIndex:
             want = self.scales.max() + TIE_SLACK if kind == "knn" else self.max_neighbors + 1
             self.width = int(min(want, n))
             cell = _knn_cell(self.width, density, volume)
-            self.s_max = _KNN_SHELLS
+            self.s_max = int(shells)
         else:
             self.width = min(self.max_neighbors, n)
             cell = float(self.scales.max())

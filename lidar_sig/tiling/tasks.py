@@ -63,16 +63,14 @@ class Plan:
         metres), ``ids``: from the files of the tiles whose core holds them (:func:`second_task`)."""
         d = np.empty(len(ids))
         tile = self.tiling.index(xyz)
-        key = tile[:, 0] * self.tiling.shape[1] + tile[:, 1]
-        order = np.lexsort((ids, key))  # by tile, then by identifier
-        key = key[order]
-        bounds = np.flatnonzero(np.diff(key)) + 1
-        for start, stop in zip(np.r_[0, bounds], np.r_[bounds, len(key)]):
-            ij = tuple(int(v) for v in tile[order[start]])
+        ny = self.tiling.shape[1]
+        key = tile[:, 0] * ny + tile[:, 1]
+        for k in np.flatnonzero(np.bincount(key)):  # each tile holding some of the points
+            ij = (int(k) // ny, int(k) % ny)
             _, ids_path, d_path = second_paths(self.work, ij)
             known = np.load(ids_path, mmap_mode="r")
-            mine = order[start:stop]
-            at = np.searchsorted(known, ids[mine])
+            mine = np.flatnonzero(key == k)
+            at = np.searchsorted(known, ids[mine])  # the file is sorted; the points need not be
             if at.max(initial=0) >= len(known) or not np.array_equal(known[at], ids[mine]):
                 raise RuntimeError(f"{tile_name(*ij)}: points without a second-neighbour distance")
             d[mine] = np.load(d_path, mmap_mode="r")[at]
