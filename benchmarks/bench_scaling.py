@@ -26,10 +26,10 @@ from _harness import report, run_child, table, warm_up  # noqa: E402
 DENSITY = 15.0  # points per square metre, like the AHN3 benchmark tile
 
 
-def airborne_scene(n, seed=0):
-    """n points: 60% terrain, 25% gable roofs, 15% tree crowns, over n / DENSITY square metres."""
+def airborne_scene(n, seed=0, density=DENSITY):
+    """n points: 60% terrain, 25% gable roofs, 15% tree crowns, over n / density square metres."""
     rng = np.random.default_rng(seed)
-    side = np.sqrt(n / DENSITY)
+    side = np.sqrt(n / density)
     n_roof, n_tree = n // 4, (15 * n) // 100
     n_ground = n - n_roof - n_tree
     g = rng.uniform(0, side, (n_ground, 2))

@@ -10,12 +10,13 @@ PointCloud, a Signature or a pipeline Result; :class:`Side` holds one as compare
 """
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from .class_schemes import class_scheme_warnings
 from .cloud import PointCloud
-from .errors import LidarSigError, a_kind
+from .errors import LidarSigError, LidarSigWarning, a_kind
 from .metrics import compare as compare_signatures
 from .progress import step
 from .signature import RENDERINGS, Signature, method_differences
@@ -32,11 +33,12 @@ class Side:
 
     name: str
     signature: Signature
-    result: object = None  # pipeline Result for a cloud, None for an archive
+    result: object = None  # pipeline Result for a cloud, None for an archive or a set of tiles
+    tiled: bool = False  # computed as a set of tiles (a folder, or a file over the memory budget)
 
     @property
     def kind(self):
-        return "cloud" if self.result is not None else "archive"
+        return "cloud" if self.result is not None else "set of tiles" if self.tiled else "archive"
 
     def summary(self):
         """The side's facts for people and JSON: points, undefined, capped, duplicates, withheld
@@ -136,37 +138,61 @@ def compare_sources(a, b, pipeline=None, *, render=None, columns=None, method_gi
     tiling : dict, optional
         ``tile_size``, ``workers``, ``scheduler`` for a folder of LAS/LAZ tiles given as a or b
         (an epoch): it is processed as one set in tiles (:mod:`lidar_sig.tiling`). When any of
-        them is set, a LAS/LAZ file is processed in tiles too.
+        them is set, a LAS/LAZ file is processed in tiles too. ``memory``: the budget of each
+        process in bytes (default :data:`lidar_sig.tiling.memory.DEFAULT_MEMORY`); a LAS/LAZ
+        file that needs more as one block is processed in tiles, in this process unless
+        ``workers`` says otherwise.
     """
     from .pipeline import pipeline_or_default
+    from .tiling.core import tileable
+    from .tiling.memory import DEFAULT_MEMORY, points_over_budget, size
+    from .tiling.run import tiles_asked
 
     pipeline = pipeline_or_default(pipeline)
     names = [input_name(x) for x in (a, b)]
-    as_set = any(v is not None for v in (tiling or {}).values())
-    loaded = [load_input(x, columns, as_set) for x in (a, b)]
+    tiling = dict(tiling or {})
+    as_set = tiles_asked(tiling)
+    tiling["memory"] = tiling.get("memory") or DEFAULT_MEMORY
+    over = [points_over_budget(x, tiling["memory"]) if not as_set else None for x in (a, b)]
+    loaded = [load_input(x, columns, as_set or bool(n)) for x, n in zip((a, b), over)]
     sigs = [x for x in loaded if isinstance(x, Signature)]
-    clouds = [x for x in loaded if isinstance(x, PointCloud)]
-    labelled = ([bool(x.classes.names) for x in sigs] + [c.labels is not None for c in clouds]
-                + [True for x in loaded if isinstance(x, Path)])  # a set's labels are known once run
-    warnings = []
+    if sigs:
+        reference = sigs[0]
+        pipeline = _archive_pipeline(reference, pipeline, method_given, names[loaded.index(reference)])
+    for i, n in enumerate(over):
+        if n and not tileable(pipeline):  # a descriptor that needs the whole cloud: one block after all
+            warnings.warn(f"{names[i]}: {n:,} points exceed the {size(tiling['memory'])} memory budget as one block, "
+                          f"but the {pipeline.descriptor.name} descriptor needs the whole cloud at once: processed "
+                          "as one block", LidarSigWarning, stacklevel=2)
+            loaded[i] = load_input(loaded[i], columns)
+    # a set's labels are known once it is run: with an unlabelled cloud or archive on the other
+    # side, it is run without them straight away (see geometry_only below)
+    unlabelled = (any(not x.classes.names for x in sigs)
+                  or any(isinstance(x, PointCloud) and x.labels is None for x in loaded))
+    sets = {i: _signature_of_set(x, _unlabelled(pipeline) if unlabelled else pipeline, tiling, over=over[i])
+            for i, x in enumerate(loaded) if isinstance(x, Path)}
+    labelled = [bool(x.classes.names) if isinstance(x, Signature) else x.labels is not None
+                if isinstance(x, PointCloud) else sets[i][1] for i, x in enumerate(loaded)]
+    notes = []
     if any(labelled) and not all(labelled):
-        warnings.append("semantic metrics (kl, l1) need class labels in both clouds; comparing geometry only")
-    # one cloud unlabelled, or an unlabelled archive: every cloud is one class, so that the
-    # signatures stay comparable; the caller's clouds are left as they are (unlabelled copies)
-    geometry_only = ((len(clouds) == 2 and sum(c.labels is None for c in clouds) == 1)
+        notes.append("semantic metrics (kl, l1) need class labels in both clouds; comparing geometry only")
+    # one cloud (or set) unlabelled, or an unlabelled archive: every cloud is one class, so that
+    # the signatures stay comparable; the caller's clouds are left as they are (unlabelled copies)
+    computed = [i for i, x in enumerate(loaded) if not isinstance(x, Signature)]
+    geometry_only = ((len(computed) == 2 and sum(not labelled[i] for i in computed) == 1)
                      or any(not x.classes.names for x in sigs))
     if geometry_only:
         loaded = [replace(x, labels=None) if isinstance(x, PointCloud) and x.labels is not None else x
                   for x in loaded]
-    if sigs:
-        reference = sigs[0]
-        pipeline = _archive_pipeline(reference, pipeline, method_given, names[loaded.index(reference)])
+        for i, (sig, _) in list(sets.items()):
+            if sig.classes.names:  # run with its labels before the other's were known: again without
+                sets[i] = _signature_of_set(loaded[i], _unlabelled(pipeline), tiling, over=over[i])
     sides = []
-    for name, x in zip(names, loaded):
+    for i, (name, x) in enumerate(zip(names, loaded)):
         if isinstance(x, Signature):
             sides.append(Side(name, x))
-        elif isinstance(x, Path):  # a folder of tiles: one epoch
-            sides.append(Side(name, _signature_of_set(x, pipeline, tiling or {})))
+        elif i in sets:  # a folder of tiles (one epoch), or a file over the memory budget
+            sides.append(Side(name, sets[i][0], tiled=True))
         else:
             result = pipeline.run(x)
             sides.append(Side(name, result.signature, result))
@@ -178,11 +204,11 @@ def compare_sources(a, b, pipeline=None, *, render=None, columns=None, method_gi
     render = render or _recorded_render(sides)
     with step("metrics", rendering=render):
         metrics = compare_signatures(first, second, render=render)
-    warnings += _undefined_warnings(sides) + _class_warnings(sides) + _radii_warnings(sides)
+    notes += _undefined_warnings(sides) + _class_warnings(sides) + _radii_warnings(sides)
     method = {k: first.metadata[k] for k in ("descriptor", "descriptor_params", "strategy", "scale_kind",
                                              "scale_values", "scale_units", "weights", "keep_noise")
               if k in first.metadata}
-    return Comparison(sides[0], sides[1], metrics, render, method, warnings)
+    return Comparison(sides[0], sides[1], metrics, render, method, notes)
 
 
 def input_name(x):
@@ -273,23 +299,41 @@ def _radii_warnings(sides):
             "neighbourhoods leave out --units normalized"]
 
 
-def _signature_of_set(folder, pipeline, tiling):
+def _unlabelled(pipeline):
+    """``pipeline`` with every point in one class: a run as of a cloud without labels (no
+    class is noise then, withheld points are still left out)."""
+    import copy
+
+    from .classes import UNLABELED
+
+    pipe = copy.copy(pipeline)
+    pipe.classes = UNLABELED
+    return pipe
+
+
+def _signature_of_set(folder, pipeline, tiling, over=None):
     """The signature of a folder of LAS/LAZ tiles (or one LAS/LAZ file) processed as one set,
-    with scratch files in a temporary folder (``TMPDIR``); refuses an incomplete set."""
+    with scratch files in a temporary folder (``TMPDIR``), and whether its points are labelled;
+    refuses an incomplete set. ``over``: the points of one file processed in tiles because of
+    the memory budget (in this process unless ``tiling`` gives workers; a note says so)."""
     import tempfile
 
     from .tiling.execute import executor
+    from .tiling.memory import size
     from .tiling.run import run_set
 
-    backend = executor(tiling.get("workers"), tiling.get("scheduler"))
+    backend = executor(tiling.get("workers") or (1 if over else None), tiling.get("scheduler"))
     try:
         with tempfile.TemporaryDirectory(prefix="lidar-sig-") as tmp:
             run = run_set(pipeline, [folder], work=Path(tmp) / "work", tile_size=tiling.get("tile_size"),
-                          backend=backend)
+                          backend=backend, memory=tiling["memory"])
     finally:
         backend.close()
     if not run.complete:
         raise LidarSigError("the set is incomplete, its signature would lack points: " + "; ".join(run.missing),
                             path=folder)
+    if over:
+        warnings.warn(f"{folder}: {over:,} points exceed the {size(tiling['memory'])} memory budget as one block: "
+                      f"processed in {len(run.tile_stats):,} tiles", LidarSigWarning, stacklevel=3)
     run.signature.metadata["tiling"] = run.tiling_record()
-    return run.signature
+    return run.signature, run.labelled

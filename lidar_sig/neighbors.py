@@ -163,10 +163,16 @@ class NeighborIndex:
         Cap of the second-neighbour distance behind area weights, in coordinate units; by
         default ``AREA_CAP`` times this cloud's median. A tile of a larger set passes the set's
         cap, so that its weights are those of the whole set.
+    second : (N,) array, optional
+        Each point's second-neighbour distance when it is known already (a tile of a set passes
+        the whole set's, found by an earlier pass): area weights then take it instead of
+        searching again.
+    shells : int, optional
+        Voxel shells a k-nearest query may grow before it goes to the k-d tree (default 6).
     """
 
     def __init__(self, xyz, kind, scales, *, max_neighbors=512, min_neighbors=3, weights="none",
-                 area_cap=None):
+                 area_cap=None, second=None, shells=_KNN_SHELLS):
         from .grid import VoxelGrid
 
         xyz = np.asarray(xyz, dtype=np.float64)
@@ -185,7 +191,7 @@ class NeighborIndex:
             want = self.scales.max() + TIE_SLACK if kind == "knn" else self.max_neighbors + 1
             self.width = int(min(want, n))
             cell = _knn_cell(self.width, density, volume)
-            self.s_max = _KNN_SHELLS
+            self.s_max = int(shells)
         else:
             self.width = min(self.max_neighbors, n)
             # a voxel as large as the radius stretched by the tie rule: its 27 neighbours hold the
@@ -197,7 +203,8 @@ class NeighborIndex:
         self.order = self.grid.order
         self._tree = None
         self._buffers = None
-        self.weights = self.area_weights(area_cap) if weights == "area" else np.empty(0)
+        known = None if second is None else np.asarray(second, dtype=np.float64)[self.order]
+        self.weights = self.area_weights(area_cap, known) if weights == "area" else np.empty(0)
 
     def rows_of(self, ids):
         """Sorted-order rows of input point indices ``ids``."""
@@ -256,21 +263,23 @@ class NeighborIndex:
         return NeighborhoodBatch(self.xyz, rows, self.order[rows], idx, d2, n, counts,
                                  np.ascontiguousarray(sigma), capped, self.weights, self.kind)
 
-    def area_weights(self, cap=None):
+    def area_weights(self, cap=None, d_second=None):
         """(N,) weight of each point as a neighbour, sorted order: the squared distance to its
-        second-nearest other point, capped at ``cap`` (default AREA_CAP x its median), squared
-        (module docstring).
+        second-nearest other point (``d_second``, sorted order, when known), capped at ``cap``
+        (default AREA_CAP x its median), squared (module docstring).
 
         Exact duplicate points give zero distances; the pipeline merges them beforehand.
         """
-        d_second = self.second_distances()
+        if d_second is None:
+            d_second = self.second_distances()
         if cap is None:
             cap = area_cap(d_second)
         return np.minimum(d_second, cap) ** 2
 
-    def second_distances(self, rows=None):
+    def second_distances(self, rows=None, *, shells=_KNN_SHELLS):
         """Distance from each point (sorted order; ``rows`` only, if given) to its second-nearest
-        other point, in coordinate units (in a cloud of fewer than 3 points, to its farthest)."""
+        other point, in coordinate units (in a cloud of fewer than 3 points, to its farthest).
+        ``shells``: voxel shells a query may grow before it goes to the k-d tree."""
         n = len(self.xyz)
         k = min(3, n)  # the point itself and two others
         rows = np.arange(n) if rows is None else np.asarray(rows, dtype=np.int64)
@@ -293,7 +302,7 @@ class NeighborIndex:
             d2, idx = np.empty((b, k)), np.empty((b, k), np.int64)
             found, done = np.zeros(b, np.int64), np.zeros(b, np.bool_)
             total = np.zeros(b, np.int64)
-            self.grid.search(block, d2, idx, found, total, done, ks=np.array([k]), s_max=_KNN_SHELLS)
+            self.grid.search(block, d2, idx, found, total, done, ks=np.array([k]), s_max=int(shells))
             if not done.all():
                 self._complete(block, d2, idx, found, total, done, k, kind="knn")
             d_second[part] = np.sqrt(d2[:, k - 1])

@@ -247,20 +247,34 @@ scheduler_option = click.option("--scheduler", default=None, metavar="ADDRESS", 
                                      "instead of local processes; needs the dask extra.")
 
 
+def _memory(ctx, param, value):
+    from ..tiling.memory import DEFAULT_MEMORY, parse_memory
+
+    return DEFAULT_MEMORY if value is None else parse_memory(value)
+
+
 def tiling_options(func):
-    """Decorate a command with the options of tiled runs over a set of files: ``--tile-size``,
-    ``--workers``, ``--scheduler`` (``tiling`` receives them as a dict)."""
+    """Decorate a command with the options of tiled runs: ``--tile-size``, ``--workers``,
+    ``--scheduler`` and ``--memory`` (``tiling`` receives them as a dict, the memory budget in
+    bytes)."""
     opts = [
         click.option("--tile-size", type=click.FloatRange(0, min_open=True), default=None, metavar="METRES",
-                     help="Side of the square processing tiles of a set, in metres [default: about 2 million "
-                          "points per tile, from the files' density]."),
-        workers_option,
+                     help="Side of the square processing tiles of a set, in metres [default: as many points as "
+                          "a process holds within --memory, from the files' density]."),
+        click.option("--workers", type=click.IntRange(1, 1024), default=None,
+                     help="Local worker processes for a set of tiles [default: all cores; for one file "
+                          "processed in tiles because of --memory, this process alone]."),
         scheduler_option,
+        click.option("--memory", default=None, metavar="SIZE", callback=_memory,
+                     help="Memory budget of each process, e.g. 1GiB, 800MiB, 1.5G (a bare number is GiB): a "
+                          "LAS/LAZ file that needs more as one block is processed in tiles sized to it "
+                          "[default: 1GiB]."),
     ]
 
     @functools.wraps(func)
-    def wrapper(tile_size, workers, scheduler, **kwargs):
-        return func(tiling={"tile_size": tile_size, "workers": workers, "scheduler": scheduler}, **kwargs)
+    def wrapper(tile_size, workers, scheduler, memory, **kwargs):
+        return func(tiling={"tile_size": tile_size, "workers": workers, "scheduler": scheduler, "memory": memory},
+                    **kwargs)
 
     for opt in reversed(opts):
         wrapper = opt(wrapper)

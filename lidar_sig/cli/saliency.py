@@ -9,7 +9,8 @@ from ..io import CLOUD_EXTENSIONS, check_cloud_output, check_output, read
 from .group import cli
 from .options import columns_option, overwrite_option, pipeline_options, resume_options, tiling_options
 from .summaries import echo_run
-from .tiles import finish, is_set, output_name, run_tiles
+from .tiles import (check_complete, check_las_output, finish, is_set, output_name, over_budget, run_tiles,
+                    scratch)
 
 
 @cli.command()
@@ -25,16 +26,23 @@ from .tiles import finish, is_set, output_name, run_tiles
 def saliency(sources, output, overwrite, columns, tiling, resume, work_dir, pipeline, method_given, quiet):
     """Write SOURCES with per-point Cl, Cs, Cp, Egeom, GeomClass (and OptimalScale).
 
-    One file is processed as one block. Several files, folders of LAS/LAZ tiles, or any of
-    --tile-size, --workers, --scheduler make a set processed in tiles with halos (the same
-    results as one block); OUTPUT is then a folder.
+    One file is processed as one block, or in tiles with halos when one block would need more
+    memory than --memory (the same results; OUTPUT is then LAS/LAZ). Several files, folders of
+    LAS/LAZ tiles, or any of --tile-size, --workers, --scheduler make a set processed in tiles
+    (the same results as one block); OUTPUT is then a folder, or for one input file a LAS/LAZ
+    file.
     """
-    if is_set(sources, tiling, resume):
+    one_output = (len(sources) == 1 and Path(sources[0]).is_file() and not resume
+                  and Path(output).suffix.lower() in CLOUD_EXTENSIONS)  # one file in, one file out
+    if is_set(sources, tiling, resume) and not one_output:
         return _saliency_of_set(sources, output, overwrite, tiling, resume, work_dir, pipeline, quiet)
     source = sources[0]
     if Path(output).suffix.lower() not in CLOUD_EXTENSIONS:
         raise LidarSigError(f"output must be a point cloud: {', '.join(CLOUD_EXTENSIONS)}", path=output)
     check_output(output, overwrite=overwrite)
+    over = over_budget(source, tiling, pipeline)
+    if over or is_set(sources, tiling):
+        return _saliency_in_tiles(source, output, over, overwrite, tiling, work_dir, pipeline, quiet)
     start = time.perf_counter()
     cloud = read(source, columns=columns)
     check_cloud_output(output, cloud)  # before the work, not after
@@ -42,6 +50,19 @@ def saliency(sources, output, overwrite, columns, tiling, resume, work_dir, pipe
     result.write(output, overwrite=overwrite)
     if not quiet:
         echo_run(source, result)
+        click.echo(f"wrote {output} in {time.perf_counter() - start:.1f} s")
+
+
+def _saliency_in_tiles(source, output, over, overwrite, tiling, work_dir, pipeline, quiet):
+    """One file processed in tiles (over the memory budget, or as the tiling options ask),
+    streamed into the one LAS/LAZ output; the work folder is temporary."""
+    check_las_output(output, over, tiling)
+    start = time.perf_counter()
+    with scratch(output, work_dir) as work:
+        run = run_tiles(pipeline, [source], tiling, work, outputs=[output], quiet=quiet, over=over)
+        check_complete(run, source)
+        run.write_points(run.sources[0], output, overwrite=overwrite)
+    if not quiet:
         click.echo(f"wrote {output} in {time.perf_counter() - start:.1f} s")
 
 

@@ -9,7 +9,7 @@ from .group import cli
 from .options import (check_report_outputs, columns_option, not_empty, overwrite_option, pipeline_options,
                       render_option, renderings, report_options, resume_options, tiling_options, write_report)
 from .summaries import echo_run
-from .tiles import finish, is_set, run_tiles
+from .tiles import check_complete, exceed, finish, is_set, over_budget, run_tiles, scratch
 
 
 @cli.command()
@@ -33,12 +33,17 @@ def signature(sources, output, png_output, sg_output, no_points, report, plots, 
     """Compute the signature of SOURCES; write it as an archive (.h5), images (.png) and/or an
     HTML report (--report).
 
-    One file is processed as one block. Several files, folders of LAS/LAZ tiles, or any of
-    --tile-size, --workers, --scheduler make a set processed in tiles with halos: its
-    signature is the sum of the tiles' (the same as one block), and the archive records the
-    tiling and every file with its SHA-256 (no per-point datasets).
+    One file is processed as one block, or in tiles with halos when one block would need more
+    memory than --memory. Several files, folders of LAS/LAZ tiles, or any of --tile-size,
+    --workers, --scheduler make a set processed in tiles: its signature is the sum of the
+    tiles' (the same as one block), and the archive records the tiling and every file with its
+    SHA-256 (no per-point datasets).
     """
     tiled = is_set(sources, tiling, resume)
+    over = None if tiled else over_budget(sources[0], tiling, pipeline)
+    if over and (report or plots):
+        raise LidarSigError(f"{exceed(over, tiling)}; --report and --plots need the whole cloud in memory: raise "
+                            "--memory, or write the archive (-o FILE.h5)", path=sources[0])
     if tiled and (report or plots):
         raise LidarSigError("--report and --plots are made from one cloud; for a set of tiles write the "
                             "archive (-o set.h5) and compare it")
@@ -58,9 +63,9 @@ def signature(sources, output, png_output, sg_output, no_points, report, plots, 
 
         check_report_outputs(report, plots, SIGNATURE_PLOTS, overwrite)
     render = render or renderings()[0]
-    if tiled:
+    if tiled or over:
         return _signature_of_set(sources, output, ext, png_output, sg_output, render, overwrite, tiling, resume,
-                                 work_dir, pipeline, quiet)
+                                 work_dir, pipeline, quiet, over)
     from ..comparison import report as ls_report
     from ..io.png import write_signature_png
 
@@ -87,28 +92,42 @@ def signature(sources, output, png_output, sg_output, no_points, report, plots, 
 
 
 def _signature_of_set(sources, output, ext, png_output, sg_output, render, overwrite, tiling, resume, work_dir,
-                      pipeline, quiet):
+                      pipeline, quiet, over=None):
+    """A set's signature; ``over``: the points of one file processed in tiles because of the
+    memory budget (its work folder is temporary, and a missing point is an error)."""
+    first = output or png_output or sg_output
+    outputs = [p for p in (output, png_output, sg_output) if p]
+    if over:
+        with scratch(first, work_dir) as work:
+            run = run_tiles(pipeline, sources, tiling, work, outputs=outputs, quiet=quiet, over=over)
+            check_complete(run, sources[0])
+            _write_set_outputs(run, output, ext, png_output, sg_output, render, overwrite, quiet)
+        return
+    work = Path(work_dir) if work_dir else Path(first).with_name(Path(first).name + ".work")
+    run = run_tiles(pipeline, sources, tiling, work, outputs=outputs, resume=resume, quiet=quiet)
+    written = []
+    if run.complete:
+        written = _write_set_outputs(run, output, ext, png_output, sg_output, render, overwrite, quiet)
+    finish(run, work, written, [] if run.complete else ["the set's signature (it would lack the points above)"])
+
+
+def _write_set_outputs(run, output, ext, png_output, sg_output, render, overwrite, quiet):
+    """Write the set's signature outputs, all or none; the paths written."""
     from ..io import write_archive
     from ..io.png import write_signature_png
 
-    first = output or png_output or sg_output
-    work = Path(work_dir) if work_dir else Path(first).with_name(Path(first).name + ".work")
-    run = run_tiles(pipeline, sources, tiling, work, outputs=[p for p in (output, png_output, sg_output) if p],
-                    resume=resume, quiet=quiet)
-    written = []
-    if run.complete:
-        sig = run.signature
-        with output_group():  # all outputs or none
-            if ext == ".png":
-                write_signature_png(output, sig, kind="sas", mode=render, overwrite=overwrite)
-            elif output:
-                write_archive(output, sig, sources=run.source_records(), render=render, overwrite=overwrite,
-                              tiling=run.tiling_record())
-            if png_output:
-                write_signature_png(png_output, sig, kind="sas", mode=render, overwrite=overwrite)
-            if sg_output:
-                write_signature_png(sg_output, sig, kind="sg", mode=render, overwrite=overwrite)
-        written = [p for p in (output, png_output, sg_output) if p]
-        if not quiet:
-            click.echo(f"wrote {', '.join(written)}")
-    finish(run, work, written, [] if run.complete else ["the set's signature (it would lack the points above)"])
+    sig = run.signature
+    with output_group():  # all outputs or none
+        if ext == ".png":
+            write_signature_png(output, sig, kind="sas", mode=render, overwrite=overwrite)
+        elif output:
+            write_archive(output, sig, sources=run.source_records(), render=render, overwrite=overwrite,
+                          tiling=run.tiling_record())
+        if png_output:
+            write_signature_png(png_output, sig, kind="sas", mode=render, overwrite=overwrite)
+        if sg_output:
+            write_signature_png(sg_output, sig, kind="sg", mode=render, overwrite=overwrite)
+    written = [p for p in (output, png_output, sg_output) if p]
+    if not quiet:
+        click.echo(f"wrote {', '.join(written)}")
+    return written

@@ -9,7 +9,8 @@ depends on must lie inside that block, and is checked per point rather than trus
   the point's distance to the halo's edge;
 - its neighbours' area weights (:mod:`lidar_sig.neighbors`): each neighbour's distance to its
   second-nearest other point (capped) must be shorter than that neighbour's distance to the
-  edge.
+  edge, unless those distances are the whole set's already (a set's run finds them in a first
+  pass, :func:`tile_second_distances`, checked the same way, and every tile takes them).
 
 A core point that fails either test is recomputed with a halo twice as wide, until it passes
 or the block holds the whole set. Sides of the halo beyond the set's extent are not edges.
@@ -37,6 +38,18 @@ from ..plugins.base import Descriptor
 
 #: Relative margin kept between a needed distance and the halo's edge (round-off of the tests).
 MARGIN = 1e-9
+#: The second-neighbour search of the area-weight cap runs on a voxel grid sized for this many
+#: neighbours: larger voxels than 3 neighbours would give leave fewer queries to the k-d tree
+#: and took a third of the time on generated airborne scenes.
+SECOND_GRID_K = 64
+#: A tile's k-nearest queries may grow 12 voxel shells (one block's 6) before going to the k-d
+#: tree: the few isolated points of a tile (3 of 1.8 million in a generated airborne tile)
+#: otherwise cost a tree of the whole block, 40% of the cap pass's search and 8% of the tiles'
+#: time. The neighbours are the same; a distance found by the tree can differ in its last bit
+#: (it is squared back from the tree's), as it already could where a block and the whole cloud
+#: sent a query different ways. Such points lie farther than the area-weight cap, so their
+#: weight is the cap either way.
+TILE_SHELLS = 12
 
 
 @dataclass(frozen=True)
@@ -169,27 +182,37 @@ class TileResult:
     stats: dict = field(default_factory=dict)
 
 
+def tileable(pipeline):
+    """False for a descriptor that needs a pass over the whole cloud before the blocks."""
+    return type(pipeline.descriptor).prepare is Descriptor.prepare
+
+
 def check_tileable(pipeline):
     """Refuse descriptors that need a pass over the whole cloud before the blocks."""
-    if type(pipeline.descriptor).prepare is not Descriptor.prepare:
+    if not tileable(pipeline):
         raise LidarSigError(f"the {pipeline.descriptor.name} descriptor needs the whole cloud at once "
                             "(its prepare step) and cannot run in tiles; process each file alone")
 
 
-def first_halo(pipeline, ctx):
-    """A halo width (metres) that usually suffices: the largest radius, or twice the expected
-    k-th neighbour distance at the set's density, plus the area-weight cap."""
+def first_halo(pipeline, ctx, *, weights_known=False):
+    """A halo width (metres) that usually suffices: the largest radius, or four times the
+    expected k-th neighbour distance at the set's density (twice left about 40 of 2.5 million
+    points of a generated airborne tile, in tree crowns, to be recomputed in blocks of their
+    own: 10% of the tile's time), plus the area-weight cap unless the neighbours' weights are
+    known already (``weights_known``: they need no second neighbour inside)."""
     if pipeline.scales.kind == "knn":
-        reach = 2.0 * math.sqrt(max(ctx.scales) / (math.pi * ctx.density))
+        reach = 4.0 * math.sqrt(max(ctx.scales) / (math.pi * ctx.density))
     else:
         reach = radius_reach(max(ctx.scales) * (1.0 + MARGIN))
-    return reach + (ctx.area_cap or 0.0)
+    return reach + (0.0 if weights_known else ctx.area_cap or 0.0)
 
 
-def block_saliency(pipeline, xyz, query, edge, scales, area_cap):
+def block_saliency(pipeline, xyz, query, edge, scales, area_cap, second=None):
     """Saliency of the block points ``query`` (bool mask) computed on the block ``xyz`` (centred
     metres) at the set's resolved ``scales``, and whether each is certainly that of the whole
-    set (``edge``: each point's distance to the block's edge, metres).
+    set (``edge``: each point's distance to the block's edge, metres). ``second``: each block
+    point's second-neighbour distance in the whole set, when known (the weights are then the
+    set's, and need no check against the edge).
 
     Returns ``(location, values, chosen, ok, capped)``: ``location`` (M,) the distinct
     location of every block point; ``values`` (L, 3), ``chosen`` (L,) or None, ``ok`` (L,) and
@@ -204,15 +227,26 @@ def block_saliency(pipeline, xyz, query, edge, scales, area_cap):
     queried = np.zeros(m, bool)
     queried[location[query]] = True
     scales = np.asarray(scales)
+    second_loc = None
+    if second is not None and pipeline.weights == "area":  # copies of a location share its distance
+        second_loc = np.empty(m)
+        second_loc[location] = second
     index = NeighborIndex(support, pipeline.scales.kind, scales, max_neighbors=pipeline.max_neighbors,
-                          min_neighbors=pipeline.min_neighbors, weights=pipeline.weights, area_cap=area_cap)
+                          min_neighbors=pipeline.min_neighbors, weights=pipeline.weights, area_cap=area_cap,
+                          second=second_loc, shells=TILE_SHELLS)
     edge_sorted = edge_loc[index.order]
-    if pipeline.weights == "area" and m < 3:  # no second neighbour inside: only a whole set is sure
+    if second_loc is not None:  # the set's own distances: every weight is the set's
+        weight_ok = np.ones(m, bool)
+    elif pipeline.weights == "area" and m < 3:  # no second neighbour inside: only a whole set is sure
         weight_ok = np.isinf(edge_sorted)
     elif pipeline.weights == "area":  # sqrt(weight) is the capped second-neighbour distance
         weight_ok = np.sqrt(index.weights) * (1.0 + MARGIN) < edge_sorted
     else:
         weight_ok = np.ones(m, bool)
+    # an unsure weight belongs to a point near the block's edge (at most ``worst`` from it), and
+    # the edge distance changes by at most the distance moved: only a query whose neighbourhood
+    # reaches within ``worst`` of the edge can hold one (1e-6 m covers the round-off)
+    worst = float(edge_sorted[~weight_ok].max()) if not weight_ok.all() else -np.inf
     values = np.full((m, 3), np.nan)
     chosen = None
     ok = np.zeros(m, bool)
@@ -233,23 +267,29 @@ def block_saliency(pipeline, xyz, query, edge, scales, area_cap):
             enough = (n >= max(scales)) | np.isinf(edge_sorted[part])
         else:
             enough = True
-        inside = batch.reach() * (1.0 + MARGIN) < edge_sorted[part]
-        used = np.arange(batch.idx.shape[1])[None, :] < n[:, None]
-        neighbours_ok = np.all(~used | weight_ok[np.where(used, batch.idx, 0)], axis=1)
+        reach = batch.reach()
+        inside = reach * (1.0 + MARGIN) < edge_sorted[part]
+        neighbours_ok = np.ones(len(part), bool)
+        near = np.flatnonzero(edge_sorted[part] - reach * (1.0 + MARGIN) <= worst + 1e-6)
+        if len(near):
+            used = np.arange(batch.idx.shape[1])[None, :] < n[near, None]
+            neighbours_ok[near] = np.all(~used | weight_ok[np.where(used, batch.idx[near], 0)], axis=1)
         ok[loc] = enough & inside & neighbours_ok
     return location, values, chosen, ok, capped
 
 
-def tile_saliency(pipeline, load, tiling, ij, ctx, *, halo=None):
+def tile_saliency(pipeline, load, tiling, ij, ctx, *, halo=None, second_of=None):
     """Saliency of the core points of processing tile ``ij`` (see the module docstring).
 
     ``load(bounds) -> (xyz, ids)`` returns the set's points within plan-view bounds (x0, y0,
     x1, y1) in centred metres, with identifiers; core points are those ``tiling`` puts in
-    ``ij``. Returns a :class:`TileResult` in the order of the first load.
+    ``ij``. ``second_of(xyz, ids)``, when given, returns the points' second-neighbour distances
+    in the whole set (:func:`tile_second_distances` of every tile), so that no block searches
+    them again. Returns a :class:`TileResult` in the order of the first load.
     """
     check_tileable(pipeline)
     box = tiling.box(*ij)
-    width = first_halo(pipeline, ctx) if halo is None else float(halo)
+    width = first_halo(pipeline, ctx, weights_known=second_of is not None) if halo is None else float(halo)
     xyz, ids = load(Halo(box, width, ctx.lo, ctx.hi).bounds)
     core = np.all(tiling.index(xyz) == np.asarray(ij), axis=1)
     out_ids = ids[core]
@@ -260,6 +300,7 @@ def tile_saliency(pipeline, load, tiling, ij, ctx, *, halo=None):
         return TileResult(out_ids, values, None, {"n_points": 0, "n_locations": 0, "n_capped": 0,
                                                   "n_recomputed": 0, "halo": width})
     core_location = None  # distinct location of each core point, from the first block
+    by_id = None  # out_ids' order, sorted once for the blocks of recomputed points
     n_recomputed = 0
     widest = width
     # blocks still to compute: (box, halo width, positions in out_ids); the tile first
@@ -267,13 +308,17 @@ def tile_saliency(pipeline, load, tiling, ij, ctx, *, halo=None):
     while pending:
         box, width, todo = pending.pop()
         halo_ = Halo(box, width, ctx.lo, ctx.hi)
-        if core_location is not None:  # the tile's own block is loaded already
+        if core_location is None:  # the tile's own block, loaded already: its core points in order
+            want, pos = core, todo
+        else:  # map the block's wanted points back to positions in out_ids
             xyz, ids = load(halo_.bounds)
-        want = np.isin(ids, out_ids[todo])
+            want = np.isin(ids, out_ids[todo])
+            if by_id is None:
+                by_id = np.argsort(out_ids, kind="stable")
+            pos = by_id[np.searchsorted(out_ids[by_id], ids[want])]
+        second = None if second_of is None else second_of(xyz, ids)
         location, vals, pick, ok, cut = block_saliency(pipeline, xyz, want, halo_.edge_distance(xyz),
-                                                       ctx.scales, ctx.area_cap)
-        # map the block's wanted points back to positions in out_ids
-        pos = positions_of(out_ids, ids[want])
+                                                       ctx.scales, ctx.area_cap, second)
         loc = location[want]
         if core_location is None:
             core_location = np.empty(len(out_ids), np.int64)
@@ -289,8 +334,10 @@ def tile_saliency(pipeline, load, tiling, ij, ctx, *, halo=None):
             n_recomputed += int(failed.sum())
             widest = max(widest, 2.0 * width)
             pending += _regroup(xyz[want][failed], pos[failed], 2.0 * width)
-    stats = {"n_points": len(out_ids), "n_locations": len(np.unique(core_location)),
-             "n_capped": len(np.unique(core_location[capped])), "n_recomputed": n_recomputed, "halo": widest}
+    per_location = np.bincount(core_location)  # counting, not sorting: a tile holds millions
+    stats = {"n_points": len(out_ids), "n_locations": int(np.count_nonzero(per_location)),
+             "n_capped": int(np.count_nonzero(np.bincount(core_location[capped], minlength=1))),
+             "n_recomputed": n_recomputed, "halo": widest}
     return TileResult(out_ids, values, chosen, stats)
 
 
@@ -310,40 +357,57 @@ def _regroup(xyz, positions, width):
 
 def tile_second_distances(load, tiling, ij, ctx, *, halo=None):
     """Second-neighbour distance (metres) of each distinct location among tile ``ij``'s core
-    points, checked against the halo like the saliency (for the set's area-weight cap)."""
+    points, checked against the halo like the saliency (for the set's area-weight cap); a
+    location that fails is computed again with a halo twice as wide, near others that fail
+    (as for the saliency).
+
+    Returns ``(ids, point_d, location_d)``: the core points' identifiers and each one's
+    distance (copies of a location share it), and the distance of each distinct location once
+    (what the set's median is taken over).
+    """
     box = tiling.box(*ij)
     # ten times the mean spacing: a second neighbour farther than that is rare (isolated points)
     width = 10.0 * math.sqrt(1.0 / (math.pi * ctx.density)) if halo is None else float(halo)
-    out = None  # distances by core location, in the order of the first block's core locations
-    want_ids = None
-    while True:
+    xyz, ids = load(Halo(box, width, ctx.lo, ctx.hi).bounds)
+    core = np.flatnonzero(np.all(tiling.index(xyz) == np.asarray(ij), axis=1))
+    if not len(core):
+        return ids[core], np.empty(0), np.empty(0)
+    support, inverse = unique_points(xyz)
+    point_ids = ids[core]
+    if inverse is None:
+        loc, per_point = core, None
+    else:  # one point per core location
+        loc, first, per_point = np.unique(inverse[core], return_index=True, return_inverse=True)
+        core = core[first]
+    want_ids = ids[core]
+    out = np.full(len(want_ids), np.nan)
+    pending = [(box, width, np.arange(len(want_ids)))]
+    loaded = True  # the tile's own block, the first of pending
+    while pending:
+        box, width, todo = pending.pop()
         halo_ = Halo(box, width, ctx.lo, ctx.hi)
-        xyz, ids = load(halo_.bounds)
-        if want_ids is None:
-            core = np.all(tiling.index(xyz) == np.asarray(ij), axis=1)
-            support, inverse = unique_points(xyz[core])  # one id per core location
-            first = np.unique(inverse, return_index=True)[1] if inverse is not None else np.arange(len(support))
-            want_ids = ids[core][first]
-            if not len(want_ids):
-                return np.empty(0)
-            out = np.full(len(want_ids), np.nan)
-            todo = np.ones(len(want_ids), bool)
-        support, inverse = unique_points(xyz)
-        location = np.arange(len(xyz)) if inverse is None else inverse
-        at = positions_of(ids, want_ids[todo])
-        loc = location[at]
+        if not loaded:
+            xyz, ids = load(halo_.bounds)
+            support, inverse = unique_points(xyz)
+            at = positions_of(ids, want_ids[todo])
+            loc = at if inverse is None else inverse[at]
+        loaded = False
+        good = np.zeros(len(todo), bool)
         if halo_.whole or len(support) >= 3:  # fewer: the second neighbour is outside
-            index = NeighborIndex(support, "knn", np.array([min(3, len(support))]), min_neighbors=1)
-            d = index.second_distances(index.rows_of(loc))
+            # a grid sized for SECOND_GRID_K neighbours: the 3-nearest search is fastest on it
+            index = NeighborIndex(support, "knn", np.array([min(SECOND_GRID_K, len(support))]), min_neighbors=1)
+            # queries in the grid's order: each bounds the next (lidar_sig.grid)
+            wanted = np.zeros(len(support), bool)
+            wanted[loc] = True
+            rows = np.flatnonzero(wanted[index.order])
+            by_location = np.empty(len(support))
+            by_location[index.order[rows]] = index.second_distances(rows, shells=TILE_SHELLS)
+            d = by_location[loc]
             good = halo_.whole | (d * (1.0 + MARGIN) < halo_.edge_distance(support[loc]))
-            pos = np.flatnonzero(todo)
-            out[pos[good]] = d[good]
-            todo[pos[good]] = False
-        if not todo.any():
-            return out
-        failing = xyz[positions_of(ids, want_ids[todo])]
-        box = (*failing[:, :2].min(axis=0).tolist(), *failing[:, :2].max(axis=0).tolist())
-        width *= 2.0
+            out[todo[good]] = d[good]
+        if not good.all():
+            pending += _regroup(support[loc[~good]], todo[~good], 2.0 * width)
+    return point_ids, out if per_point is None else out[per_point], out
 
 
 def positions_of(sorted_source, wanted):
@@ -395,7 +459,7 @@ def saliency_in_tiles(pipeline, cloud, tile_size, *, halo=None):
         return xyz[inside], ids[inside]
 
     if pipeline.weights == "area":
-        d = np.concatenate([tile_second_distances(load, tiling, ij, ctx) for ij in tiling.tiles()])
+        d = np.concatenate([tile_second_distances(load, tiling, ij, ctx)[2] for ij in tiling.tiles()])
         ctx = SetContext(ctx.centre, ctx.factors, ctx.lo, ctx.hi, ctx.scales, area_cap(d), ctx.density)
     values = np.full((len(xyz), 3), np.nan)
     chosen = None

@@ -1,6 +1,6 @@
 """What a tiled run of a set made, read back from the work folder: the tiles' statistics, what
 failed and why, the set's signature (the sum of the tiles'), and each input file's per-point
-saliency gathered tile by tile, or streamed into its LAS/LAZ output."""
+saliency merged from the tiles' results chunk by chunk, or streamed into its LAS/LAZ output."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -9,14 +9,12 @@ from pathlib import Path
 import numpy as np
 
 from .. import __version__
+from ..progress import step
 from ..saliency import Saliency
 from ..signature import Signature
 from .core import SetContext, Tiling
-from .sources import index_of, source_of
-from .tasks import Plan, result_path
-
-#: Per-point results of one input file on disk: (Cl, Cs, Cp) and the chosen scale index.
-POINT_VALUES = np.dtype([("values", "f8", 3), ("chosen", "i8")])
+from .sources import ID_BITS
+from .tasks import Plan, points_paths, result_path
 
 
 @dataclass
@@ -33,6 +31,7 @@ class SetRun:
     failed_tiles: dict = field(default_factory=dict)
     sha256: dict = field(default_factory=dict)
     excluded: dict = field(default_factory=dict)  # source id -> withheld or noise points left out
+    labelled: bool = False  # some point has a class code
     seconds: float = 0.0
     execution: str = ""
 
@@ -58,61 +57,54 @@ class SetRun:
         """Every source file with its SHA-256 (those that could be read)."""
         return [{"path": s.path, "sha256": self.sha256[s.path]} for s in self.sources if s.path in self.sha256]
 
-    def values_file(self, source):
-        """A file of ``source``'s per-point (Cl, Cs, Cp) and chosen scale index (records of
-        POINT_VALUES, in its point order), gathered from the tile results one tile at a time;
-        None when a tile holding some of its points failed. Points left out of the run
-        (withheld and noise) are undefined: NaN, -1."""
-        path = Path(self.plan.work) / "points" / f"s{source.id}.bin"
-        path.parent.mkdir(parents=True, exist_ok=True)
-        undefined = np.zeros(min(source.n_points, 1 << 20), POINT_VALUES)
-        undefined["values"], undefined["chosen"] = np.nan, -1
-        with open(path, "wb") as fh:  # written in pieces: memory stays small for any file
-            for start in range(0, source.n_points, len(undefined)):
-                undefined[:min(len(undefined), source.n_points - start)].tofile(fh)
-        found = self.excluded.get(source.id, 0)
-        for ij, stats in self.tile_stats.items():
-            if source.id not in stats["sources"]:
-                continue
-            with np.load(result_path(self.plan.work, ij)) as r:
-                mine = source_of(r["ids"]) == source.id
-                at = index_of(r["ids"][mine])
-                # mapped per tile and closed again, so that resident memory stays one tile's
-                out = np.memmap(path, POINT_VALUES, "r+", shape=(source.n_points,))
-                out["values"][at] = r["values"][mine]
-                out["chosen"][at] = r["chosen"][mine] if len(r["chosen"]) else -1
-                out.flush()
-                del out
-                found += int(mine.sum())
-        return path if found == source.n_points else None
+    def point_values(self, source):
+        """``(start, stop) -> Saliency`` of points [start, stop) of ``source``, in its point
+        order, merged from the tiles' results (each sorted by point identifier: a slice of each
+        tile per chunk, so that memory stays one chunk's whatever the file's order); None when
+        a tile holding some of its points failed. Points left out of the run (withheld and
+        noise) are undefined."""
+        key = str(source.id)
+        tiles = [ij for ij, stats in self.tile_stats.items() if key in stats["sources"]]
+        found = self.excluded.get(source.id, 0) + sum(self.tile_stats[ij]["sources"][key] for ij in tiles)
+        if found != source.n_points:
+            return None
+        has_chosen = self.plan.pipeline.strategy.name == "optimal"
+        base = np.int64(source.id) << np.int64(ID_BITS)
 
-    def saliency_chunks(self, path, has_chosen):
-        """``(start, stop) -> Saliency`` of points [start, stop) of a :meth:`values_file`."""
         def chunk(start, stop):
-            rec = np.fromfile(path, POINT_VALUES, count=stop - start, offset=start * POINT_VALUES.itemsize)
-            return Saliency.from_values(rec["values"], rec["chosen"] if has_chosen else None)
+            values = np.full((stop - start, 3), np.nan)
+            chosen = np.full(stop - start, -1, np.int64)
+            for ij in tiles:
+                ids_path, values_path = points_paths(self.plan.work, ij)
+                ids = np.load(ids_path, mmap_mode="r")  # mapped: a binary search reads a few pages
+                a, b = np.searchsorted(ids, [base + start, base + stop])
+                if a < b:
+                    at = np.asarray(ids[a:b]) - (base + start)
+                    rec = np.asarray(np.load(values_path, mmap_mode="r")[a:b])
+                    values[at] = rec["values"]
+                    chosen[at] = rec["chosen"]
+                del ids  # unmapped: the pages read leave the process
+            return Saliency.from_values(values, chosen if has_chosen else None)
         return chunk
 
     def saliency_of(self, source):
         """Saliency of one input file's points, in its point order (in memory); None when a
         tile holding some of them failed."""
-        path = self.values_file(source)
-        if path is None:
-            return None
-        return self.saliency_chunks(path, self.plan.pipeline.strategy.name == "optimal")(0, source.n_points)
+        chunk = self.point_values(source)
+        return None if chunk is None else chunk(0, source.n_points)
 
     def write_points(self, source, output, *, overwrite=False):
         """Write ``source`` with its per-point saliency to the LAS/LAZ ``output``, streamed in
         chunks; False (nothing written) when a tile holding some of its points failed."""
         from ..io.las import write_las_chunks
 
-        path = self.values_file(source)
-        if path is None:
+        chunk = self.point_values(source)
+        if chunk is None:
             return False
         pipe = self.plan.pipeline
-        write_las_chunks(output, source.path, self.saliency_chunks(path, pipe.strategy.name == "optimal"),
-                         scale_kind=pipe.scales.kind, scale_values=pipe.scales.values, overwrite=overwrite)
-        path.unlink()
+        with step(f"writing {Path(output).name}", points=source.n_points):
+            write_las_chunks(output, source.path, chunk, scale_kind=pipe.scales.kind, scale_values=pipe.scales.values,
+                             overwrite=overwrite)
         return True
 
 

@@ -29,27 +29,27 @@ import numpy as np
 
 from ..classes import UNLABELED
 from ..errors import LidarSigError, as_path, counted
-from ..neighbors import area_cap
-from ..progress import progress
+from ..neighbors import AREA_CAP
+from ..progress import progress, step
 from .core import SetContext, Tiling, check_tile_size, check_tileable, context_of, tile_name
 from .results import SetRun, sum_signatures
-from .sources import Cells, cell_files, expand, scan, staged, tile_side_for
-from .tasks import Plan, second_task, stage_task, tile_task
-from .work import prepare_work, save_area_cap, saved_area_cap
+from .sources import Cells, cell_files, densest, expand, scan, staged, tile_side_for
+from .median import sorted_median
+from .memory import DEFAULT_MEMORY, tile_points
+from .tasks import Plan, second_paths, second_task, stage_task, tile_task
+from .work import forget_area_cap, prepare_work, save_area_cap, saved_area_cap
 
 #: Staging cells per tile side.
 CELLS_PER_TILE = 4
-#: Default points per processing tile (with its halo about a quarter more): what one worker
-#: holds at once, about 0.5 GiB at the pipeline's 0.21 GiB per million points.
-TILE_POINTS = 2_000_000
 #: Fewest points a processing tile holds on average: smaller tiles are refused.
 MIN_TILE_POINTS = 500
 
 
 def run_set(pipeline, inputs, *, work, tile_size=None, backend=None, resume=False, progress_enabled=None,
-            outputs=()):
+            outputs=(), memory=DEFAULT_MEMORY):
     """Process the LAS/LAZ files and folders ``inputs`` as one set, in tiles of ``tile_size``
-    metres (default: about TILE_POINTS points each), on ``backend``
+    metres (default: as many points as a process holds within ``memory`` bytes,
+    :func:`lidar_sig.tiling.memory.tile_points`, and two tiles per worker at least), on ``backend``
     (:func:`lidar_sig.tiling.execute.executor`; default this process), with scratch files in
     ``work``, a folder that must not hold an input or one of the ``outputs``. The results stay
     in ``work`` (the :class:`SetRun` reads them from there); the command line removes it after a
@@ -59,7 +59,8 @@ def run_set(pipeline, inputs, *, work, tile_size=None, backend=None, resume=Fals
     from .execute import InProcess
 
     check_tileable(pipeline)
-    if tile_size is not None:
+    sized = tile_size is None  # sized to the memory budget
+    if not sized:
         tile_size = check_tile_size(tile_size)
     as_path(work, "run_set's work (a folder for the run's scratch files)")
     if isinstance(inputs, (str, os.PathLike)):
@@ -78,8 +79,8 @@ def run_set(pipeline, inputs, *, work, tile_size=None, backend=None, resume=Fals
         extent = (hi[:2] - lo[:2]) * np.asarray(factors[:2])  # metres
         area = max(float(np.prod(extent)), 1e-12)
         n_points = sum(s.n_points for s in good)
-        if tile_size is None:  # from the headers: about TILE_POINTS per tile, 2 tiles per worker at least
-            tile_size = min(tile_side_for(TILE_POINTS, n_points / area),
+        if sized:  # from the headers: a tile's block within the budget, 2 tiles per worker at least
+            tile_size = min(tile_side_for(tile_points(memory), n_points / area),
                             tile_side_for(n_points / (2 * backend.workers), n_points / area))
         n_tiles = math.prod(max(1, math.ceil(e / tile_size)) for e in extent)
         if n_tiles > max(4, n_points / MIN_TILE_POINTS):  # halos would outweigh the tiles' own points
@@ -107,12 +108,14 @@ def run_set(pipeline, inputs, *, work, tile_size=None, backend=None, resume=Fals
                 todo.append((str(work), s, part, first, stop, cells, noise_codes))
             else:
                 records[(s.id, part)] = info
-    for (_, s, part, *_), info, err in progress(backend.run(stage_task, todo), total=len(todo),
-                                               desc="reading", enabled=progress_enabled, unit="part"):
-        if err is None:
-            records[(s.id, part)] = info
-        else:
-            run.failed_sources.setdefault(s.path, _reason(err))
+    with step("staging", enabled=False, parts=len(todo)) as st:  # --verbose: each stage's time
+        for (_, s, part, *_), info, err in progress(backend.run(stage_task, todo), total=len(todo),
+                                                   desc="reading", enabled=progress_enabled, unit="part"):
+            if err is None:
+                records[(s.id, part)] = info
+            else:
+                run.failed_sources.setdefault(s.path, _reason(err))
+        st.note(points=sum(r["n"] for r in records.values()))
     staged_ok = [s for s in good if s.path not in run.failed_sources]
     records = {k: v for k, v in records.items() if sources[k[0]].path not in run.failed_sources}
     for (sid, part), info in records.items():
@@ -134,8 +137,10 @@ def run_set(pipeline, inputs, *, work, tile_size=None, backend=None, resume=Fals
                             + f", fewer than the largest scale needs ({need}); use a larger set or smaller scales"
                             + (" (--keep-noise uses every point)" if left_out else ""))
     ctx = context_of(lo, hi, factors, pipeline, n_points)
+    if sized:  # the headers' mean density can hide a denser part: no tile may hold more than the budget
+        tile_size = min(tile_size, tile_side_for(tile_points(memory), densest(records, cells, factors)))
     tiling = Tiling(ctx.lo, ctx.hi, float(tile_size))
-    labelled = any(r["labelled"] for r in records.values())
+    labelled = run.labelled = any(r["labelled"] for r in records.values())
     pipe = _quiet(pipeline)
     staged_key = json.dumps(sorted([r["path"], r["identity"], r["n"], part] for (_, part), r in records.items()))
     plan = Plan(str(work), pipe, ctx, tiling, cells, cell_files(work, records),
@@ -144,16 +149,18 @@ def run_set(pipeline, inputs, *, work, tile_size=None, backend=None, resume=Fals
     if pipeline.weights == "area":
         cap = saved_area_cap(work, plan.key()) if resume else None
         if cap is None:
-            dist = []
-            for (_, ij), d, err in progress(backend.run(second_task, [(plan, ij) for ij in tiles]),
-                                            total=len(tiles), desc="area weights", enabled=progress_enabled,
-                                            unit="tile"):
-                if err is not None:
-                    run.failed_tiles[tile_name(*ij)] = _reason(err)
-                dist.append(d if err is None else np.empty(0))
-            if run.failed_tiles:
-                return run
-            cap = area_cap(np.concatenate(dist))
+            forget_area_cap(work)  # the distances it was found from are about to be replaced
+            with step("area-weight cap", enabled=False, tiles=len(tiles)) as st:
+                for (_, ij), _, err in progress(backend.run(second_task, [(plan, ij) for ij in tiles]),
+                                                total=len(tiles), desc="area weights", enabled=progress_enabled,
+                                                unit="tile"):
+                    if err is not None:
+                        run.failed_tiles[tile_name(*ij)] = _reason(err)
+                if run.failed_tiles:
+                    return run
+                # the median over every distinct location, from the tiles' sorted files (not in memory)
+                cap = AREA_CAP * sorted_median([second_paths(work, ij)[0] for ij in tiles])
+                st.note(cap=f"{cap:.4g} m")
             save_area_cap(work, plan.key(), cap)
         ctx = SetContext(ctx.centre, ctx.factors, ctx.lo, ctx.hi, ctx.scales, cap, ctx.density)
         plan = Plan(plan.work, plan.pipeline, ctx, plan.tiling, plan.cells, plan.files, plan.classes, plan.staged)
@@ -163,19 +170,32 @@ def run_set(pipeline, inputs, *, work, tile_size=None, backend=None, resume=Fals
     bar = progress(backend.run(tile_task, [(plan, ij) for ij in tiles]), total=len(tiles), desc="tiles",
                    enabled=progress_enabled, unit="tile")
     points = 0
-    for (_, ij), stats, err in bar:
-        if err is not None:
-            run.failed_tiles[tile_name(*ij)] = _reason(err)
-            continue
-        run.tile_stats[ij] = stats
-        points += stats["n_points"]
-        bar.set_postfix_str(f"{points / max(time.perf_counter() - start, 1e-9):,.0f} points/s")
+    with step("tiles", enabled=False, tiles=len(tiles), tile_size=f"{tiling.size:.4g} m") as st:
+        for (_, ij), stats, err in bar:
+            if err is not None:
+                run.failed_tiles[tile_name(*ij)] = _reason(err)
+                continue
+            run.tile_stats[ij] = stats
+            points += stats["n_points"]
+            bar.set_postfix_str(f"{points / max(time.perf_counter() - start, 1e-9):,.0f} points/s")
+        st.note(points=points, recomputed=sum(s["n_recomputed"] for s in run.tile_stats.values()))
 
     # 4. reduce
     if run.complete:
-        run.signature = sum_signatures(run)
+        with step("signature of the set", enabled=False):
+            run.signature = sum_signatures(run)
     run.seconds = time.perf_counter() - start
     return run
+
+
+#: The options that make a set processed in tiles whatever its size.
+TILING_OPTIONS = ("tile_size", "workers", "scheduler")
+
+
+def tiles_asked(tiling):
+    """True when the options ``tiling`` (a dict, as the command line passes them) ask for tiles:
+    any of TILING_OPTIONS given (the memory budget alone decides by the size)."""
+    return any((tiling or {}).get(k) is not None for k in TILING_OPTIONS)
 
 
 def _quiet(pipeline):

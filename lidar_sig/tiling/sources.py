@@ -194,8 +194,8 @@ def stage_part(work, source, part, start, stop, cells, noise_codes=None):
     """Read points [start, stop) of ``source`` (its part number ``part``) in chunks and append
     each to its cell's file, except those withheld or of a class in ``noise_codes`` (None
     stages every point; :meth:`Pipeline.noise_codes`); return the part's record, which counts
-    them (``n_excluded``) and bounds the others (``lo``, ``hi``). Raises LidarSigError naming
-    the file when it cannot be read."""
+    them (``n_excluded``), bounds the others (``lo``, ``hi``) and counts them per cell (``cells``,
+    ``counts``). Raises LidarSigError naming the file when it cannot be read."""
     import laspy
 
     out = part_dir(work, source.id, part)
@@ -204,7 +204,7 @@ def stage_part(work, source, part, start, stop, cells, noise_codes=None):
     lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
     n = n_excluded = 0
     labelled = False
-    occupied = set()
+    occupied = {}  # cell -> points staged in it
     try:
         with laspy.open(source.path) as reader:
             if start:
@@ -235,7 +235,7 @@ def stage_part(work, source, part, start, stop, cells, noise_codes=None):
                 breaks = np.flatnonzero((np.diff(ci) != 0) | (np.diff(cj) != 0)) + 1
                 for s, e in zip(np.r_[0, breaks], np.r_[breaks, len(rec)]):
                     key = (int(ci[s]), int(cj[s]))
-                    occupied.add(key)
+                    occupied[key] = occupied.get(key, 0) + int(e - s)
                     with open(out / f"c{key[0]}_{key[1]}.bin", "ab") as fh:
                         rec[s:e].tofile(fh)
     except LidarSigError:
@@ -254,7 +254,8 @@ def stage_part(work, source, part, start, stop, cells, noise_codes=None):
     info = {"path": source.path, "identity": file_identity(source.path), "range": [start, stop], "n": n,
             "n_excluded": n_excluded, "noise_codes": _codes_record(noise_codes), "grid": cells.record(),
             "lo": lo.tolist(),
-            "hi": hi.tolist(), "labelled": labelled, "cells": sorted(occupied)}
+            "hi": hi.tolist(), "labelled": labelled, "cells": sorted(occupied),
+            "counts": [occupied[key] for key in sorted(occupied)]}
     if part == 0:
         from ..io.hdf5 import sha256_of
 
@@ -263,6 +264,17 @@ def stage_part(work, source, part, start, stop, cells, noise_codes=None):
     tmp.write_text(json.dumps(info))
     os.replace(tmp, part_record(work, source.id, part))  # the part exists only once complete
     return info
+
+
+def densest(records, cells, factors):
+    """Points per square metre of the most crowded staging cell over the parts ``records``:
+    where a tile holds the most points (the headers' bounding box can hide a dense strip)."""
+    per_cell = {}
+    for info in records.values():
+        for key, n in zip(info["cells"], info.get("counts", ())):
+            per_cell[tuple(key)] = per_cell.get(tuple(key), 0) + n
+    area = (cells.side * factors[0]) * (cells.side * factors[1])
+    return max(per_cell.values(), default=0) / area
 
 
 def cell_files(work, records):
@@ -293,11 +305,6 @@ def load_cells(files, cells, raw_bounds):
 def source_of(ids):
     """File number of point identifiers."""
     return np.asarray(ids) >> ID_BITS
-
-
-def index_of(ids):
-    """Index in its file of point identifiers."""
-    return np.asarray(ids) & ((1 << ID_BITS) - 1)
 
 
 def tile_side_for(points_per_tile, density):

@@ -13,8 +13,12 @@ from pathlib import Path
 import numpy as np
 
 from ..signature import Signature
-from .core import SetContext, Tiling, positions_of, tile_name, tile_saliency, tile_second_distances
+from .core import SetContext, Tiling, tile_name, tile_saliency, tile_second_distances
 from .sources import Cells, load_cells, source_of, stage_part
+
+
+#: Per-point results: (Cl, Cs, Cp) and the chosen scale index (-1: none or undefined).
+POINT_VALUES = np.dtype([("values", "f8", 3), ("chosen", "i8")])
 
 
 @dataclass(frozen=True)
@@ -54,6 +58,25 @@ class Plan:
         xyz, ids, _ = self.load(bounds)
         return xyz, ids
 
+    def second_of(self, xyz, ids):
+        """(N,) second-neighbour distance in the whole set of the staged points ``xyz`` (centred
+        metres), ``ids``: from the files of the tiles whose core holds them (:func:`second_task`)."""
+        d = np.empty(len(ids))
+        tile = self.tiling.index(xyz)
+        ny = self.tiling.shape[1]
+        key = tile[:, 0] * ny + tile[:, 1]
+        for k in np.flatnonzero(np.bincount(key)):  # each tile holding some of the points
+            ij = (int(k) // ny, int(k) % ny)
+            _, ids_path, d_path = second_paths(self.work, ij)
+            known = np.load(ids_path, mmap_mode="r")
+            mine = np.flatnonzero(key == k)
+            at = np.searchsorted(known, ids[mine])  # the file is sorted; the points need not be
+            if at.max(initial=0) >= len(known) or not np.array_equal(known[at], ids[mine]):
+                raise RuntimeError(f"{tile_name(*ij)}: points without a second-neighbour distance")
+            d[mine] = np.load(d_path, mmap_mode="r")[at]
+            del known  # unmapped: the pages read leave the process
+        return d
+
     def occupied(self, ij):
         """True when tile ``ij``'s box meets a staged cell: a tile that meets none has no core
         points."""
@@ -61,8 +84,33 @@ class Plan:
 
 
 def result_path(work, ij):
-    """The file of tile ``ij``'s result in the work folder."""
+    """The file of tile ``ij``'s result in the work folder (its statistics and signature; it is
+    written last, so that its presence means the tile's per-point files are whole)."""
     return Path(work) / "tiles" / f"{tile_name(*ij)}.npz"
+
+
+def points_paths(work, ij):
+    """The files of tile ``ij``'s per-point results: the point identifiers, ascending, and
+    their (Cl, Cs, Cp) and chosen scale index (records of POINT_VALUES), in the same order."""
+    folder = Path(work) / "tiles"
+    return folder / f"{tile_name(*ij)}.ids.npy", folder / f"{tile_name(*ij)}.values.npy"
+
+
+def second_paths(work, ij):
+    """The files of tile ``ij``'s second-neighbour distances: one per distinct location of its
+    core points, ascending (for the set's median); its core points' identifiers, ascending; and
+    their distances in the same order (for the tiles' weights)."""
+    folder = Path(work) / "second"
+    name = tile_name(*ij)
+    return folder / f"{name}.npy", folder / f"{name}.ids.npy", folder / f"{name}.d.npy"
+
+
+def _save(path, array):
+    """``array`` as ``path`` (.npy), whole or not at all."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp.npy")
+    np.save(tmp, array)
+    os.replace(tmp, path)
 
 
 def stage_task(work, source, part, start, stop, cells, noise_codes):
@@ -72,8 +120,17 @@ def stage_task(work, source, part, start, stop, cells, noise_codes):
 
 
 def second_task(plan, ij):
-    """Second-neighbour distances of one tile's core locations (a task)."""
-    return tile_second_distances(plan.load_points, plan.tiling, ij, plan.ctx)
+    """Second-neighbour distances of one tile's core points (a task), kept in the work folder
+    (:func:`second_paths`): for the set's median (:func:`lidar_sig.tiling.median.sorted_median`)
+    and for the tiles, which take them instead of searching again (:meth:`Plan.second_of`);
+    returns how many locations."""
+    ids, point_d, location_d = tile_second_distances(plan.load_points, plan.tiling, ij, plan.ctx)
+    order = np.argsort(ids, kind="stable")
+    locations_path, ids_path, d_path = second_paths(plan.work, ij)
+    _save(ids_path, ids[order])
+    _save(d_path, point_d[order])
+    _save(locations_path, np.sort(location_d))
+    return len(location_d)
 
 
 def tile_task(plan, ij):
@@ -85,30 +142,39 @@ def tile_task(plan, ij):
         with np.load(path) as done:
             if str(done["key"]) == key:
                 return {**json.loads(str(done["stats"])), "resumed": True}
+        path.unlink()  # another run's: its per-point files are about to be replaced
     t0 = time.perf_counter()
-    r = tile_saliency(plan.pipeline, plan.load_points, plan.tiling, ij, plan.ctx)
-    # the core points' class codes, from the tile's box widened by round-off (core points are
-    # decided by a floor of the same coordinates, which can put a point an ulp outside the box)
-    x0, y0, x1, y1 = plan.tiling.box(*ij)
-    eps = 1e-6 * max(plan.tiling.size, 1.0)
-    _, ids, labels = plan.load((x0 - eps, y0 - eps, x1 + eps, y1 + eps))
-    mine = np.isin(ids, r.ids)
-    if int(mine.sum()) != len(r.ids):
-        raise RuntimeError(f"{tile_name(*ij)}: {len(r.ids) - int(mine.sum())} core points not found again "
-                           "for their class codes")
-    codes = np.empty(len(r.ids), np.int64)
-    codes[positions_of(r.ids, ids[mine])] = labels[mine]
+    first = {}
+
+    def load(bounds):  # the tile's own block keeps its class codes: no second read for them
+        xyz, ids, labels = plan.load(bounds)
+        if not first:
+            first.update(xyz=xyz, labels=labels)
+        return xyz, ids
+
+    second_of = plan.second_of if plan.ctx.area_cap is not None else None  # the cap pass's distances
+    r = tile_saliency(plan.pipeline, load, plan.tiling, ij, plan.ctx, second_of=second_of)
+    codes = np.empty(0, np.int64)
+    if first:  # core points in the order of the first block, as tile_saliency lists them
+        core = np.all(plan.tiling.index(first["xyz"]) == np.asarray(ij), axis=1)
+        codes = first["labels"][core]
     sig = Signature.from_saliency(r.values, plan.classes.index(codes), classes=plan.classes,
                                   frame=plan.pipeline.frame)
     flat = sig.counts.ravel()
     nz = np.flatnonzero(flat)
+    per_source = np.bincount(source_of(r.ids))
     stats = {**r.stats, "n_undefined": sig.n_undefined, "seconds": time.perf_counter() - t0,
-             "sources": sorted(int(s) for s in np.unique(source_of(r.ids))), "resumed": False}
+             "sources": {str(s): int(c) for s, c in enumerate(per_source) if c}, "resumed": False}
+    order = np.argsort(r.ids, kind="stable")  # by identifier: each file's points in its order
+    rec = np.empty(len(order), POINT_VALUES)
+    rec["values"] = r.values[order]
+    rec["chosen"] = r.chosen[order] if r.chosen is not None else -1
+    ids_path, values_path = points_paths(plan.work, ij)
+    _save(ids_path, r.ids[order])
+    _save(values_path, rec)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp.npz")
-    np.savez(tmp, ids=r.ids, values=r.values,
-             chosen=r.chosen if r.chosen is not None else np.empty(0, np.int64),
-             counts_at=nz, counts=flat[nz], egeom_counts=sig.egeom_counts, class_totals=sig.class_totals,
-             key=np.array(key), stats=np.array(json.dumps(stats)))
+    np.savez(tmp, counts_at=nz, counts=flat[nz], egeom_counts=sig.egeom_counts, class_totals=sig.class_totals,
+             has_chosen=np.array(r.chosen is not None), key=np.array(key), stats=np.array(json.dumps(stats)))
     os.replace(tmp, path)  # a tile's result exists whole or not at all
     return stats

@@ -1,6 +1,7 @@
 """The work folder of a tiled run: made, refused when it would hold something else or one of the
 run's inputs and outputs, removed after a complete run; and what a resumed run reads back from
-it besides the staged files and the tiles' results (the area-weight cap)."""
+it besides the staged files and the tiles' results (the area-weight cap, which goes with the
+tiles' second-neighbour distances kept beside it)."""
 from __future__ import annotations
 
 import json
@@ -57,3 +58,9 @@ def saved_area_cap(work, key):
 def save_area_cap(work, key, cap):
     """Keep the set's area-weight cap in ``work`` for a resumed run."""
     (Path(work) / AREA_CAP_FILE).write_text(json.dumps({"key": key, "cap": cap}))
+
+
+def forget_area_cap(work):
+    """Remove a kept area-weight cap: the tiles' distances it goes with are being replaced (a
+    resumed run must not take the cap of one pass with the distances of another)."""
+    (Path(work) / AREA_CAP_FILE).unlink(missing_ok=True)

@@ -1,0 +1,105 @@
+"""The memory budget of a run: what one block of points needs, and how many points a
+processing tile may hold so that every process stays within the budget.
+
+Both are linear models of the peak resident memory of a process, measured on generated
+airborne scenes (benchmarks/bench_tiles.py; docs/performance.md):
+
+- one block (``Pipeline.run`` on a whole cloud): :data:`BASE_BYTES` (the interpreter, the
+  libraries and one block of neighbour lists) plus :data:`BLOCK_BYTES_PER_POINT` per point;
+- a process running tiles: the same base plus :data:`TILE_BYTES_PER_POINT` per point of a
+  tile's block (its core points and halo), which also covers the staged records it loads.
+
+The command line reads the point count from a LAS/LAZ header (no point is read) and runs a
+file in tiles when one block would need more than the budget (``--memory``, default
+:data:`DEFAULT_MEMORY`).
+"""
+from __future__ import annotations
+
+import math
+import re
+from pathlib import Path
+
+from ..errors import LidarSigError
+
+GIB = 2**30
+MIB = 2**20
+#: Memory budget per process when none is given: 1 GiB.
+DEFAULT_MEMORY = GIB
+#: Resident memory of a process before any point: interpreter, libraries, one block of
+#: neighbour lists (bytes).
+BASE_BYTES = 323 * MIB
+#: Bytes per point of a cloud run as one block (coordinates, their sorted copy, the voxel
+#: index, the weights, the per-point outputs).
+BLOCK_BYTES_PER_POINT = 212
+#: Bytes per point of a tile's block (core and halo) in a process running tiles.
+TILE_BYTES_PER_POINT = 300
+#: Share of a tile's block that is its core (the halo and the recomputed points are the rest).
+CORE_SHARE = 0.85
+#: Fewest points a processing tile may hold under a budget: a smaller budget is refused.
+MIN_BUDGET_TILE_POINTS = 20_000
+
+_UNITS = {"": GIB, "k": 2**10, "m": MIB, "g": GIB, "t": 2**40}
+_PATTERN = re.compile(r"^\s*([0-9]*\.?[0-9]+(?:e[+-]?[0-9]+)?)\s*([kmgt]?)(?:i?b)?\s*$", re.IGNORECASE)
+
+
+def parse_memory(text):
+    """Bytes of a memory budget written as ``1GiB``, ``800MiB``, ``1.5G``, ``2GB`` or a bare
+    number of GiB (units are binary: 1G = 1GiB = 2**30 bytes); LidarSigError naming the value
+    and the fix otherwise, and for a budget too small to run a tile in."""
+    match = _PATTERN.match(str(text))
+    value = float(match.group(1)) if match else math.nan
+    if not math.isfinite(value) or value <= 0:
+        raise LidarSigError(f"--memory must be a positive size such as 1GiB, 800MiB or 2G, got {text!r}")
+    budget = int(value * _UNITS[match.group(2).lower()])
+    least = BASE_BYTES + TILE_BYTES_PER_POINT * MIN_BUDGET_TILE_POINTS
+    if budget < least:
+        raise LidarSigError(f"--memory {text} is less than a process needs to run a tile ({size(least)}); "
+                            f"give at least {math.ceil(least / MIB)}MiB")
+    return budget
+
+
+def block_bytes(n_points):
+    """Peak resident memory (bytes) of a cloud of ``n_points`` run as one block."""
+    return BASE_BYTES + BLOCK_BYTES_PER_POINT * int(n_points)
+
+
+def over_budget(n_points, budget):
+    """True when one block of ``n_points`` would need more than ``budget`` bytes."""
+    return block_bytes(n_points) > budget
+
+
+def header_points(path):
+    """Points of a LAS/LAZ file from its header alone, or None for another format or a header
+    that cannot be read (reading the file then names the problem)."""
+    from ..io import LAS_EXTENSIONS
+
+    if not isinstance(path, (str, Path)) or Path(path).suffix.lower() not in LAS_EXTENSIONS \
+            or not Path(path).is_file():
+        return None
+    import laspy
+
+    try:
+        with laspy.open(path) as reader:
+            return int(reader.header.point_count)
+    except Exception:  # laspy raises many kinds on a damaged header
+        return None
+
+
+def points_over_budget(path, budget):
+    """Points of the LAS/LAZ file ``path`` when one block of them would need more than
+    ``budget`` bytes (it is then processed in tiles), else None."""
+    n = header_points(path)
+    return n if n is not None and over_budget(n, budget) else None
+
+
+def tile_points(budget):
+    """Core points of a processing tile such that its block (core and halo) stays within
+    ``budget`` bytes in the process that runs it."""
+    return max(MIN_BUDGET_TILE_POINTS, int(CORE_SHARE * (budget - BASE_BYTES) / TILE_BYTES_PER_POINT))
+
+
+def size(n_bytes):
+    """A memory size for messages: "1 GiB", "1.5 GiB", "800 MiB"."""
+    if n_bytes >= GIB:
+        return f"{n_bytes / GIB:.3g} GiB"
+    return f"{n_bytes / MIB:.0f} MiB"

@@ -1,0 +1,175 @@
+"""The memory budget (issue 18): one file whose one-block run would need more than --memory is
+processed in tiles, with the one-block results, into the one output named."""
+import json
+import math
+
+import laspy
+import numpy as np
+import pytest
+
+import lidar_sig as ls
+from lidar_sig.errors import LidarSigError
+from lidar_sig.tiling.median import sorted_median
+from lidar_sig.tiling.memory import DEFAULT_MEMORY, GIB, MIB, block_bytes, over_budget, parse_memory
+
+from command_line import run as lidar_sig_cli
+from conftest import SAMPLES
+
+EPOCH1 = SAMPLES / "epoch1.laz"
+N_EPOCH1 = 41_507
+# A budget just below what the sample needs as one block, by the library's own estimate: the
+# file is then processed in tiles (the tests do not depend on the estimate's constants).
+SMALL = f"{math.floor((block_bytes(N_EPOCH1) - 1) / MIB)}MiB"
+
+
+@pytest.fixture(scope="module")
+def single():
+    """The sample run as one block, by the library (the reference of every tiled run here)."""
+    return ls.Pipeline(progress=False).run(EPOCH1)
+
+
+def saliency_of(path):
+    las = laspy.read(path)
+    return np.column_stack([las["Cl"], las["Cs"], las["Cp"]]), las
+
+
+@pytest.mark.parametrize("text, expected", [
+    ("1GiB", GIB), ("800MiB", 800 * MIB), ("1.5GiB", 3 * GIB // 2), ("2G", 2 * GIB), ("2GB", 2 * GIB),
+    ("1", GIB), ("0.5", GIB // 2), ("900m", 900 * MIB), (" 4 GiB ", 4 * GIB), ("1t", 2**40),
+])
+def test_memory_sizes_are_read_in_binary_units_a_bare_number_in_gib(text, expected):
+    assert parse_memory(text) == expected
+
+
+@pytest.mark.parametrize("text", ["", "abc", "-1", "0", "1.5.2", "1XB", "nan", "inf", "1,5G", "G"])
+def test_a_memory_size_that_is_not_one_is_refused_naming_it(text):
+    with pytest.raises(LidarSigError, match="--memory") as err:
+        parse_memory(text)
+    assert repr(text) in str(err.value) and "1GiB" in str(err.value)
+
+
+def test_a_budget_below_what_a_process_needs_names_the_least(tmp_path):
+    proc = lidar_sig_cli("saliency", EPOCH1, "-o", tmp_path / "x.laz", "--memory", "100MiB")
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+    assert "--memory 100MiB" in proc.stderr and "give at least" in proc.stderr and "Traceback" not in proc.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("value", ["lots", "-2G", "0", "1.5.2GiB"])
+def test_a_bad_memory_option_is_one_line_before_any_work(tmp_path, value):
+    proc = lidar_sig_cli("signature", EPOCH1, "-o", tmp_path / "s.h5", "--memory", value)
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+    assert "--memory" in proc.stderr and repr(value) in proc.stderr and "Traceback" not in proc.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_the_default_budget_keeps_a_million_points_and_the_sample_as_one_block(tmp_path):
+    assert DEFAULT_MEMORY == GIB
+    assert not over_budget(1_000_000, DEFAULT_MEMORY) and over_budget(20_000_000, DEFAULT_MEMORY)
+    proc = lidar_sig_cli("saliency", EPOCH1, "-o", tmp_path / "x.laz")
+    assert proc.returncode == 0, proc.stderr
+    assert "memory budget" not in proc.stdout and "tiles" not in proc.stdout
+    assert f"{N_EPOCH1:,} points, c3dcm multiscale" in proc.stdout
+
+
+def test_a_file_over_the_budget_is_written_whole_from_tiles_with_the_one_block_values(tmp_path, single):
+    out = tmp_path / "out.laz"
+    proc = lidar_sig_cli("saliency", EPOCH1, "-o", out, "--memory", SMALL, "-v")
+    assert proc.returncode == 0, proc.stderr
+    assert f"{N_EPOCH1:,} points exceed the {SMALL[:-3]} MiB memory budget as one block: processed in" in proc.stdout
+    for stage in ("staging", "area-weight cap", "tiles", "writing out.laz"):  # where the time goes
+        assert f"lidar-sig: {stage}: " in proc.stderr, stage
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.laz"]  # the work folder is gone
+    got, las = saliency_of(out)
+    source = laspy.read(EPOCH1)
+    assert len(las.points) == N_EPOCH1 and np.array_equal(las.x, source.x) and np.array_equal(las.y, source.y)
+    assert np.array_equal(las.classification, source.classification)
+    # float32 of values equal to 1e-12 (tied neighbours summed in another order: test_tiling)
+    expected = single.saliency.values.astype(np.float32)
+    assert np.array_equal(np.isnan(got), np.isnan(expected))
+    assert np.allclose(got, expected, rtol=0, atol=1e-6, equal_nan=True)
+
+
+def test_a_file_over_the_budget_on_two_workers_gives_the_same_file(tmp_path):
+    one = tmp_path / "one.laz"
+    two = tmp_path / "two.laz"
+    assert lidar_sig_cli("saliency", EPOCH1, "-o", one, "--memory", SMALL, "-q").returncode == 0
+    proc = lidar_sig_cli("saliency", EPOCH1, "-o", two, "--memory", SMALL, "--workers", "2")
+    assert proc.returncode == 0, proc.stderr
+    assert "2 local processes" in proc.stdout
+    # the same tiles on other processes: the same arithmetic, so the same bytes
+    assert np.array_equal(saliency_of(one)[0], saliency_of(two)[0], equal_nan=True)
+
+
+@pytest.mark.parametrize("name", ["out.ply", "out.xyz"])
+def test_a_non_las_output_over_the_budget_is_refused_in_one_line(tmp_path, name):
+    proc = lidar_sig_cli("saliency", EPOCH1, "-o", tmp_path / name, "--memory", SMALL)
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+    assert name in proc.stderr and "LAS/LAZ" in proc.stderr and "--memory" in proc.stderr
+    assert "Traceback" not in proc.stderr and list(tmp_path.iterdir()) == []
+
+
+def test_the_signature_of_a_file_over_the_budget_is_the_one_block_signature(tmp_path, single):
+    out = tmp_path / "s.h5"
+    proc = lidar_sig_cli("signature", EPOCH1, "-o", out, "--memory", SMALL)
+    assert proc.returncode == 0, proc.stderr
+    assert "memory budget as one block: processed in" in proc.stdout
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.h5"]
+    sig = ls.load_signature(out)
+    for key in ("counts", "egeom_counts", "class_totals"):  # integer counts: exactly equal
+        assert np.array_equal(getattr(sig, key), getattr(single.signature, key)), key
+    proc = lidar_sig_cli("signature", EPOCH1, "--report", tmp_path / "r.html", "--memory", SMALL)
+    assert proc.returncode == 2 and "--report" in proc.stderr and "--memory" in proc.stderr, proc.stderr
+    assert not (tmp_path / "r.html").exists()
+
+
+def test_compare_computes_an_input_over_the_budget_in_tiles_with_the_same_metrics(tmp_path):
+    # epoch2 is labelled, the copy of epoch1 is not: geometry only, as for two clouds
+    unlabelled = tmp_path / "unlabelled.laz"
+    las = laspy.read(EPOCH1)
+    las.classification[:] = 0
+    las.write(unlabelled)
+    for a, b in ((EPOCH1, SAMPLES / "epoch2.laz"), (unlabelled, SAMPLES / "epoch2.laz"),
+                 (SAMPLES / "epoch2.laz", unlabelled)):
+        whole = lidar_sig_cli("compare", a, b, "--json")
+        tiled = lidar_sig_cli("compare", a, b, "--json", "--memory", SMALL)
+        assert whole.returncode == 0 and tiled.returncode == 0, tiled.stderr
+        assert "memory budget as one block: processed in" in tiled.stderr
+        w, t = json.loads(whole.stdout), json.loads(tiled.stdout)
+        for key in ("bhattacharyya", "ssim", "emd_info", "emd_img", "fv", "kl", "l1"):
+            assert t[key] == pytest.approx(w[key], rel=1e-12, abs=1e-12), (a.name, b.name, key)
+        assert "set of tiles" in (t["a"]["kind"], t["b"]["kind"]) and t["warnings"] == w["warnings"]
+
+
+def test_a_tiled_run_that_fails_or_is_interrupted_leaves_nothing(tmp_path, monkeypatch):
+    from lidar_sig.tiling import run as tiling_run
+
+    def fails(plan, ij):
+        raise RuntimeError("a tile failed")
+
+    monkeypatch.setattr(tiling_run, "tile_task", fails)
+    proc = lidar_sig_cli("saliency", EPOCH1, "-o", tmp_path / "out.laz", "--memory", SMALL)
+    assert proc.returncode == 2 and "could not be processed in tiles" in proc.stderr, proc.stderr
+    assert list(tmp_path.iterdir()) == []
+
+    def interrupted(plan, ij):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(tiling_run, "tile_task", interrupted)
+    proc = lidar_sig_cli("signature", EPOCH1, "-o", tmp_path / "s.h5", "--memory", SMALL)
+    assert proc.returncode == 130 and "interrupted" in proc.stderr, proc.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("sizes", [[7], [3, 4], [1000, 1, 2000, 5], [0, 10, 11]])
+def test_the_median_of_sorted_files_is_numpys(tmp_path, sizes):
+    rng = np.random.default_rng(sum(sizes))
+    # half the values from two, so that equal values span files and the middle
+    arrays = [np.sort(np.where(rng.random(n) < 0.5, rng.choice([0.5, 1.0], n), rng.uniform(0.0, 3.0, n)))
+              for n in sizes]
+    paths = []
+    for i, a in enumerate(arrays):
+        paths.append(tmp_path / f"{i}.npy")
+        np.save(paths[-1], a)
+    # the same value, not a close one: the set's cap must be the single block's
+    assert sorted_median(paths) == float(np.median(np.concatenate(arrays)))
