@@ -286,7 +286,7 @@ class NeighborIndex:
         d_second = np.zeros(len(rows))
         if k == 3:  # no candidate lists: each query keeps its three nearest as it scans
             third, done = np.empty(len(rows)), np.zeros(len(rows), np.bool_)
-            self.grid.third_distances(rows, third, done, s_max=_KNN_SHELLS)
+            self.grid.third_distances(rows, third, done, s_max=int(shells))
             todo = np.flatnonzero(~done)
             if len(todo):
                 d2, idx = np.empty((len(todo), k)), np.empty((len(todo), k), np.int64)
