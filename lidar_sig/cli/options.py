@@ -286,7 +286,7 @@ def resume_options(func):
     func = click.option("--work-dir", default=None, metavar="DIR", callback=not_empty("a folder"),
                         help="Scratch folder of a tiled run (staged points, finished tiles); every worker "
                              "must see it at this path [default: OUT/.lidar-sig-work for saliency, "
-                             "OUT.work for signature].")(func)
+                             "OUT.work for signature, .OUT.lidar-sig-work for one file over --memory].")(func)
     return click.option("--resume", is_flag=True,
                         help="Reuse what an earlier tiled run of the same files and method finished "
                              "(kept in its work folder after a failure).")(func)

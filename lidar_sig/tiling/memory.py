@@ -1,13 +1,16 @@
 """The memory budget of a run: what one block of points needs, and how many points a
 processing tile may hold so that every process stays within the budget.
 
-Both are linear models of the peak resident memory of a process, measured on generated
-airborne scenes (benchmarks/bench_tiles.py; docs/performance.md):
+Both are linear models of the peak resident memory of a process, upper bounds of what was
+measured on generated airborne scenes (benchmarks/bench_tiles.py; docs/performance.md):
 
-- one block (``Pipeline.run`` on a whole cloud): :data:`BASE_BYTES` (the interpreter, the
-  libraries and one block of neighbour lists) plus :data:`BLOCK_BYTES_PER_POINT` per point;
+- one block (``lidar-sig saliency`` of a whole cloud): :data:`BASE_BYTES` (the interpreter,
+  the libraries, one block of neighbour lists) plus :data:`BLOCK_BYTES_PER_POINT` per point
+  (measured: 549 MiB at 1 million points, 1,340 MiB at 5 million; Optimal-scale 554 MiB at 1
+  million);
 - a process running tiles: the same base plus :data:`TILE_BYTES_PER_POINT` per point of a
-  tile's block (its core points and halo), which also covers the staged records it loads.
+  tile's block (its core points and halo), which also covers the staged records it loads
+  (measured: 230 to 250 bytes a point above the base, 819 MiB for blocks of 1.9 million).
 
 The command line reads the point count from a LAS/LAZ header (no point is read) and runs a
 file in tiles when one block would need more than the budget (``--memory``, default
@@ -27,7 +30,7 @@ MIB = 2**20
 DEFAULT_MEMORY = GIB
 #: Resident memory of a process before any point: interpreter, libraries, one block of
 #: neighbour lists (bytes).
-BASE_BYTES = 323 * MIB
+BASE_BYTES = 360 * MIB
 #: Bytes per point of a cloud run as one block (coordinates, their sorted copy, the voxel
 #: index, the weights, the per-point outputs).
 BLOCK_BYTES_PER_POINT = 212

@@ -32,10 +32,10 @@ from ..errors import LidarSigError, as_path, counted
 from ..neighbors import AREA_CAP
 from ..progress import progress, step
 from .core import SetContext, Tiling, check_tile_size, check_tileable, context_of, tile_name
-from .results import SetRun, sum_signatures
-from .sources import Cells, cell_files, densest, expand, scan, staged, tile_side_for
 from .median import sorted_median
 from .memory import DEFAULT_MEMORY, tile_points
+from .results import SetRun, sum_signatures
+from .sources import Cells, cell_files, densest, expand, scan, staged, tile_side_for
 from .tasks import Plan, second_paths, second_task, stage_task, tile_task
 from .work import forget_area_cap, prepare_work, save_area_cap, saved_area_cap
 
