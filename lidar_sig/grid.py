@@ -66,6 +66,21 @@ def _insertion_sort(d, ix, n):
         ix[b + 1] = w
 
 
+@njit(cache=True, inline="always")
+def _scatter(d, ix, m, bucket, counts, nb, out_d, out_i):
+    """Counting sort's second half: d[:m] (ix following) into out by ``bucket`` (0 .. nb - 1),
+    buckets in order, each in input order; ``counts[b + 1]`` holds bucket b's size on entry and
+    ``counts[b]`` the end of bucket b on return."""
+    for b in range(nb):
+        counts[b + 1] += counts[b]
+    for a in range(m):
+        b = bucket[a]
+        pos = counts[b]
+        out_d[pos] = d[a]
+        out_i[pos] = ix[a]
+        counts[b] = pos + 1
+
+
 #: Up to this many nearest, a quickselect and an insertion sort; more go through buckets.
 _FEW = 16
 
@@ -88,14 +103,7 @@ def _nearest_sorted(d, ix, m, n, span, bucket, counts, tmp_d, tmp_i, out_d, out_
         b = min(int(d[a] * scale), nb - 1)
         bucket[a] = b
         counts[b + 1] += 1
-    for b in range(nb):
-        counts[b + 1] += counts[b]
-    for a in range(m):
-        b = bucket[a]
-        pos = counts[b]
-        tmp_d[pos] = d[a]
-        tmp_i[pos] = ix[a]
-        counts[b] = pos + 1
+    _scatter(d, ix, m, bucket, counts, nb, tmp_d, tmp_i)
     end = 0  # counts[b] is now the end of bucket b: sort the buckets up to the n-th item's
     for b in range(nb):
         end = counts[b]
@@ -122,14 +130,7 @@ def _partition_radius(d, ix, m, r2s, k, out_d, out_i, bucket, counts):
             s += d[a] > r2s[t]
         bucket[a] = s
         counts[s + 1] += 1
-    for s in range(n_scales):
-        counts[s + 1] += counts[s]
-    for a in range(m):
-        s = bucket[a]
-        pos = counts[s]
-        out_d[pos] = d[a]
-        out_i[pos] = ix[a]
-        counts[s] = pos + 1
+    _scatter(d, ix, m, bucket, counts, n_scales, out_d, out_i)
     return m
 
 
