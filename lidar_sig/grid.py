@@ -145,6 +145,16 @@ def _box_d2(origin, h, cell_ijk, box, qx, qy, qz):
     return ex * ex + ey * ey + ez * ez
 
 
+@njit(cache=True, inline="always")
+def _face_margin(origin, h, ci, cj, ck, qx, qy, qz):
+    """Distance from (qx, qy, qz) to the nearest face of its voxel (ci, cj, ck): no point outside
+    Chebyshev shell s of that voxel is nearer than s voxel sides plus this."""
+    lx = qx - (origin[0] + ci * h)
+    ly = qy - (origin[1] + cj * h)
+    lz = qz - (origin[2] + ck * h)
+    return max(0.0, min(min(lx, h - lx), min(min(ly, h - ly), min(lz, h - lz))))
+
+
 @njit(cache=True)
 def _shell(ci, cj, ck, s, dims, cell_keys, lut, cell_start, rs, re, rc, n_ranges):
     """Append the point ranges of the occupied voxels of Chebyshev shell s; return the count."""
@@ -223,10 +233,7 @@ def nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, origin, h,
             for qpos in range(group_start[g], group_start[g + 1]):
                 q = queries[qpos]
                 qx, qy, qz = pts[q, 0], pts[q, 1], pts[q, 2]
-                lx = qx - (origin[0] + ci * h)
-                ly = qy - (origin[1] + cj * h)
-                lz = qz - (origin[2] + ck * h)
-                margin = max(0.0, min(min(lx, h - lx), min(min(ly, h - ly), min(lz, h - lz))))
+                margin = _face_margin(origin, h, ci, cj, ck, qx, qy, qz)
                 hd = out_d2[qpos]
                 hi = out_idx[qpos]
                 if not knn_mode:
@@ -363,10 +370,7 @@ def third_nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, orig
             for qpos in range(group_start[g], group_start[g + 1]):
                 q = queries[qpos]
                 qx, qy, qz = pts[q, 0], pts[q, 1], pts[q, 2]
-                lx = qx - (origin[0] + ci * h)
-                ly = qy - (origin[1] + cj * h)
-                lz = qz - (origin[2] + ck * h)
-                margin = max(0.0, min(min(lx, h - lx), min(min(ly, h - ly), min(lz, h - lz))))
+                margin = _face_margin(origin, h, ci, cj, ck, qx, qy, qz)
                 b0 = b1 = b2 = np.inf
                 settled = False
                 for s in range(s_max + 1):
