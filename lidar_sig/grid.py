@@ -3,11 +3,11 @@
 Points are sorted by voxel so that a voxel's points, and its neighbours', are close in memory;
 queries in one voxel share the look-ups of the voxels around it. A query gathers every point
 within a search radius t and keeps the nearest. For spherical neighbourhoods t is the radius.
-For k-nearest ones t comes from the previous query: its k-th distance plus the distance between
-the two queries holds at least k points (triangle inequality), so one pass suffices; a query
-without a near predecessor starts from a guess (1.2 times the last k-th distance, or the voxel
-side) and widens it by half until k points are inside. Voxels farther than t from the query are
-skipped; candidates are scanned without branches (each is written, and kept if within t).
+For k-nearest ones t is a guess, widened until the sphere holds k points (then it holds the k
+nearest): a little more than the previous query's k-th distance, the first query's the voxel side.
+Consecutive queries are close (points are sorted along a curve within each voxel), so the guess is
+short for about one query in twenty. Voxels farther than t from the query are skipped; candidates
+are scanned without branches (each is written, and kept if within t).
 
 k-nearest rows come sorted by distance. Spherical rows are grouped by scale, each group in no
 particular order: the neighbours of scale s are a prefix of those of scale s + 1, which is all
@@ -83,20 +83,27 @@ def _scatter(d, ix, m, bucket, counts, nb, out_d, out_i):
 
 #: Up to this many nearest, a quickselect and an insertion sort; more go through buckets.
 _FEW = 16
+#: A k-nearest query searches first within this many times its predecessor's k-th distance, and
+#: widens the search by _KNN_WIDEN until it holds k points (docs/performance.md: chosen on AHN3
+#: cropped_1 at k = 20..40 and 10..100).
+_KNN_GUESS = 1.1
+_KNN_WIDEN = 1.25
 
 
 @njit(cache=True)
 def _nearest_sorted(d, ix, m, n, span, bucket, counts, tmp_d, tmp_i, out_d, out_i):
     """The ``n`` smallest of d[:m] (each in [0, span]) into out_d[:n] ascending, out_i following.
 
-    A bucket sort: the candidates are filed, in one branch-free pass, into about m / 4 buckets
-    of equal width in squared distance, then an insertion sort finishes the buckets that hold
-    the n smallest, each item moving only within its bucket. Around a point on a surface the
-    number of points grows as the squared distance, so the buckets fill about evenly; any
-    distribution is still sorted exactly (clustered distances only cost more moves). The work
-    arrays hold at least m items, ``counts`` at least m // 4 + 1.
+    A bucket sort: the candidates are filed, in one branch-free pass, into 2m buckets of equal
+    width in squared distance, then an insertion sort finishes the buckets that hold the n
+    smallest, each item moving only within its bucket. Around a point on a surface the number
+    of points grows as the squared distance, so the buckets fill about evenly and most hold one
+    item or none: the insertion sort then rarely moves an item, and its branches are
+    predictable (with m / 4 buckets the k = 100 search took 27% longer, docs/performance.md).
+    Any distribution is still sorted exactly (clustered distances only cost more moves). The
+    work arrays hold at least m items, ``counts`` at least 2m + 1.
     """
-    nb = max(1, m // 4)
+    nb = max(1, 2 * m)
     scale = nb / span if span > 0.0 else 0.0
     counts[:nb + 1] = 0
     for a in range(m):
@@ -220,7 +227,7 @@ def nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, origin, h,
         scale_counts = np.empty(r2s.size + 1, np.int64)
         tmp_d = np.empty(4096)  # the k-nearest bucket sort's work space, grown with buf_d
         tmp_i = np.empty(4096, np.int64)
-        bucket_counts = np.empty(4096 // 4 + 1, np.int64)
+        bucket_counts = np.empty(2 * 4096 + 1, np.int64)
         prev = -1
         prev_dk = 0.0
         g0 = chunk * n_groups // n_chunks
@@ -239,13 +246,10 @@ def nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, origin, h,
                 if not knn_mode:
                     t = np.sqrt(r2)
                 elif prev >= 0:
-                    ddx = qx - pts[prev, 0]
-                    ddy = qy - pts[prev, 1]
-                    ddz = qz - pts[prev, 2]
-                    delta = np.sqrt(ddx * ddx + ddy * ddy + ddz * ddz)
-                    # near predecessor: its k nearest lie within t, one pass is enough;
-                    # far one: its k-th distance is still a good guess of the local density
-                    t = prev_dk + delta if delta <= h else 1.2 * prev_dk
+                    # the predecessor's k-th distance, a little wider: usually k points inside
+                    # (its bound plus the distance between the two, sure to hold k, takes in
+                    # half again as many candidates, to be sorted)
+                    t = _KNN_GUESS * prev_dk
                 else:
                     t = h  # a guess, grown below until it holds k points
                 # A predecessor whose k-th neighbour coincides with it (duplicate points) gives
@@ -290,7 +294,7 @@ def nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, origin, h,
                             m += d2 <= t2
                     if not knn_mode or m >= k or s_need >= s_cover:
                         break
-                    t *= 1.5
+                    t *= _KNN_WIDEN
                 if not settled:
                     out_n[qpos] = 0
                     done[qpos] = False
@@ -309,7 +313,7 @@ def nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, origin, h,
                             tmp_d = np.empty(buf_d.size)
                             tmp_i = np.empty(buf_d.size, np.int64)
                             bucket = np.empty(buf_d.size, np.int64)
-                            bucket_counts = np.empty(buf_d.size // 4 + 1, np.int64)
+                            bucket_counts = np.empty(2 * buf_d.size + 1, np.int64)
                         _nearest_sorted(buf_d, buf_i, m, n, t2, bucket, bucket_counts, tmp_d, tmp_i, hd, hi)
                     if n == k:
                         prev = q
@@ -387,16 +391,11 @@ def third_nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, orig
                             dy = pts[j, 1] - qy
                             dz = pts[j, 2] - qz
                             d2 = dx * dx + dy * dy + dz * dz
-                            if d2 < b2:
-                                if d2 < b1:
-                                    b2 = b1
-                                    if d2 < b0:
-                                        b1 = b0
-                                        b0 = d2
-                                    else:
-                                        b1 = d2
-                                else:
-                                    b2 = d2
+                            # insert d2 into b0 <= b1 <= b2 without branches: a branch taken
+                            # at random costs more than the whole update
+                            b2 = min(b2, max(b1, d2))
+                            b1 = min(b1, max(b0, d2))
+                            b0 = min(b0, d2)
                     reach = s * h + margin  # no point beyond shell s is nearer than this
                     if reach * reach >= b2 * (1.0 + 1e-12) or s >= s_cover:  # round-off kept out
                         settled = b2 < np.inf
