@@ -23,8 +23,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-# Bytes of neighbour lists (squared distance + index) held at once; bounds memory per block.
-_BLOCK_BYTES = 96 * 2**20
+# Bytes of neighbour lists (squared distance + index) held at once; bounds memory per block. Small
+# enough that the descriptor reads a block's lists from the cache the search wrote them to: on
+# AHN3 96 MiB took 12% (defaults) to 40% (the paper's radii) longer (docs/performance.md).
+_BLOCK_BYTES = 24 * 2**20
 # Voxel shells a k-nearest query may grow before it is handed to the k-d tree.
 _KNN_SHELLS = 6
 # Queries x points up to which unsettled k-nearest queries scan every point instead of building a
