@@ -4,10 +4,11 @@ Points are sorted by voxel so that a voxel's points, and its neighbours', are cl
 queries in one voxel share the look-ups of the voxels around it. A query gathers every point
 within a search radius t and keeps the nearest. For spherical neighbourhoods t is the radius.
 For k-nearest ones t is a guess, widened until the sphere holds k points (then it holds the k
-nearest): a little more than the previous query's k-th distance, the first query's the voxel side.
-Consecutive queries are close (points are sorted along a curve within each voxel), so the guess is
-short for about one query in twenty. Voxels farther than t from the query are skipped; candidates
-are scanned without branches (each is written, and kept if within t).
+nearest): a little more than the previous query's k-th distance, the first query's the voxel
+side. Consecutive queries are close (points are sorted along a curve within each voxel), so the
+guess is short for about one query in ten (AHN3: 9% at k = 48, 6% at k = 108). Voxels farther
+than t from the query are skipped; candidates are scanned without branches (each is written,
+and kept if within t).
 
 k-nearest rows come sorted by distance. Spherical rows are grouped by scale, each group in no
 particular order: the neighbours of scale s are a prefix of those of scale s + 1, which is all
@@ -99,7 +100,7 @@ def _nearest_sorted(d, ix, m, n, span, bucket, counts, tmp_d, tmp_i, out_d, out_
     smallest, each item moving only within its bucket. Around a point on a surface the number
     of points grows as the squared distance, so the buckets fill about evenly and most hold one
     item or none: the insertion sort then rarely moves an item, and its branches are
-    predictable (with m / 4 buckets the k = 100 search took 27% longer, docs/performance.md).
+    predictable (with m / 4 buckets the k = 100 search took 38% longer, docs/performance.md).
     Any distribution is still sorted exactly (clustered distances only cost more moves). The
     work arrays hold at least m items, ``counts`` at least 2m + 1.
     """
@@ -247,8 +248,8 @@ def nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, origin, h,
                     t = np.sqrt(r2)
                 elif prev >= 0:
                     # the predecessor's k-th distance, a little wider: usually k points inside
-                    # (its bound plus the distance between the two, sure to hold k, takes in
-                    # half again as many candidates, to be sorted)
+                    # (its bound plus the distance between the two, sure to hold k, kept two
+                    # thirds more candidates, to be sorted)
                     t = _KNN_GUESS * prev_dk
                 else:
                     t = h  # a guess, grown below until it holds k points
