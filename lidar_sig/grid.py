@@ -143,6 +143,16 @@ def _partition_radius(d, ix, m, r2s, k, out_d, out_i, bucket, counts):
 
 
 @njit(cache=True, inline="always")
+def _d2(pts, j, qx, qy, qz):
+    """Squared distance from point j of ``pts`` to (qx, qy, qz): every search computes it so, and
+    gets the same bits for the same pair."""
+    dx = pts[j, 0] - qx
+    dy = pts[j, 1] - qy
+    dz = pts[j, 2] - qz
+    return dx * dx + dy * dy + dz * dz
+
+
+@njit(cache=True, inline="always")
 def _box_d2(origin, h, cell_ijk, box, qx, qy, qz):
     bx = origin[0] + cell_ijk[box, 0] * h
     by = origin[1] + cell_ijk[box, 1] * h
@@ -286,10 +296,7 @@ def nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, origin, h,
                         if _box_d2(origin, h, cell_ijk, rc[r], qx, qy, qz) > t2:
                             continue
                         for j in range(rs[r], re[r]):
-                            dx = pts[j, 0] - qx
-                            dy = pts[j, 1] - qy
-                            dz = pts[j, 2] - qz
-                            d2 = dx * dx + dy * dy + dz * dz
+                            d2 = _d2(pts, j, qx, qy, qz)
                             buf_d[m] = d2
                             buf_i[m] = j
                             m += d2 <= t2
@@ -388,10 +395,7 @@ def third_nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, orig
                         if s > 0 and _box_d2(origin, h, cell_ijk, rc[r], qx, qy, qz) > b2:
                             continue
                         for j in range(rs[r], re[r]):
-                            dx = pts[j, 0] - qx
-                            dy = pts[j, 1] - qy
-                            dz = pts[j, 2] - qz
-                            d2 = dx * dx + dy * dy + dz * dz
+                            d2 = _d2(pts, j, qx, qy, qz)
                             # insert d2 into b0 <= b1 <= b2 without branches: a branch taken
                             # at random costs more than the whole update
                             b2 = min(b2, max(b1, d2))
@@ -409,18 +413,16 @@ def third_nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, orig
 def nearest_by_scan(pts, queries, k, out_d2, out_idx, out_n, out_rows):
     """The k nearest of ``pts`` to each point ``queries[a]``, sorted, into row ``out_rows[a]`` of
     ``out_d2`` and ``out_idx`` (``out_n`` the count): a scan of every point, for the few queries
-    the voxel shells cannot settle. Squared distances are computed as :func:`nearest` does."""
+    the voxel shells cannot settle. Squared distances are :func:`nearest`'s, to the bit (:func:`_d2`)."""
     n_pts = pts.shape[0]
     k = min(k, n_pts)
     for a in prange(queries.size):
         q = queries[a]
         d = np.empty(n_pts)
         ix = np.arange(n_pts)
+        qx, qy, qz = pts[q, 0], pts[q, 1], pts[q, 2]
         for j in range(n_pts):
-            dx = pts[j, 0] - pts[q, 0]
-            dy = pts[j, 1] - pts[q, 1]
-            dz = pts[j, 2] - pts[q, 2]
-            d[j] = dx * dx + dy * dy + dz * dz
+            d[j] = _d2(pts, j, qx, qy, qz)
         if n_pts > k:
             _select(d, ix, n_pts, k)
         _insertion_sort(d, ix, k)
