@@ -16,7 +16,7 @@ from pathlib import Path
 
 from .class_schemes import class_scheme_warnings
 from .cloud import PointCloud
-from .errors import LidarSigError, LidarSigWarning, a_kind
+from .errors import LidarSigError, LidarSigWarning, a_kind, counted
 from .metrics import compare as compare_signatures
 from .progress import step
 from .signature import RENDERINGS, Signature, method_differences
@@ -140,12 +140,12 @@ def compare_sources(a, b, pipeline=None, *, render=None, columns=None, method_gi
         (an epoch): it is processed as one set in tiles (:mod:`lidar_sig.tiling`). When any of
         them is set, a LAS/LAZ file is processed in tiles too. ``memory``: the budget of each
         process in bytes (default :data:`lidar_sig.tiling.memory.DEFAULT_MEMORY`); a LAS/LAZ
-        file that needs more as one block is processed in tiles, in this process unless
-        ``workers`` says otherwise.
+        file that needs more as one block is processed in tiles, as a set is (a worker process
+        per core unless ``workers`` says otherwise).
     """
     from .pipeline import pipeline_or_default
     from .tiling.core import tileable
-    from .tiling.memory import DEFAULT_MEMORY, points_over_budget, size
+    from .tiling.memory import DEFAULT_MEMORY, one_block_note, points_over_budget
     from .tiling.run import tiles_asked
 
     pipeline = pipeline_or_default(pipeline)
@@ -161,9 +161,8 @@ def compare_sources(a, b, pipeline=None, *, render=None, columns=None, method_gi
         pipeline = _archive_pipeline(reference, pipeline, method_given, names[loaded.index(reference)])
     for i, n in enumerate(over):
         if n and not tileable(pipeline):  # a descriptor that needs the whole cloud: one block after all
-            warnings.warn(f"{names[i]}: {n:,} points exceed the {size(tiling['memory'])} memory budget as one block, "
-                          f"but the {pipeline.descriptor.name} descriptor needs the whole cloud at once: processed "
-                          "as one block", LidarSigWarning, stacklevel=2)
+            warnings.warn(one_block_note(names[i], n, tiling["memory"], pipeline.descriptor.name), LidarSigWarning,
+                          stacklevel=2)
             loaded[i] = load_input(loaded[i], columns)
     # a set's labels are known once it is run: with an unlabelled cloud or archive on the other
     # side, it is run without them straight away (see geometry_only below)
@@ -315,14 +314,14 @@ def _signature_of_set(folder, pipeline, tiling, over=None):
     """The signature of a folder of LAS/LAZ tiles (or one LAS/LAZ file) processed as one set,
     with scratch files in a temporary folder (``TMPDIR``), and whether its points are labelled;
     refuses an incomplete set. ``over``: the points of one file processed in tiles because of
-    the memory budget (in this process unless ``tiling`` gives workers; a note says so)."""
+    the memory budget (a note says so)."""
     import tempfile
 
     from .tiling.execute import executor
-    from .tiling.memory import size
+    from .tiling.memory import exceed
     from .tiling.run import run_set
 
-    backend = executor(tiling.get("workers") or (1 if over else None), tiling.get("scheduler"))
+    backend = executor(tiling.get("workers"), tiling.get("scheduler"))
     try:
         with tempfile.TemporaryDirectory(prefix="lidar-sig-") as tmp:
             run = run_set(pipeline, [folder], work=Path(tmp) / "work", tile_size=tiling.get("tile_size"),
@@ -333,7 +332,7 @@ def _signature_of_set(folder, pipeline, tiling, over=None):
         raise LidarSigError("the set is incomplete, its signature would lack points: " + "; ".join(run.missing),
                             path=folder)
     if over:
-        warnings.warn(f"{folder}: {over:,} points exceed the {size(tiling['memory'])} memory budget as one block: "
-                      f"processed in {len(run.tile_stats):,} tiles", LidarSigWarning, stacklevel=3)
+        warnings.warn(f"{folder}: {exceed(over, tiling['memory'])}: processed in {counted(len(run.tile_stats), 'tile')}",
+                      LidarSigWarning, stacklevel=3)
     run.signature.metadata["tiling"] = run.tiling_record()
     return run.signature, run.labelled

@@ -262,8 +262,8 @@ def tiling_options(func):
                      help="Side of the square processing tiles of a set, in metres [default: as many points as "
                           "a process holds within --memory, from the files' density]."),
         click.option("--workers", type=click.IntRange(1, 1024), default=None,
-                     help="Local worker processes for a set of tiles [default: all cores; for one file "
-                          "processed in tiles because of --memory, this process alone]."),
+                     help="Local worker processes for a set of tiles, or for one file processed in tiles "
+                          "because of --memory [default: all cores; 1: this process alone]."),
         scheduler_option,
         click.option("--memory", default=None, metavar="SIZE", callback=_memory,
                      help="Memory budget of each process, e.g. 1GiB, 800MiB, 1.5G (a bare number is GiB): a "

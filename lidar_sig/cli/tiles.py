@@ -24,21 +24,21 @@ def over_budget(source, tiling, pipeline):
     command then runs it in tiles), from its header; None when it fits or is not LAS/LAZ. A
     descriptor that needs the whole cloud at once stays one block, with a note."""
     from ..tiling.core import tileable
-    from ..tiling.memory import points_over_budget
+    from ..tiling.memory import one_block_note, points_over_budget
 
     n = points_over_budget(source, tiling["memory"])
     if n is not None and not tileable(pipeline):
-        warnings.warn(f"{source}: {exceed(n, tiling)}, but the {pipeline.descriptor.name} descriptor needs the whole "
-                      "cloud at once: processed as one block", LidarSigWarning, stacklevel=2)
+        warnings.warn(one_block_note(source, n, tiling["memory"], pipeline.descriptor.name), LidarSigWarning,
+                      stacklevel=2)
         return None
     return n
 
 
 def exceed(n, tiling):
-    """"N points exceed the 1 GiB memory budget as one block"."""
-    from ..tiling.memory import size
+    """"N points exceed the 1 GiB memory budget as one block", for the command's ``tiling``."""
+    from ..tiling.memory import exceed as exceed_budget
 
-    return f"{counted(n, 'point')} exceed the {size(tiling['memory'])} memory budget as one block"
+    return exceed_budget(n, tiling["memory"])
 
 
 def check_las_output(output, n, tiling):

@@ -22,7 +22,7 @@ import math
 import re
 from pathlib import Path
 
-from ..errors import LidarSigError
+from ..errors import LidarSigError, counted
 
 GIB = 2**30
 MIB = 2**20
@@ -106,3 +106,15 @@ def size(n_bytes):
     if n_bytes >= GIB:
         return f"{n_bytes / GIB:.3g} GiB"
     return f"{n_bytes / MIB:.0f} MiB"
+
+
+def exceed(n_points, budget):
+    """For messages: "N points exceed the 1 GiB memory budget as one block"."""
+    return f"{counted(n_points, 'point')} exceed the {size(budget)} memory budget as one block"
+
+
+def one_block_note(name, n_points, budget, descriptor):
+    """The note of a file over the budget that still runs as one block: its ``descriptor`` needs
+    the whole cloud at once."""
+    return (f"{name}: {exceed(n_points, budget)}, but the {descriptor} descriptor needs the whole cloud at "
+            "once: processed as one block")
