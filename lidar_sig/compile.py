@@ -11,7 +11,7 @@ import sys
 _ANNOUNCED = False
 # Kernels every run calls, and those of each built-in descriptor (module, function names); the
 # functions they call are compiled and cached with them.
-_COMMON = (("grid", ("nearest", "count_within")), ("kernels", ("saliency_rows", "entropy_rows")))
+_COMMON = (("grid", ("nearest", "count_within", "count_ties")), ("kernels", ("saliency_rows", "entropy_rows", "mean_over_scales")))
 _DESCRIPTOR = {
     "c3dcm": (("kernels", ("covariance_eigenvalues",)),),
     "t3dvt": (("kernels", ("voting_eigenvalues",)),),

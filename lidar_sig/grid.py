@@ -13,8 +13,8 @@ and kept if within t).
 k-nearest rows come sorted by distance. Spherical rows are grouped by scale, each group in no
 particular order: the neighbours of scale s are a prefix of those of scale s + 1, which is all
 the descriptors need (SPEC 2), at O(n) instead of a sort's O(n log n). :func:`count_within`
-counts the neighbours within given squared distances; :mod:`lidar_sig.neighbors` decides
-which (the tie rule).
+counts the neighbours within given squared distances, :func:`count_ties` those within a factor
+of each row's k-th; :mod:`lidar_sig.neighbors` decides which (the tie rule).
 """
 from __future__ import annotations
 
@@ -349,6 +349,25 @@ def count_within(d2, n, limits, counts):
             while c < n[b] and d2[b, c] <= limit:
                 c += 1
             counts[b, s] = c
+
+
+@njit(cache=True, parallel=True)
+def count_ties(d2, n, ks, tie_factor, counts, sigma):
+    """k-nearest scales on rows sorted by distance, in one pass: into ``counts`` (B, S) how many
+    of the first ``n[b]`` squared distances of row ``b`` are at most ``tie_factor`` times the
+    ``ks[s]``-th (the last where a row holds fewer; ties with the k-th included), into ``sigma``
+    the distance to that neighbour (0 in an empty row). :func:`count_within` with the limits
+    taken from the rows themselves, without the (B, S) arrays in between."""
+    for b in prange(d2.shape[0]):
+        c = 0
+        for s in range(ks.size):
+            kth = min(ks[s], n[b]) - 1
+            kth_d2 = d2[b, kth] if kth >= 0 else 0.0
+            limit = kth_d2 * tie_factor
+            while c < n[b] and d2[b, c] <= limit:
+                c += 1
+            counts[b, s] = c
+            sigma[b, s] = np.sqrt(kth_d2)
 
 
 @njit(cache=True, parallel=True)

@@ -241,3 +241,21 @@ def entropy_rows(sal, out, upper):
                 e = np.nan
                 break
         out[i] = min(max(e, 0.0), upper) if e == e else e
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def mean_over_scales(per_scale, out):
+    """Mean of ``per_scale`` (M, S, C) over the scales where a value is defined into ``out``
+    (M, C); NaN where none is (SPEC 4, Multiscale). numpy.nanmean's sum and count, in its order
+    (undefined values as +0.0, scales in turn), without its four temporary copies."""
+    for i in prange(per_scale.shape[0]):
+        for c in range(per_scale.shape[2]):
+            total = 0.0
+            count = 0
+            for s in range(per_scale.shape[1]):
+                v = per_scale[i, s, c]
+                defined = v == v
+                term = v if defined else 0.0
+                total = term if s == 0 else total + term
+                count += defined
+            out[i, c] = total / count  # 0 / 0: the NaN numpy.nanmean gives, to the bit

@@ -382,9 +382,12 @@ def _knn_counts(d2, n, ks):
     Returns counts (B, S) and sigma (B, S), the distance to the k-th neighbour (to the last
     where a row holds fewer than k; 0 in an empty row).
     """
-    kth = np.minimum(np.asarray(ks, dtype=np.int64)[None, :], n[:, None]) - 1
-    kth_d2 = np.where(kth >= 0, np.take_along_axis(d2, np.maximum(kth, 0), axis=1), 0.0)
-    return counts_within(d2, n, tie_limit(kth_d2)), np.sqrt(kth_d2)
+    from .grid import count_ties
+
+    ks = np.asarray(ks, dtype=np.int64)
+    counts, sigma = np.empty((len(d2), len(ks)), np.int64), np.empty((len(d2), len(ks)))
+    count_ties(d2, np.asarray(n, dtype=np.int64), ks, tie_limit(1.0), counts, sigma)  # the rule as a factor
+    return counts, sigma
 
 
 def _cut_at_radii(d2, n, radii2, cap):

@@ -129,6 +129,36 @@ def test_multiscale_averages_defined_scales_only():
     assert chosen is None
 
 
+def test_multiscale_average_is_numpys_nanmean_to_the_bit():
+    # the one-pass kernel adds the scales in numpy's order, so the averages are its own, not close
+    rng = np.random.default_rng(3)
+    for n_scales in (1, 3, 10):
+        per = rng.random((5000, n_scales, 3))
+        per[rng.random(per.shape[:2]) < 0.3] = np.nan  # undefined scales
+        per[:7] = np.nan  # rows undefined at every scale
+        with np.errstate(invalid="ignore"), pytest.warns(RuntimeWarning):
+            expected = np.nanmean(per, axis=1)
+        sal, _ = get_strategy("multiscale").combine(per)
+        assert np.array_equal(sal, expected, equal_nan=True)
+        assert np.isnan(sal[:7]).all()
+
+
+def test_knn_counts_take_every_neighbour_tied_with_the_kth():
+    # a lattice, where many points lie at exactly the k-th distance: each scale must hold them all
+    g = np.arange(10, dtype=float)
+    xyz = np.stack(np.meshgrid(g, g, g[:3], indexing="ij"), -1).reshape(-1, 3)
+    ks = np.array([6, 12])
+    index = NeighborIndex(xyz, "knn", ks, min_neighbors=1)
+    batch = index.query(np.arange(len(xyz)))
+    d2 = ((index.xyz[:, None, :] - index.xyz[None, :, :]) ** 2).sum(-1)
+    kth = np.sort(d2, axis=1)[:, ks - 1]
+    within = (d2[:, :, None] <= kth[:, None, :] * (1 + TIE)).sum(1)
+    held = within <= ks.max() + 8  # ties the search's slack can hold
+    assert held.all(axis=1).mean() > 0.9 and (within[held] > np.broadcast_to(ks, within.shape)[held]).any()
+    assert np.array_equal(batch.counts[held], within[held])
+    np.testing.assert_allclose(batch.sigma, np.sqrt(kth), rtol=1e-15)
+
+
 def test_optimal_scale_picks_minimum_entropy_first_on_ties():
     per = np.array([[[0.5, 0.5, 0.0], [0.9, 0.1, 0.0], [0.1, 0.9, 0.0], [np.nan] * 3]])
     sal, chosen = get_strategy("optimal").combine(per)
