@@ -9,9 +9,11 @@ from __future__ import annotations
 import sys
 
 _ANNOUNCED = False
-# Kernels every run calls, and those of each built-in descriptor (module, function names); the
-# functions they call are compiled and cached with them.
-_COMMON = (("grid", ("nearest", "count_within", "count_ties")), ("kernels", ("saliency_rows", "entropy_rows", "mean_over_scales")))
+# Kernels every run calls, those of each kind of scales, of each strategy and of each built-in
+# descriptor (module, function names); the functions they call are compiled and cached with them.
+_COMMON = (("grid", ("nearest",)), ("kernels", ("saliency_rows", "entropy_rows")))
+_KIND = {"knn": (("grid", ("count_ties",)),), "radius": (("grid", ("count_within",)),)}
+_STRATEGY = {"multiscale": (("kernels", ("mean_over_scales",)),)}
 _DESCRIPTOR = {
     "c3dcm": (("kernels", ("covariance_eigenvalues",)),),
     "t3dvt": (("kernels", ("voting_eigenvalues",)),),
@@ -19,10 +21,11 @@ _DESCRIPTOR = {
 }
 
 
-def _dispatchers(descriptor):
+def _dispatchers(descriptor, kind=None, strategy=None):
     import importlib
 
-    for module, names in _COMMON + _DESCRIPTOR.get(descriptor, ()):
+    for module, names in (_COMMON + _DESCRIPTOR.get(descriptor, ()) + _KIND.get(kind, ())
+                          + _STRATEGY.get(strategy, ())):
         mod = importlib.import_module(f"lidar_sig.{module}")
         for name in names:
             yield getattr(mod, name)
@@ -37,25 +40,26 @@ def load_kernels(descriptor="c3dcm"):
         pass
 
 
-def kernels_cached(descriptor="c3dcm"):
-    """True if every kernel a run of ``descriptor`` calls has a compiled version cached for its
-    current source, False if one will be compiled, None if that cannot be told (numba's cache
-    layout is not public)."""
+def kernels_cached(descriptor="c3dcm", kind=None, strategy=None):
+    """True if every kernel a run of ``descriptor`` calls (with scales of ``kind``, "knn" or
+    "radius", and ``strategy``, when given) has a compiled version cached for its current source,
+    False if one will be compiled, None if that cannot be told (numba's cache layout is not
+    public)."""
     try:
-        return all(bool(d._cache._cache_file._load_index()) for d in _dispatchers(descriptor))
+        return all(bool(d._cache._cache_file._load_index()) for d in _dispatchers(descriptor, kind, strategy))
     except Exception:  # a numba without this layout: do not guess
         return None
 
 
-def announce_compilation(enabled=None, descriptor="c3dcm"):
+def announce_compilation(enabled=None, descriptor="c3dcm", kind=None, strategy=None):
     """Print once per process, on a terminal (or when ``enabled``), that the kernels a run of
-    ``descriptor`` needs are being compiled, when they are."""
+    ``descriptor`` (scales of ``kind``, ``strategy``) needs are being compiled, when they are."""
     global _ANNOUNCED
     if _ANNOUNCED:
         return
     if enabled is False or (enabled is None and not sys.stderr.isatty()):
         return
-    if kernels_cached(descriptor) is False:
+    if kernels_cached(descriptor, kind, strategy) is False:
         _ANNOUNCED = True
         print("lidar-sig: compiling the numerical kernels: the first run after installing takes "
               "15-20 s more, later runs use the cache", file=sys.stderr, flush=True)

@@ -208,7 +208,7 @@ class Pipeline:
     def _saliency(self, cloud, n_excluded):
         """(N, 3) saliency values and (N,) chosen scales (or None) of every point of ``cloud``
         (the points a run uses), and the run statistics."""
-        announce_compilation(self.progress, self.descriptor.name)
+        announce_compilation(self.progress, self.descriptor.name, self.scales.kind, self.strategy.name)
         load_kernels(self.descriptor.name)
         with step("neighbourhoods", enabled=self.progress, points=len(cloud),
                   scales=self.scales.describe(), weights=self.weights) as s:
