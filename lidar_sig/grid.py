@@ -333,6 +333,15 @@ def nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, origin, h,
                 done[qpos] = True
 
 
+@njit(cache=True, inline="always")
+def _prefix_end(d2, b, n, c, limit):
+    """End of the prefix of row ``b`` of ``d2`` (its first ``n`` entries) at most ``limit``,
+    scanning on from ``c`` (the end for a smaller limit)."""
+    while c < n and d2[b, c] <= limit:
+        c += 1
+    return c
+
+
 @njit(cache=True, parallel=True)
 def count_within(d2, n, limits, counts):
     """Into ``counts`` (B, S): how many of the first ``n[b]`` squared distances of row ``b`` of
@@ -345,9 +354,7 @@ def count_within(d2, n, limits, counts):
     for b in prange(d2.shape[0]):
         c = 0
         for s in range(limits.shape[1]):
-            limit = limits[b, s]
-            while c < n[b] and d2[b, c] <= limit:
-                c += 1
+            c = _prefix_end(d2, b, n[b], c, limits[b, s])
             counts[b, s] = c
 
 
@@ -363,9 +370,7 @@ def count_ties(d2, n, ks, tie_factor, counts, sigma):
         for s in range(ks.size):
             kth = min(ks[s], n[b]) - 1
             kth_d2 = d2[b, kth] if kth >= 0 else 0.0
-            limit = kth_d2 * tie_factor
-            while c < n[b] and d2[b, c] <= limit:
-                c += 1
+            c = _prefix_end(d2, b, n[b], c, kth_d2 * tie_factor)
             counts[b, s] = c
             sigma[b, s] = np.sqrt(kth_d2)
 
