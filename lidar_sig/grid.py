@@ -6,11 +6,13 @@ within a search radius t and keeps the nearest. For spherical neighbourhoods t i
 For k-nearest ones t is a guess, widened until the sphere holds k points (then it holds the k
 nearest): a little more than the previous query's k-th distance, the first query's the voxel
 side. Consecutive queries are close (points are sorted along a curve within each voxel), so the
-guess is short for about one query in ten (AHN3: 9% at k = 48, 6% at k = 108). Voxels farther
+guess is short for about one query in ten (AHN3: 12% at k = 41, 7% at k = 101). Voxels farther
 than t from the query are skipped; candidates are scanned without branches (each is written,
 and kept if within t).
 
-k-nearest rows come sorted by distance. Spherical rows are grouped by scale, each group in no
+k-nearest rows come sorted by distance. A search for scales up to k lists the k + 1 nearest: the
+one past the k-th tells whether points tied with the k-th run on, and only the rare row where
+they do lists more (:func:`nearest`). Spherical rows are grouped by scale, each group in no
 particular order: the neighbours of scale s are a prefix of those of scale s + 1, which is all
 the descriptors need (SPEC 2), at O(n) instead of a sort's O(n log n). :func:`count_within`
 counts the neighbours within given squared distances, :func:`count_ties` those within a factor
@@ -19,7 +21,7 @@ of each row's k-th; :mod:`lidar_sig.neighbors` decides which (the tie rule).
 from __future__ import annotations
 
 import numpy as np
-from numba import get_num_threads, njit, prange
+from numba import get_num_threads, njit, parallel_chunksize, prange
 
 
 @njit(cache=True)
@@ -208,11 +210,14 @@ def _shell(ci, cj, ck, s, dims, cell_keys, lut, cell_start, rs, re, rc, n_ranges
 
 @njit(cache=True, parallel=True)
 def nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, origin, h, queries, group_start,
-            ks, r2s, s_max, n_chunks, out_d2, out_idx, out_n, out_total, done):
+            ks, r2s, tie_factor, s_max, n_chunks, out_d2, out_idx, out_n, out_total, done):
     """Neighbours of each query: k-nearest sorted, spherical grouped by scale (module docstring).
 
-    k-nearest mode when ``r2s`` is empty: ``ks[-1]`` is the largest k. Spherical
-    mode otherwise: ``r2s`` are the squared radii, ascending, and ``ks[0]`` the cap.
+    k-nearest mode when ``r2s`` is empty: ``ks[-1]`` is the largest k. With ``tie_factor`` > 0
+    a row holds the k + 1 nearest, and where the last of them ties with the k-th (squared
+    distance within ``tie_factor`` times its), as many nearest as the row has room for: every
+    point tied with the k-th is then listed, room allowing, without every query sorting that
+    room. Spherical mode otherwise: ``r2s`` are the squared radii, ascending, and ``ks[0]`` the cap.
     ``queries`` are point indices, runs of one voxel delimited by ``group_start``. Row ``i`` of
     ``out_d2`` (squared distances) and ``out_idx`` gets ``out_n[i]`` neighbours (spherical: every
     point with a squared distance of at most ``r2s[-1]``, the cap nearest of them), and in
@@ -226,6 +231,8 @@ def nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, origin, h,
     s_cover = max(dims[0], max(dims[1], dims[2]))
     knn_mode = r2s.size == 0
     k = ks[ks.size - 1] if knn_mode else ks[0]
+    room = out_d2.shape[1]
+    k_first = min(k + 1, room) if knn_mode and tie_factor > 0.0 else k
     r2 = np.inf if knn_mode else r2s[r2s.size - 1]
     for chunk in prange(n_chunks):
         rs = np.empty(cap, np.int64)
@@ -234,7 +241,7 @@ def nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, origin, h,
         shell_end = np.empty(s_max + 2, np.int64)
         buf_d = np.empty(4096)
         buf_i = np.empty(4096, np.int64)
-        bucket = np.empty(max(k, 4096), np.int64)
+        bucket = np.empty(max(room, 4096), np.int64)
         scale_counts = np.empty(r2s.size + 1, np.int64)
         tmp_d = np.empty(4096)  # the k-nearest bucket sort's work space, grown with buf_d
         tmp_i = np.empty(4096, np.int64)
@@ -266,6 +273,7 @@ def nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, origin, h,
                 # A predecessor whose k-th neighbour coincides with it (duplicate points) gives
                 # t = 0, which widening would keep at 0 forever: start from a fraction of a voxel.
                 t = max(t, 1e-3 * h)
+                want = k_first
                 settled = True
                 while True:
                     # round-off must not drop the k-th neighbour; a sphere holds exactly what
@@ -300,8 +308,27 @@ def nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, origin, h,
                             buf_d[m] = d2
                             buf_i[m] = j
                             m += d2 <= t2
-                    if not knn_mode or m >= k or s_need >= s_cover:
+                    if not knn_mode:
                         break
+                    if m >= want or s_need >= s_cover:
+                        n = min(m, want)
+                        if n <= _FEW:
+                            if m > n:
+                                _select(buf_d, buf_i, m, n)
+                            _insertion_sort(buf_d, buf_i, n)
+                            hd[:n] = buf_d[:n]
+                            hi[:n] = buf_i[:n]
+                        else:
+                            if m > tmp_d.size:
+                                tmp_d = np.empty(buf_d.size)
+                                tmp_i = np.empty(buf_d.size, np.int64)
+                                bucket = np.empty(buf_d.size, np.int64)
+                                bucket_counts = np.empty(2 * buf_d.size + 1, np.int64)
+                            _nearest_sorted(buf_d, buf_i, m, n, t2, bucket, bucket_counts, tmp_d, tmp_i, hd, hi)
+                        if not (want < room and n == want and n >= 2 and hd[n - 1] <= tie_factor * hd[n - 2]):
+                            break
+                        want = room  # the (k + 1)-th ties with the k-th: ties may run on, list the room
+                        continue
                     t *= _KNN_WIDEN
                 if not settled:
                     out_n[qpos] = 0
@@ -309,23 +336,9 @@ def nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, origin, h,
                     prev = -1
                     continue
                 if knn_mode:
-                    n = min(m, k)
-                    if n <= _FEW:
-                        if m > n:
-                            _select(buf_d, buf_i, m, n)
-                        _insertion_sort(buf_d, buf_i, n)
-                        hd[:n] = buf_d[:n]
-                        hi[:n] = buf_i[:n]
-                    else:
-                        if m > tmp_d.size:
-                            tmp_d = np.empty(buf_d.size)
-                            tmp_i = np.empty(buf_d.size, np.int64)
-                            bucket = np.empty(buf_d.size, np.int64)
-                            bucket_counts = np.empty(2 * buf_d.size + 1, np.int64)
-                        _nearest_sorted(buf_d, buf_i, m, n, t2, bucket, bucket_counts, tmp_d, tmp_i, hd, hi)
-                    if n == k:
+                    if n >= k_first:
                         prev = q
-                        prev_dk = np.sqrt(hd[n - 1])
+                        prev_dk = np.sqrt(hd[k_first - 1])
                 else:
                     out_total[qpos] = m  # before the cap
                     n = _partition_radius(buf_d, buf_i, m, r2s, k, hd, hi, bucket, scale_counts)
@@ -434,30 +447,39 @@ def third_nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, orig
 
 
 @njit(cache=True, parallel=True)
-def nearest_by_scan(pts, queries, k, out_d2, out_idx, out_n, out_rows):
+def nearest_by_scan(pts, queries, k, n_chunks, out_d2, out_idx, out_n, out_rows):
     """The k nearest of ``pts`` to each point ``queries[a]``, sorted, into row ``out_rows[a]`` of
     ``out_d2`` and ``out_idx`` (``out_n`` the count): a scan of every point, for the few queries
-    the voxel shells cannot settle. Squared distances are :func:`nearest`'s, to the bit (:func:`_d2`)."""
+    the voxel shells cannot settle, in ``n_chunks`` runs of queries (one per thread).
+    Squared distances are :func:`nearest`'s, to the bit (:func:`_d2`)."""
     n_pts = pts.shape[0]
     k = min(k, n_pts)
-    for a in prange(queries.size):
-        q = queries[a]
+    n_chunks = max(1, min(queries.size, n_chunks))
+    for chunk in prange(n_chunks):
+        # one work array per thread: one per query cost more to fault in than to fill
         d = np.empty(n_pts)
-        ix = np.arange(n_pts)
-        qx, qy, qz = pts[q, 0], pts[q, 1], pts[q, 2]
-        for j in range(n_pts):
-            d[j] = _d2(pts, j, qx, qy, qz)
-        if n_pts > k:
-            _select(d, ix, n_pts, k)
-        _insertion_sort(d, ix, k)
-        row = out_rows[a]
-        out_d2[row, :k] = d[:k]
-        out_idx[row, :k] = ix[:k]
-        out_n[row] = k
+        ix = np.empty(n_pts, np.int64)
+        for a in range(chunk * queries.size // n_chunks, (chunk + 1) * queries.size // n_chunks):
+            q = queries[a]
+            qx, qy, qz = pts[q, 0], pts[q, 1], pts[q, 2]
+            for j in range(n_pts):
+                d[j] = _d2(pts, j, qx, qy, qz)
+                ix[j] = j
+            if n_pts > k:
+                _select(d, ix, n_pts, k)
+            _insertion_sort(d, ix, k)
+            row = out_rows[a]
+            out_d2[row, :k] = d[:k]
+            out_idx[row, :k] = ix[:k]
+            out_n[row] = k
 
 
 #: Voxels of the dense voxel -> occupied-voxel look-up table, at most (else binary search).
 LUT_CELLS = 2**24
+#: The search kernels split their queries into this many runs of voxels per thread, handed to
+#: the threads one at a time as each finishes its last: queries differ in cost, and an equal share
+#: per thread left one idle at the end of every block (AHN3: 6-8% of the search's time).
+_CHUNKS = 8
 
 
 class VoxelGrid:
@@ -503,11 +525,12 @@ class VoxelGrid:
         itself included, into ``d2[i]``; ``done[i]`` False where ``s_max`` shells did not settle
         it (:func:`third_nearest`)."""
         queries, group_start = self._groups(queries)
-        third_nearest(self.points, self.cell_of, self.cell_ijk, self.cell_start, self.cell_keys, self.lut,
-                      self.dims, self.origin, self.cell, queries, group_start, int(s_max),
-                      8 * get_num_threads(), d2, done)
+        with parallel_chunksize(1):  # chunks to threads as they free up (_CHUNKS)
+            third_nearest(self.points, self.cell_of, self.cell_ijk, self.cell_start, self.cell_keys, self.lut,
+                          self.dims, self.origin, self.cell, queries, group_start, int(s_max),
+                          _CHUNKS * get_num_threads(), d2, done)
 
-    def search(self, queries, d2, idx, n, total, done, ks=None, radii2=None, cap=512, s_max=4):
+    def search(self, queries, d2, idx, n, total, done, ks=None, radii2=None, cap=512, s_max=4, tie_factor=0.0):
         """Neighbours of the sorted-order points ``queries`` into ``d2``, ``idx``, ``n``,
         ``total`` (spherical mode) and ``done``.
 
@@ -521,6 +544,7 @@ class VoxelGrid:
         else:
             r2s = np.asarray(radii2, dtype=np.float64)
             ks = np.array([cap], dtype=np.int64)
-        nearest(self.points, self.cell_of, self.cell_ijk, self.cell_start, self.cell_keys, self.lut,
-                self.dims, self.origin, self.cell, queries, group_start, ks, r2s,
-                int(s_max), 8 * get_num_threads(), d2, idx, n, total, done)
+        with parallel_chunksize(1):  # chunks to threads as they free up (_CHUNKS)
+            nearest(self.points, self.cell_of, self.cell_ijk, self.cell_start, self.cell_keys, self.lut,
+                    self.dims, self.origin, self.cell, queries, group_start, ks, r2s, float(tie_factor),
+                    int(s_max), _CHUNKS * get_num_threads(), d2, idx, n, total, done)
