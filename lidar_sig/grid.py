@@ -388,27 +388,45 @@ def count_ties(d2, n, ks, tie_factor, counts, sigma):
             sigma[b, s] = np.sqrt(kth_d2)
 
 
+@njit(cache=True, inline="always")
+def _min3(pts, j0, j1, qx, qy, qz, b0, b1, b2):
+    """b0 <= b1 <= b2 updated with the squared distances of points j0 .. j1 - 1, without branches:
+    a branch taken at random costs more than the whole update."""
+    for j in range(j0, j1):
+        d2 = _d2(pts, j, qx, qy, qz)
+        b2 = min(b2, max(b1, d2))
+        b1 = min(b1, max(b0, d2))
+        b0 = min(b0, d2)
+    return b0, b1, b2
+
+
 @njit(cache=True, parallel=True)
 def third_nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, origin, h, queries, group_start,
                   s_max, n_chunks, out_d2, done):
     """Squared distance from each query to its third-nearest point, the query itself first (so its
     second-nearest other point): the k = 3 search of the area weights without a candidate list.
 
-    Each query keeps its three smallest squared distances while it scans its own voxel, then the
-    voxels of the next Chebyshev shell that can still hold a nearer point, and stops once no point
-    beyond the shells scanned can be nearer (a point outside shell s is farther than s voxel sides
-    plus the query's distance to its own voxel's faces). ``queries``, ``group_start`` as in
+    Each query keeps its three smallest squared distances while it scans its own voxel, then those
+    of the 26 around it that can still hold a nearer point (the distance to a neighbour voxel is
+    the sum over axes of the squared distance to the faces between them, so a query near no face
+    visits none), then, rarely, farther Chebyshev shells; it stops once no point beyond the
+    shells scanned can be nearer (a point outside shell s is farther than s voxel sides plus the
+    query's distance to its own voxel's faces). ``queries``, ``group_start`` as in
     :func:`nearest`; ``done[i]`` is False where ``s_max`` shells did not settle the query.
     """
     n_groups = group_start.size - 1
     n_chunks = max(1, min(n_groups, n_chunks))
-    cap = (2 * s_max + 1) ** 3
+    cap = (2 * max(1, s_max) + 1) ** 3  # shell 1 is always listed
     s_cover = max(dims[0], max(dims[1], dims[2]))
+    slack = 1.0 + 1e-12  # round-off never skips a voxel that holds a nearer point
     for chunk in prange(n_chunks):
         rs = np.empty(cap, np.int64)
         re = np.empty(cap, np.int64)
         rc = np.empty(cap, np.int64)
         shell_end = np.empty(s_max + 2, np.int64)
+        near_s = np.empty(27, np.int64)  # point range of voxel (di, dj, dk) at 9 (di + 1) + 3 (dj + 1) + dk + 1
+        near_e = np.empty(27, np.int64)
+        face = np.zeros((3, 3))  # squared distance from the query to the neighbour voxels along each axis
         g0 = chunk * n_groups // n_chunks
         g1 = (chunk + 1) * n_groups // n_chunks
         for g in range(g0, g1):
@@ -416,32 +434,58 @@ def third_nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, orig
             ci, cj, ck = cell_ijk[c, 0], cell_ijk[c, 1], cell_ijk[c, 2]
             n_shells = 0
             n_ranges = 0
+            near_s[:] = 0
+            near_e[:] = 0
+            for r in range(_shell(ci, cj, ck, 1, dims, cell_keys, lut, cell_start, rs, re, rc, 0)):
+                slot = (9 * (cell_ijk[rc[r], 0] - ci + 1) + 3 * (cell_ijk[rc[r], 1] - cj + 1)
+                        + cell_ijk[rc[r], 2] - ck + 1)
+                near_s[slot] = rs[r]
+                near_e[slot] = re[r]
             for qpos in range(group_start[g], group_start[g + 1]):
                 q = queries[qpos]
                 qx, qy, qz = pts[q, 0], pts[q, 1], pts[q, 2]
                 margin = _face_margin(origin, h, ci, cj, ck, qx, qy, qz)
-                b0 = b1 = b2 = np.inf
+                b0, b1, b2 = _min3(pts, cell_start[c], cell_start[c + 1], qx, qy, qz, np.inf, np.inf, np.inf)
                 settled = False
-                for s in range(s_max + 1):
-                    while n_shells <= s:
-                        n_ranges = _shell(ci, cj, ck, n_shells, dims, cell_keys, lut, cell_start, rs, re, rc, n_ranges)
-                        shell_end[n_shells] = n_ranges
-                        n_shells += 1
-                    first = shell_end[s - 1] if s > 0 else 0
-                    for r in range(first, shell_end[s]):
-                        if s > 0 and _box_d2(origin, h, cell_ijk, rc[r], qx, qy, qz) > b2:
+                if margin * margin >= b2 * slack or s_cover <= 0:
+                    settled = b2 < np.inf
+                else:
+                    lx = qx - (origin[0] + ci * h)
+                    ly = qy - (origin[1] + cj * h)
+                    lz = qz - (origin[2] + ck * h)
+                    face[0, 0], face[0, 2] = max(0.0, lx) ** 2, max(0.0, h - lx) ** 2
+                    face[1, 0], face[1, 2] = max(0.0, ly) ** 2, max(0.0, h - ly) ** 2
+                    face[2, 0], face[2, 2] = max(0.0, lz) ** 2, max(0.0, h - lz) ** 2
+                    for a in range(3):  # the middle first: faces before edges, edges before corners
+                        di = (a + 1) % 3
+                        if face[0, di] > b2 * slack:
                             continue
-                        for j in range(rs[r], re[r]):
-                            d2 = _d2(pts, j, qx, qy, qz)
-                            # insert d2 into b0 <= b1 <= b2 without branches: a branch taken
-                            # at random costs more than the whole update
-                            b2 = min(b2, max(b1, d2))
-                            b1 = min(b1, max(b0, d2))
-                            b0 = min(b0, d2)
-                    reach = s * h + margin  # no point beyond shell s is nearer than this
-                    if reach * reach >= b2 * (1.0 + 1e-12) or s >= s_cover:  # round-off kept out
+                        for b in range(3):
+                            dj = (b + 1) % 3
+                            exy = face[0, di] + face[1, dj]
+                            if exy > b2 * slack:
+                                continue
+                            for cc in range(3):
+                                dk = (cc + 1) % 3
+                                slot = 9 * di + 3 * dj + dk
+                                if slot != 13 and exy + face[2, dk] <= b2 * slack:
+                                    b0, b1, b2 = _min3(pts, near_s[slot], near_e[slot], qx, qy, qz, b0, b1, b2)
+                    reach = h + margin
+                    if reach * reach >= b2 * slack or s_cover <= 1:
                         settled = b2 < np.inf
-                        break
+                    else:  # an isolated point: farther shells, voxel by voxel
+                        for s in range(2, s_max + 1):
+                            while n_shells <= s:
+                                n_ranges = _shell(ci, cj, ck, n_shells, dims, cell_keys, lut, cell_start, rs, re, rc, n_ranges)
+                                shell_end[n_shells] = n_ranges
+                                n_shells += 1
+                            for r in range(shell_end[s - 1], shell_end[s]):
+                                if _box_d2(origin, h, cell_ijk, rc[r], qx, qy, qz) <= b2 * slack:
+                                    b0, b1, b2 = _min3(pts, rs[r], re[r], qx, qy, qz, b0, b1, b2)
+                            reach = s * h + margin
+                            if reach * reach >= b2 * slack or s >= s_cover:
+                                settled = b2 < np.inf
+                                break
                 out_d2[qpos] = b2
                 done[qpos] = settled
 

@@ -188,3 +188,20 @@ def test_scales_validation():
     with pytest.raises(ls.LidarSigError):
         ls.knn(1)
     assert ls.radii(0.011, 0.009, 0.010).values == (0.009, 0.010, 0.011)
+
+
+@pytest.mark.parametrize("cell", [0.25, 0.5, 1.0, 3.0])
+def test_second_distances_on_a_lattice_whose_points_lie_on_voxel_faces(cell):
+    # a lattice of step 0.25 with the voxel side a multiple of it: many points sit exactly on a
+    # face, and their second neighbour in the voxel next door must not be skipped for round-off
+    from lidar_sig.grid import VoxelGrid
+
+    g = np.arange(0.0, 6.0, 0.25)
+    xyz = np.array(np.meshgrid(g, g, [0.0, 0.25]), dtype=np.float64).reshape(3, -1).T
+    xyz += np.random.default_rng(5).normal(0.0, 1e-3, xyz.shape) * (np.arange(len(xyz)) % 3 == 0)[:, None]
+    grid = VoxelGrid(xyz, cell)
+    third, done = np.empty(len(xyz)), np.zeros(len(xyz), np.bool_)
+    grid.third_distances(np.arange(len(xyz)), third, done, s_max=6)
+    ref, _ = cKDTree(grid.points).query(grid.points, k=3)
+    assert done.all()
+    np.testing.assert_allclose(np.sqrt(third), ref[:, 2], rtol=1e-12)
