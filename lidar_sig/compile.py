@@ -7,8 +7,11 @@ installed read-only, in the user's cache folder (``$XDG_CACHE_HOME/numba``, else
 from __future__ import annotations
 
 import sys
+import threading
 
 _ANNOUNCED = False
+# Background loads started (warm_up), by kind of run: one per kind and process.
+_WARMING = {}
 # Kernels every run calls, those of each kind of scales, of each strategy and of each built-in
 # descriptor (module, function names); the functions they call are compiled and cached with them.
 _COMMON = (("grid", ("nearest",)), ("kernels", ("saliency_rows", "entropy_rows")))
@@ -38,6 +41,26 @@ def load_kernels(descriptor="c3dcm"):
     kernel's first call."""
     for _ in _dispatchers(descriptor):
         pass
+
+
+def warm_up(key, run):
+    """Start ``run``, a tiny run through the kernels of a run of kind ``key``, in a background
+    thread (once per ``key`` and process), and return the thread: loading the kernels from the
+    cache (about 0.25 s, mostly numba's first call) then overlaps the run's first numpy steps.
+    The caller joins the thread before it calls a kernel itself, so that two threads never run
+    parallel kernels at once (numba's workqueue threading layer would abort). A failure is
+    ignored: the run proper loads, and reports, whatever failed here."""
+    thread = _WARMING.get(key)
+    if thread is None:
+        def quietly():
+            try:
+                run()
+            except Exception:  # noqa: BLE001 - see the docstring
+                pass
+
+        thread = _WARMING[key] = threading.Thread(target=quietly, name="lidar-sig kernels", daemon=True)
+        thread.start()
+    return thread
 
 
 def kernels_cached(descriptor="c3dcm", kind=None, strategy=None):

@@ -237,8 +237,8 @@ class NeighborIndex:
         rows = np.asarray(rows, dtype=np.int64)
         b = len(rows)
         if self._buffers is None or self._buffers[0].shape[0] < b:
-            self._buffers = (np.empty((max(b, self.block_size()), self.width)),
-                             np.empty((max(b, self.block_size()), self.width), dtype=np.int64))
+            rows_held = max(b, min(self.block_size(), len(self.xyz)))  # a block, or the whole of a small cloud
+            self._buffers = (np.empty((rows_held, self.width)), np.empty((rows_held, self.width), dtype=np.int64))
         d2, idx = self._buffers[0][:b], self._buffers[1][:b]
         n = np.zeros(b, np.int64)
         total = np.zeros(b, np.int64)

@@ -11,7 +11,7 @@ import numpy as np
 from . import __version__
 from .classes import UNLABELED, class_table
 from .cloud import PointCloud, kept_points
-from .compile import announce_compilation, load_kernels
+from .compile import announce_compilation, load_kernels, warm_up
 from .errors import LidarSigError, LidarSigWarning, a_kind, counted
 from .io.open3d import from_open3d, is_open3d
 from .neighbors import WEIGHTS, NeighborIndex, unique_points
@@ -188,6 +188,26 @@ class Pipeline:
                                 + (" (keep_noise=True, --keep-noise, uses every point)" if n_excluded else ""),
                                 path=cloud.path)
 
+    def _warm_up(self):
+        """Load this run's kernels in the background (:func:`lidar_sig.compile.warm_up`) by a
+        tiny run through them (neighbour search, descriptor, strategy) on a made-up patch of
+        ground; the thread, or None for a descriptor or strategy that is not built in (a
+        plugin's code runs on the user's data only)."""
+        if not all(type(p).__module__.startswith("lidar_sig.plugins.") for p in (self.descriptor, self.strategy)):
+            return None
+
+        def tiny_run():
+            rng = np.random.default_rng(0)
+            n = 4 * max(64, self.min_points())
+            xyz = np.column_stack([rng.uniform(0.0, 10.0, n), rng.uniform(0.0, 10.0, n), rng.normal(0.0, 0.05, n)])
+            index = NeighborIndex(xyz, self.scales.kind, self.scales.resolve(xyz), max_neighbors=self.max_neighbors,
+                                  min_neighbors=self.min_neighbors, weights=self.weights)
+            combined, _ = self.strategy.combine(self.descriptor.saliency(index.query(np.arange(n))))
+            Saliency.from_values(combined)
+
+        key = (self.descriptor.name, self.strategy.name, self.scales.kind, self.weights)
+        return warm_up(key, tiny_run)
+
     def describe(self, batch):
         """(B, 3) saliency of a NeighborhoodBatch, and the chosen scale index per point (or None)."""
         per_scale = self.descriptor.saliency(batch)
@@ -210,16 +230,21 @@ class Pipeline:
         (the points a run uses), and the run statistics."""
         announce_compilation(self.progress, self.descriptor.name, self.scales.kind, self.strategy.name)
         load_kernels(self.descriptor.name)
+        warming = self._warm_up()
         with step("neighbourhoods", enabled=self.progress, points=len(cloud),
                   scales=self.scales.describe(), weights=self.weights) as s:
             xyz = cloud.metric_xyz()
             support, inverse = unique_points(xyz)
             self._check_size(cloud, len(support), n_excluded)
             scales = self.scales.resolve(support)
+            index = NeighborIndex(support, self.scales.kind, scales, max_neighbors=self.max_neighbors,
+                                  min_neighbors=self.min_neighbors)  # the voxel grid: numpy only
+            if warming is not None:
+                warming.join()  # the kernels are loaded: from here on this thread runs them
             self.descriptor.prepare(support, self.scales.kind, scales, max_neighbors=self.max_neighbors,
                                     min_neighbors=self.min_neighbors, progress=self.progress)
-            index = NeighborIndex(support, self.scales.kind, scales, max_neighbors=self.max_neighbors,
-                                  min_neighbors=self.min_neighbors, weights=self.weights)
+            if self.weights == "area":
+                index.weights = index.area_weights()
             s.note(locations=len(support))
         m = len(support)
         values = np.empty((m, 3))

@@ -9,6 +9,7 @@ import subprocess
 import sys
 import types
 
+import numpy as np
 import pytest
 
 from conftest import SAMPLES
@@ -112,3 +113,54 @@ def test_the_lazy_names_of_io_are_the_names_it_had():
     from lidar_sig.io.las import read_las
 
     assert io.read_las is read_las and lidar_sig.read is io.read and io.hdf5.HDF5_EXTENSIONS == (".h5", ".hdf5")
+
+
+def test_a_run_loads_its_kernels_in_the_background_before_it_calls_one():
+    # in a fresh interpreter: the tiny run loads every kernel of the defaults' search, weights,
+    # descriptor and strategy, so that loading overlaps the run's first numpy steps
+    code = ("import lidar_sig as ls\n"
+            "from lidar_sig import grid, kernels\n"
+            "thread = ls.Pipeline(progress=False)._warm_up()\n"
+            "thread.join()\n"
+            "names = [(grid, 'nearest'), (grid, 'third_nearest'), (grid, 'count_ties'),\n"
+            "         (kernels, 'covariance_eigenvalues'), (kernels, 'mean_over_scales'), (kernels, 'entropy_rows')]\n"
+            "print(sorted(n for m, n in names if not getattr(m, n).signatures))\n")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split("\n")[-2] == "[]"
+
+
+def test_a_failed_background_load_leaves_the_run_as_it_was(monkeypatch):
+    # the background run is only a head start: what it fails at, the run proper does itself
+    import lidar_sig as ls
+    import lidar_sig.compile as compile_
+
+    pts = np.random.default_rng(7).uniform(-5, 5, (3000, 3)) * [1, 1, 0.3]
+    expected = ls.Pipeline(progress=False).run(pts).saliency.values
+    failed = []
+
+    def broken():
+        failed.append(True)
+        raise RuntimeError("no head start")
+
+    monkeypatch.setattr(compile_, "_WARMING", {})
+    monkeypatch.setattr(ls.Pipeline, "_warm_up", lambda self: compile_.warm_up("broken", broken))
+    got = ls.Pipeline(progress=False).run(pts).saliency.values
+    assert failed == [True]
+    np.testing.assert_array_equal(got, expected)
+
+
+def test_no_background_run_for_a_plugin_descriptor():
+    # a plugin's code runs on the user's data only, never on a made-up patch in a thread
+    import lidar_sig as ls
+    from lidar_sig.plugins import Descriptor
+    from lidar_sig.plugins.descriptors.c3dcm import C3DCM
+
+    class Plugin(Descriptor):
+        name = "test-plugin"
+
+        def eigenvalues(self, batch):
+            return C3DCM().eigenvalues(batch)
+
+    assert ls.Pipeline(Plugin())._warm_up() is None
+    assert ls.Pipeline("t3dvt")._warm_up() is not None
