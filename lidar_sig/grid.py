@@ -23,6 +23,13 @@ from __future__ import annotations
 import numpy as np
 from numba import get_num_threads, njit, parallel_chunksize, prange
 
+# Hot loops index with unsigned integers (_U): numba wraps a negative signed index around (one
+# compare per access), which an unsigned index cannot need. The same arithmetic, to the bit; on
+# AHN3 the k-nearest search took 15% less time (docs/performance.md).
+_U = np.uint64
+_ZERO = np.uint64(0)
+_ONE = np.uint64(1)
+
 
 @njit(cache=True)
 def _select(d, ix, n, k):
@@ -57,16 +64,16 @@ def _select(d, ix, n, k):
 def _insertion_sort(d, ix, n):
     """Sort d[:n] ascending in place, ix follows: fast for a few items, or for items already
     near their places."""
-    for a in range(1, n):
+    for a in range(_ONE, _U(max(n, 1))):
         v = d[a]
         w = ix[a]
-        b = a - 1
-        while b >= 0 and d[b] > v:
-            d[b + 1] = d[b]
-            ix[b + 1] = ix[b]
-            b -= 1
-        d[b + 1] = v
-        ix[b + 1] = w
+        b = a  # v's place: b shifts down past every larger item before it
+        while b != _ZERO and d[b - _ONE] > v:
+            d[b] = d[b - _ONE]
+            ix[b] = ix[b - _ONE]
+            b -= _ONE
+        d[b] = v
+        ix[b] = w
 
 
 @njit(cache=True, inline="always")
@@ -74,14 +81,14 @@ def _scatter(d, ix, m, bucket, counts, nb, out_d, out_i):
     """Counting sort's second half: d[:m] (ix following) into out by ``bucket`` (0 .. nb - 1),
     buckets in order, each in input order; ``counts[b + 1]`` holds bucket b's size on entry and
     ``counts[b]`` the end of bucket b on return."""
-    for b in range(nb):
-        counts[b + 1] += counts[b]
-    for a in range(m):
-        b = bucket[a]
-        pos = counts[b]
+    for b in range(_U(nb)):
+        counts[b + _ONE] += counts[b]
+    for a in range(_U(m)):
+        b = _U(bucket[a])
+        pos = _U(counts[b])
         out_d[pos] = d[a]
         out_i[pos] = ix[a]
-        counts[b] = pos + 1
+        counts[b] = pos + _ONE
 
 
 #: Up to this many nearest, a quickselect and an insertion sort; more go through buckets.
@@ -109,10 +116,11 @@ def _nearest_sorted(d, ix, m, n, span, bucket, counts, tmp_d, tmp_i, out_d, out_
     nb = max(1, 2 * m)
     scale = nb / span if span > 0.0 else 0.0
     counts[:nb + 1] = 0
-    for a in range(m):
-        b = min(int(d[a] * scale), nb - 1)
+    last = _U(nb - 1)
+    for a in range(_U(m)):
+        b = min(_U(np.int64(d[a] * scale)), last)  # converted signed: one instruction without AVX-512
         bucket[a] = b
-        counts[b + 1] += 1
+        counts[b + _ONE] += 1
     _scatter(d, ix, m, bucket, counts, nb, tmp_d, tmp_i)
     end = 0  # counts[b] is now the end of bucket b: sort the buckets up to the n-th item's
     for b in range(nb):
@@ -134,12 +142,12 @@ def _partition_radius(d, ix, m, r2s, k, out_d, out_i, bucket, counts):
         m = k
     n_scales = r2s.size
     counts[:] = 0
-    for a in range(m):
-        s = 0
+    for a in range(_U(m)):
+        s = _ZERO
         for t in range(n_scales - 1):  # branch-free: radii are ascending
-            s += d[a] > r2s[t]
+            s += _U(d[a] > r2s[t])
         bucket[a] = s
-        counts[s + 1] += 1
+        counts[s + _ONE] += 1
     _scatter(d, ix, m, bucket, counts, n_scales, out_d, out_i)
     return m
 
@@ -156,6 +164,7 @@ def _d2(pts, j, qx, qy, qz):
 
 @njit(cache=True, inline="always")
 def _box_d2(origin, h, cell_ijk, box, qx, qy, qz):
+    box = _U(box)
     bx = origin[0] + cell_ijk[box, 0] * h
     by = origin[1] + cell_ijk[box, 1] * h
     bz = origin[2] + cell_ijk[box, 2] * h
@@ -299,15 +308,16 @@ def nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, origin, h,
                     if total > buf_d.size:
                         buf_d = np.empty(2 * total)
                         buf_i = np.empty(2 * total, np.int64)
-                    m = 0
+                    kept = _U(0)
                     for r in range(shell_end[s_need]):
                         if _box_d2(origin, h, cell_ijk, rc[r], qx, qy, qz) > t2:
                             continue
-                        for j in range(rs[r], re[r]):
+                        for j in range(_U(rs[r]), _U(re[r])):
                             d2 = _d2(pts, j, qx, qy, qz)
-                            buf_d[m] = d2
-                            buf_i[m] = j
-                            m += d2 <= t2
+                            buf_d[kept] = d2
+                            buf_i[kept] = j
+                            kept += _U(d2 <= t2)
+                    m = np.int64(kept)
                     if not knn_mode:
                         break
                     if m >= want or s_need >= s_cover:
@@ -392,7 +402,7 @@ def count_ties(d2, n, ks, tie_factor, counts, sigma):
 def _min3(pts, j0, j1, qx, qy, qz, b0, b1, b2):
     """b0 <= b1 <= b2 updated with the squared distances of points j0 .. j1 - 1, without branches:
     a branch taken at random costs more than the whole update."""
-    for j in range(j0, j1):
+    for j in range(_U(j0), _U(j1)):
         d2 = _d2(pts, j, qx, qy, qz)
         b2 = min(b2, max(b1, d2))
         b1 = min(b1, max(b0, d2))

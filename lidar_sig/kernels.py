@@ -110,7 +110,7 @@ def covariance_eigenvalues(xyz, rows, idx, counts, weights):
         for s in range(S):
             target = counts[b, s]
             while n < target:
-                j = idx[b, n]
+                j = np.uint64(idx[b, n])  # unsigned: no wrap-around check per access (grid._U)
                 w = weights[j] if weighted else 1.0
                 dx = xyz[j, 0] - cx
                 dy = xyz[j, 1] - cy
@@ -162,7 +162,7 @@ def voting_eigenvalues(xyz, rows, idx, counts, sigma, weights):
             inv_s2 = 1.0 / (sigma[b, s] * sigma[b, s]) if sigma[b, s] > 0.0 else 0.0
             wsum = mxx = myy = mzz = mxy = mxz = myz = 0.0
             for p in range(counts[b, s]):
-                j = idx[b, p]
+                j = np.uint64(idx[b, p])
                 dx = xyz[j, 0] - cx
                 dy = xyz[j, 1] - cy
                 dz = xyz[j, 2] - cz
