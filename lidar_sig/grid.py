@@ -217,6 +217,28 @@ def _shell(ci, cj, ck, s, dims, cell_keys, lut, cell_start, rs, re, rc, n_ranges
     return n_ranges
 
 
+@njit(cache=True)
+def _room_for_shell(s, rs, re, rc, n_ranges):
+    """The range arrays ``rs``, ``re``, ``rc``, grown (their first ``n_ranges`` entries kept) if
+    they cannot hold every voxel of Chebyshev shells 0 .. s: a query that needs far shells (an
+    isolated point) pays for them, not every chunk of every search."""
+    need = (2 * s + 1) ** 3
+    if need <= rs.size:
+        return rs, re, rc
+    size = max(need, 2 * rs.size)
+    grown_s, grown_e, grown_c = np.empty(size, np.int64), np.empty(size, np.int64), np.empty(size, np.int64)
+    for r in range(n_ranges):
+        grown_s[r] = rs[r]
+        grown_e[r] = re[r]
+        grown_c[r] = rc[r]
+    return grown_s, grown_e, grown_c
+
+
+#: Voxel ranges a search chunk has room for at first: shells 0 to 2, which settle nearly every
+#: query; farther shells grow the room (:func:`_room_for_shell`).
+_RANGES = 125
+
+
 @njit(cache=True, parallel=True)
 def nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, origin, h, queries, group_start,
             ks, r2s, tie_factor, s_max, n_chunks, out_d2, out_idx, out_n, out_total, done):
@@ -236,7 +258,6 @@ def nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, origin, h,
     """
     n_groups = group_start.size - 1
     n_chunks = max(1, min(n_groups, n_chunks))
-    cap = (2 * s_max + 1) ** 3
     s_cover = max(dims[0], max(dims[1], dims[2]))
     knn_mode = r2s.size == 0
     k = ks[ks.size - 1] if knn_mode else ks[0]
@@ -244,9 +265,9 @@ def nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, origin, h,
     k_first = min(k + 1, room) if knn_mode and tie_factor > 0.0 else k
     r2 = np.inf if knn_mode else r2s[r2s.size - 1]
     for chunk in prange(n_chunks):
-        rs = np.empty(cap, np.int64)
-        re = np.empty(cap, np.int64)
-        rc = np.empty(cap, np.int64)
+        rs = np.empty(_RANGES, np.int64)
+        re = np.empty(_RANGES, np.int64)
+        rc = np.empty(_RANGES, np.int64)
         shell_end = np.empty(s_max + 2, np.int64)
         buf_d = np.empty(4096)
         buf_i = np.empty(4096, np.int64)
@@ -297,6 +318,7 @@ def nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, origin, h,
                     if knn_mode and s_need >= s_cover:
                         t2 = np.inf  # the shells hold every voxel: take every point
                     while n_shells <= s_need:
+                        rs, re, rc = _room_for_shell(n_shells, rs, re, rc, n_ranges)
                         n_ranges = _shell(ci, cj, ck, n_shells, dims, cell_keys, lut, cell_start, rs, re, rc, n_ranges)
                         shell_end[n_shells] = n_ranges
                         n_shells += 1
@@ -426,13 +448,12 @@ def third_nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, orig
     """
     n_groups = group_start.size - 1
     n_chunks = max(1, min(n_groups, n_chunks))
-    cap = (2 * max(1, s_max) + 1) ** 3  # shell 1 is always listed
     s_cover = max(dims[0], max(dims[1], dims[2]))
     slack = 1.0 + 1e-12  # round-off never skips a voxel that holds a nearer point
     for chunk in prange(n_chunks):
-        rs = np.empty(cap, np.int64)
-        re = np.empty(cap, np.int64)
-        rc = np.empty(cap, np.int64)
+        rs = np.empty(_RANGES, np.int64)  # shell 1 is always listed
+        re = np.empty(_RANGES, np.int64)
+        rc = np.empty(_RANGES, np.int64)
         shell_end = np.empty(s_max + 2, np.int64)
         near_s = np.empty(27, np.int64)  # point range of voxel (di, dj, dk) at 9 (di + 1) + 3 (dj + 1) + dk + 1
         near_e = np.empty(27, np.int64)
@@ -486,6 +507,7 @@ def third_nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, orig
                     else:  # an isolated point: farther shells, voxel by voxel
                         for s in range(2, s_max + 1):
                             while n_shells <= s:
+                                rs, re, rc = _room_for_shell(n_shells, rs, re, rc, n_ranges)
                                 n_ranges = _shell(ci, cj, ck, n_shells, dims, cell_keys, lut, cell_start, rs, re, rc, n_ranges)
                                 shell_end[n_shells] = n_ranges
                                 n_shells += 1
