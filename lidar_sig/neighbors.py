@@ -137,9 +137,9 @@ class NeighborhoodBatch:
     @property
     def dist(self):
         """(B, K) distances matching ``idx``; inf past ``n``."""
-        dist = np.sqrt(self.d2)
-        dist[np.arange(dist.shape[1])[None, :] >= self.n[:, None]] = np.inf
-        return dist
+        listed = np.arange(self.d2.shape[1])[None, :] < self.n[:, None]
+        # past n a row holds whatever its buffer held before: not a distance to take the root of
+        return np.where(listed, np.sqrt(np.where(listed, self.d2, 0.0)), np.inf)
 
     def reach(self):
         """(B,) how far from x_i its neighbourhood at the largest scale can reach, ties
@@ -289,7 +289,8 @@ class NeighborIndex:
             d_second = self.second_distances()
         if cap is None:
             cap = area_cap(d_second)
-        return np.minimum(d_second, cap) ** 2
+        weights = np.minimum(d_second, cap)
+        return np.multiply(weights, weights, out=weights)  # squared in place: one array, not two
 
     def second_distances(self, rows=None, *, shells=KNN_SHELLS):
         """Distance from each point (sorted order; ``rows`` only, if given) to its second-nearest
@@ -308,7 +309,7 @@ class NeighborIndex:
                 found, total = np.zeros(len(todo), np.int64), np.zeros(len(todo), np.int64)
                 self._complete(rows[todo], d2, idx, found, total, done[todo], k, kind="knn")
                 third[todo] = d2[:, k - 1]
-            return np.sqrt(third)
+            return np.sqrt(third, out=third)
         step = self.block_size()
         for start in range(0, len(rows), step):
             part = slice(start, start + step)
