@@ -6,6 +6,7 @@ from typing import Any
 
 import numpy as np
 
+from .bounds import bounds
 from .crs import Units, units_of
 from .errors import LidarSigError, counted
 
@@ -106,7 +107,8 @@ class PointCloud:
     def metric_xyz(self):
         """(N, 3) coordinates in metres, centred on the bounding-box centre: what the neighbour
         search and the kernels see (small numbers, so UTM-sized offsets cost no precision)."""
-        centre = (self.xyz.min(axis=0) + self.xyz.max(axis=0)) / 2.0
+        lo, hi = bounds(self.xyz)
+        centre = (lo + hi) / 2.0
         return (self.xyz - centre) * np.asarray(self.units.factors)
 
 
@@ -115,7 +117,8 @@ def check_magnitude(xyz, factors, *, path=None, start=0):
     metres per unit of x, y and z) with a LidarSigError naming how many, the first and the fix;
     ``start`` is the index in the file of the first row (a chunk of a file)."""
     factors = np.asarray(factors, dtype=np.float64)
-    if np.all(np.maximum(-xyz.min(axis=0), xyz.max(axis=0)) * factors <= MAX_COORDINATE):
+    lo, hi = bounds(xyz)
+    if np.all(np.maximum(-lo, hi) * factors <= MAX_COORDINATE):
         return  # the usual case, without an (N, 3) temporary
     far = np.abs(xyz) * factors > MAX_COORDINATE
     rows = far.any(axis=1)

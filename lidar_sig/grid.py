@@ -23,6 +23,8 @@ from __future__ import annotations
 import numpy as np
 from numba import get_num_threads, njit, parallel_chunksize, prange
 
+from .bounds import column_max, column_min
+
 # Hot loops index with unsigned integers (_U): numba wraps a negative signed index around (one
 # compare per access), which an unsigned index cannot need. The same arithmetic, to the bit; on
 # AHN3 the k-nearest search took 15% less time (docs/performance.md).
@@ -558,30 +560,46 @@ LUT_CELLS = 2**24
 _CHUNKS = 8
 
 
+def _morton_table():
+    """Morton code (bits x0 y0 z0 x1 y1 z1) of each 4 x 4 x 4 sub-voxel, by sx + 4 sy + 16 sz."""
+    s = np.arange(64)
+    sub = np.stack([s % 4, s // 4 % 4, s // 16], axis=1)
+    code = np.zeros(64, np.int64)
+    for bit in range(2):
+        for axis in range(3):
+            code |= ((sub[:, axis] >> bit) & 1) << (3 * bit + axis)
+    return code
+
+
+_MORTON = _morton_table()
+
+
 class VoxelGrid:
     """Points sorted by voxel of side ``cell``; ``order[i]`` is the input index of sorted point i."""
 
     def __init__(self, xyz, cell):
         xyz = np.asarray(xyz, dtype=np.float64)
         self.cell = float(cell)
-        self.origin = xyz.min(axis=0)
-        ijk = np.floor((xyz - self.origin) / self.cell).astype(np.int64)
-        self.dims = ijk.max(axis=0) + 1
+        self.origin = column_min(xyz)
+        f = (xyz - self.origin) / self.cell  # voxel units
+        ijk = np.floor(f).astype(np.int64)
+        self.dims = column_max(ijk) + 1
         key = ijk[:, 0] + self.dims[0] * (ijk[:, 1] + self.dims[1] * ijk[:, 2])
         # Within a voxel, order points along a Morton curve of 4 x 4 x 4 sub-voxels, so that
         # consecutive queries are close and each can bound its search by its predecessor's.
-        sub = np.clip(np.floor((xyz - self.origin) / self.cell * 4).astype(np.int64) - 4 * ijk, 0, 3)
-        morton = np.zeros(len(xyz), np.int64)
-        for bit in range(2):
-            for axis in range(3):
-                morton |= ((sub[:, axis] >> bit) & 1) << (3 * bit + axis)
-        self.order = np.argsort(key * 64 + morton, kind="stable")
+        f *= 4.0
+        sub = np.clip(np.floor(f).astype(np.int64) - 4 * ijk, 0, 3)
+        self.order = np.argsort(key * 64 + _MORTON[sub[:, 0] + 4 * sub[:, 1] + 16 * sub[:, 2]], kind="stable")
         key = key[self.order]
-        self.points = np.ascontiguousarray(xyz[self.order])
-        self.cell_keys, starts, inverse = np.unique(key, return_index=True, return_inverse=True)
+        self.points = np.take(xyz, self.order, axis=0)  # a third of xyz[order]'s time
+        # key is sorted: its voxels start where it changes (no np.unique, which sorts again)
+        first = np.ones(len(key), bool)
+        np.not_equal(key[1:], key[:-1], out=first[1:])
+        starts = np.flatnonzero(first)
+        self.cell_keys = key[starts]
         self.cell_start = np.append(starts, len(key)).astype(np.int64)
-        self.cell_of = inverse.astype(np.int64).ravel()
-        self.cell_ijk = np.ascontiguousarray(ijk[self.order][starts])
+        self.cell_of = np.cumsum(first, dtype=np.int64) - 1
+        self.cell_ijk = np.ascontiguousarray(ijk[self.order[starts]])
         # A dense voxel -> occupied-voxel table makes look-ups O(1); skipped when the box is
         # huge and sparse (outliers far away), where a binary search over keys serves.
         n_cells = int(np.prod(self.dims.astype(np.float64)))

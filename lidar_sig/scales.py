@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .bounds import bounds
 from .errors import LidarSigError
 
 UNITS = ("metric", "normalized")
@@ -75,7 +76,8 @@ class Scales:
             return np.asarray(self.values, dtype=np.int64)
         factor = 1.0
         if self.units == "normalized":
-            factor = float((xyz.max(axis=0) - xyz.min(axis=0)).max()) / 2.0
+            lo, hi = bounds(xyz)
+            factor = float((hi - lo).max()) / 2.0
         return np.asarray(self.values, dtype=np.float64) * factor
 
     def describe(self):

@@ -32,6 +32,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..bounds import column_max, column_min
 from ..errors import LidarSigError, positive_metres
 from ..neighbors import NeighborIndex, area_cap, radius_reach, unique_points
 from ..plugins.base import Descriptor
@@ -441,7 +442,7 @@ def saliency_in_tiles(pipeline, cloud, tile_size, *, halo=None):
         sal, totals = saliency_in_tiles(pipeline, cloud.subset(kept), tile_size, halo=halo)
         return Saliency.of_kept(sal.values, sal.optimal_scale, kept), {**totals, "n_excluded": int((~kept).sum())}
     xyz = cloud.metric_xyz()
-    ctx = context_of(cloud.xyz.min(axis=0), cloud.xyz.max(axis=0), cloud.units.factors, pipeline, len(cloud))
+    ctx = context_of(column_min(cloud.xyz), column_max(cloud.xyz), cloud.units.factors, pipeline, len(cloud))
     tiling = Tiling(ctx.lo, ctx.hi, float(tile_size))
     ids = np.arange(len(xyz))
 

@@ -25,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..bounds import column_max, column_min
 from ..cloud import MAX_COORDINATE, check_magnitude, kept_points
 from ..errors import LidarSigError, counted, reason
 from ..io import LAS_EXTENSIONS
@@ -228,7 +229,7 @@ def stage_part(work, source, part, start, stop, cells, noise_codes=None):
                     rec, xyz = rec[kept], xyz[kept]
                 if not len(rec):
                     continue
-                lo, hi = np.minimum(lo, xyz.min(axis=0)), np.maximum(hi, xyz.max(axis=0))
+                lo, hi = np.minimum(lo, column_min(xyz)), np.maximum(hi, column_max(xyz))
                 ci, cj = cells.of(rec["x"], rec["y"])
                 order = np.lexsort((cj, ci))
                 ci, cj, rec = ci[order], cj[order], rec[order]

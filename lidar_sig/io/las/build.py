@@ -9,6 +9,7 @@ import datetime
 import laspy
 import numpy as np
 
+from ...bounds import bounds
 from ...errors import LidarSigError
 from ..table import point_table
 from .copc import drop_copc
@@ -76,7 +77,7 @@ def las_scaling(xyz):
     """LAS offsets and scales for coordinates ``xyz``: offsets at the floor of the minimum,
     millimetre scales unless the extent needs coarser ones to fit LAS's 32-bit integers (then
     the next power of ten)."""
-    lo, hi = xyz.min(axis=0), xyz.max(axis=0)
+    lo, hi = bounds(xyz)
     offsets = np.floor(lo)
     span = np.maximum(hi - offsets, 1e-12)
     scales = np.maximum(1e-3, 10.0 ** np.ceil(np.log10(span / (2**31 - 2))))
