@@ -15,7 +15,9 @@ _WARMING = {}
 # Kernels every run calls, those of each kind of scales, of each strategy and of each built-in
 # descriptor (module, function names); the functions they call are compiled and cached with them.
 _COMMON = (("grid", ("nearest",)), ("kernels", ("saliency_rows", "entropy_rows")))
-_KIND = {"knn": (("grid", ("count_ties",)),), "radius": (("grid", ("count_within",)),)}
+# (k-nearest scales are counted by the search itself; count_ties serves only the rare rows it
+# cannot settle, and is loaded when one needs it)
+_KIND = {"knn": (), "radius": (("grid", ("count_within",)),)}
 _STRATEGY = {"multiscale": (("kernels", ("mean_over_scales",)),)}
 _DESCRIPTOR = {
     "c3dcm": (("kernels", ("covariance_eigenvalues",)),),

@@ -16,7 +16,8 @@ they do lists more (:func:`nearest`). Spherical rows are grouped by scale, each 
 particular order: the neighbours of scale s are a prefix of those of scale s + 1, which is all
 the descriptors need (SPEC 2), at O(n) instead of a sort's O(n log n). :func:`count_within`
 counts the neighbours within given squared distances, :func:`count_ties` those within a factor
-of each row's k-th; :mod:`lidar_sig.neighbors` decides which (the tie rule).
+of each row's k-th; :mod:`lidar_sig.neighbors` decides which (the tie rule). The k-nearest
+search counts its own rows' scales the same way while each row is at hand (:func:`nearest`).
 """
 from __future__ import annotations
 
@@ -243,14 +244,18 @@ _RANGES = 125
 
 @njit(cache=True, parallel=True)
 def nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, origin, h, queries, group_start,
-            ks, r2s, tie_factor, s_max, n_chunks, out_d2, out_idx, out_n, out_total, done):
+            ks, r2s, tie_factor, s_max, n_chunks, out_d2, out_idx, out_n, out_total, done, out_counts, out_sigma):
     """Neighbours of each query: k-nearest sorted, spherical grouped by scale (module docstring).
 
-    k-nearest mode when ``r2s`` is empty: ``ks[-1]`` is the largest k. With ``tie_factor`` > 0
-    a row holds the k + 1 nearest, and where the last of them ties with the k-th (squared
-    distance within ``tie_factor`` times its), as many nearest as the row has room for: every
-    point tied with the k-th is then listed, room allowing, without every query sorting that
-    room. Spherical mode otherwise: ``r2s`` are the squared radii, ascending, and ``ks[0]`` the cap.
+    k-nearest mode when ``r2s`` is empty: ``ks`` are the scales, ``ks[-1]`` the largest k (at
+    most the row's room). With ``tie_factor`` > 0 a row holds the k + 1 nearest, and where the
+    last of them ties with the k-th (squared distance within ``tie_factor`` times its), as many
+    nearest as the row has room for: every point tied with the k-th is then listed, room
+    allowing, without every query sorting that room. If ``out_counts`` has a column per scale,
+    the query's scales are counted there while its row is at hand (:func:`_tie_counts`, into
+    ``out_counts`` and ``out_sigma``; ``out_n`` then gets the count of the largest scale, ties
+    included, and ``tie_factor`` must be > 0). Spherical mode otherwise: ``r2s`` are the
+    squared radii, ascending, and ``ks[0]`` the cap.
     ``queries`` are point indices, runs of one voxel delimited by ``group_start``. Row ``i`` of
     ``out_d2`` (squared distances) and ``out_idx`` gets ``out_n[i]`` neighbours (spherical: every
     point with a squared distance of at most ``r2s[-1]``, the cap nearest of them), and in
@@ -262,8 +267,9 @@ def nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, origin, h,
     n_chunks = max(1, min(n_groups, n_chunks))
     s_cover = max(dims[0], max(dims[1], dims[2]))
     knn_mode = r2s.size == 0
-    k = ks[ks.size - 1] if knn_mode else ks[0]
     room = out_d2.shape[1]
+    k = min(ks[ks.size - 1], room) if knn_mode else ks[0]
+    counted = knn_mode and out_counts.shape[1] == ks.size
     k_first = min(k + 1, room) if knn_mode and tie_factor > 0.0 else k
     r2 = np.inf if knn_mode else r2s[r2s.size - 1]
     for chunk in prange(n_chunks):
@@ -373,6 +379,9 @@ def nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, origin, h,
                     if n >= k_first:
                         prev = q
                         prev_dk = np.sqrt(hd[k_first - 1])
+                    if counted:
+                        _tie_counts(out_d2, qpos, n, ks, tie_factor, out_counts, out_sigma)
+                        n = out_counts[qpos, ks.size - 1]  # neighbours past the largest scale's ties are not needed
                 else:
                     out_total[qpos] = m  # before the cap
                     n = _partition_radius(buf_d, buf_i, m, r2s, k, hd, hi, bucket, scale_counts)
@@ -405,21 +414,27 @@ def count_within(d2, n, limits, counts):
             counts[b, s] = c
 
 
+@njit(cache=True, inline="always")
+def _tie_counts(d2, b, n, ks, tie_factor, counts, sigma):
+    """Row ``b`` of the k-nearest scales: into ``counts[b, s]`` how many of the first ``n``
+    squared distances of row ``b`` of ``d2`` (sorted) are at most ``tie_factor`` times the
+    ``ks[s]``-th (the last where the row holds fewer; ties with the k-th included), into
+    ``sigma[b, s]`` the distance to that neighbour (0 in an empty row)."""
+    c = 0
+    for s in range(ks.size):
+        kth = min(ks[s], n) - 1
+        kth_d2 = d2[b, kth] if kth >= 0 else 0.0
+        c = _prefix_end(d2, b, n, c, kth_d2 * tie_factor)
+        counts[b, s] = c
+        sigma[b, s] = np.sqrt(kth_d2)
+
+
 @njit(cache=True, parallel=True)
 def count_ties(d2, n, ks, tie_factor, counts, sigma):
-    """k-nearest scales on rows sorted by distance, in one pass: into ``counts`` (B, S) how many
-    of the first ``n[b]`` squared distances of row ``b`` are at most ``tie_factor`` times the
-    ``ks[s]``-th (the last where a row holds fewer; ties with the k-th included), into ``sigma``
-    the distance to that neighbour (0 in an empty row). :func:`count_within` with the limits
-    taken from the rows themselves, without the (B, S) arrays in between."""
+    """k-nearest scales on rows sorted by distance (:func:`_tie_counts` for every row): the
+    scales of rows listed outside :func:`nearest`, which counts its own."""
     for b in prange(d2.shape[0]):
-        c = 0
-        for s in range(ks.size):
-            kth = min(ks[s], n[b]) - 1
-            kth_d2 = d2[b, kth] if kth >= 0 else 0.0
-            c = _prefix_end(d2, b, n[b], c, kth_d2 * tie_factor)
-            counts[b, s] = c
-            sigma[b, s] = np.sqrt(kth_d2)
+        _tie_counts(d2, b, n[b], ks, tie_factor, counts, sigma)
 
 
 @njit(cache=True, inline="always")
@@ -624,12 +639,15 @@ class VoxelGrid:
                           self.dims, self.origin, self.cell, queries, group_start, int(s_max),
                           _CHUNKS * get_num_threads(), d2, done)
 
-    def search(self, queries, d2, idx, n, total, done, ks=None, radii2=None, cap=512, s_max=4, tie_factor=0.0):
+    def search(self, queries, d2, idx, n, total, done, ks=None, radii2=None, cap=512, s_max=4, tie_factor=0.0,
+               counts=None, sigma=None):
         """Neighbours of the sorted-order points ``queries`` into ``d2``, ``idx``, ``n``,
         ``total`` (spherical mode) and ``done``.
 
         Give ``ks`` (k-nearest scales, ascending) or ``radii2`` (squared radii, ascending, at
         most ``cap`` nearest). Row i gets n[i] neighbours; the rest of the row is left as is.
+        With ``counts`` and ``sigma`` ((len(queries), len(ks)) arrays; k-nearest scales and
+        ``tie_factor`` > 0 only) each settled query's scales are counted too (:func:`nearest`).
         """
         queries, group_start = self._groups(queries)
         if radii2 is None:
@@ -638,7 +656,9 @@ class VoxelGrid:
         else:
             r2s = np.asarray(radii2, dtype=np.float64)
             ks = np.array([cap], dtype=np.int64)
+        if counts is None:
+            counts, sigma = np.empty((len(queries), 0), np.int64), np.empty((len(queries), 0))
         with parallel_chunksize(1):  # chunks to threads as they free up (_CHUNKS)
             nearest(self.points, self.cell_of, self.cell_ijk, self.cell_start, self.cell_keys, self.lut,
                     self.dims, self.origin, self.cell, queries, group_start, ks, r2s, float(tie_factor),
-                    int(s_max), _CHUNKS * get_num_threads(), d2, idx, n, total, done)
+                    int(s_max), _CHUNKS * get_num_threads(), d2, idx, n, total, done, counts, sigma)

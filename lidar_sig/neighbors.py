@@ -251,19 +251,24 @@ class NeighborIndex:
         done = np.zeros(b, np.bool_)
         radii2 = tie_limit(self.scales.astype(np.float64) ** 2) if self.kind == "radius" else None
         if self.kind == "knn":
-            # the k + 1 nearest, the row's room only where ties with the k-th run on (grid.nearest)
-            k = min(int(self.scales.max()), self.width)
-            self.grid.search(rows, d2, idx, n, total, done, ks=np.array([k]), s_max=self.s_max,
-                             tie_factor=tie_limit(1.0))
+            # the k + 1 nearest, the row's room only where ties with the k-th run on, and each
+            # row's scales counted by the search while the row is at hand (grid.nearest); n is
+            # then the count of the largest scale: neighbours past its ties are not needed
+            ks = np.asarray(self.scales, dtype=np.int64)
+            counts, sigma = np.empty((b, len(ks)), np.int64), np.empty((b, len(ks)))
+            self.grid.search(rows, d2, idx, n, total, done, ks=ks, s_max=self.s_max, tie_factor=tie_limit(1.0),
+                             counts=counts, sigma=sigma)
         elif self.capped_search:
             self.grid.search(rows, d2, idx, n, total, done, ks=np.array([self.width]), s_max=self.s_max)
         else:
             self.grid.search(rows, d2, idx, n, total, done, cap=self.width, s_max=self.s_max, radii2=radii2)
         if not done.all():
+            todo = np.flatnonzero(~done)
             self._complete(rows, d2, idx, n, total, done, self.width, kind="knn" if self.capped_search else None)
+            if self.kind == "knn":  # the rows listed outside the search: their scales counted here
+                counts[todo], sigma[todo] = _knn_counts(d2[todo], n[todo], ks)
+                n[todo] = counts[todo, -1]
         if self.kind == "knn":
-            counts, sigma = _knn_counts(d2, n, self.scales)
-            n = counts[:, -1].copy()  # neighbours past the largest scale's ties are not needed
             capped = np.zeros(b, bool)
         else:
             if self.capped_search:
@@ -274,7 +279,7 @@ class NeighborIndex:
             capped = total > self.max_neighbors
         width = max(1, int(n.max()))
         d2, idx = d2[:, :width], idx[:, :width]
-        counts = np.where(counts >= self.min_neighbors, counts, 0).astype(np.int64)
+        counts[counts < self.min_neighbors] = 0  # too few for a defined saliency
         return NeighborhoodBatch(self.xyz, rows, self.order[rows], idx, d2, n, counts,
                                  np.ascontiguousarray(sigma), capped, self.weights, self.kind)
 

@@ -77,6 +77,9 @@ def test_unsettled_queries_by_tree_or_by_scan_give_the_same_neighbours(monkeypat
     batch = index.query(np.arange(len(xyz)))
     ref, _ = cKDTree(index.xyz).query(index.xyz, k=20)
     np.testing.assert_allclose(batch.dist[:, :20], ref, rtol=1e-12)
+    # the scales of every row, those the search settled (it counts them itself) and the others
+    assert (batch.counts == [10, 20]).all() and (batch.n == 20).all()
+    np.testing.assert_allclose(batch.sigma, ref[:, [9, 19]], rtol=1e-12)
     second, _ = cKDTree(index.xyz).query(index.xyz, k=3)
     np.testing.assert_allclose(index.second_distances(), second[:, 2], rtol=1e-12)
 
