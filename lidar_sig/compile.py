@@ -15,8 +15,8 @@ _WARMING = {}
 # Kernels every run calls, those of each kind of scales, of each strategy and of each built-in
 # descriptor (module, function names); the functions they call are compiled and cached with them.
 _COMMON = (("grid", ("nearest",)), ("kernels", ("saliency_rows", "entropy_rows")))
-# (k-nearest scales are counted by the search itself; count_ties serves only the rare rows it
-# cannot settle, and is loaded when one needs it)
+# (k-nearest scales are counted by the search itself; count_ties, which counts the few rows the
+# search leaves to a scan or the k-d tree, is loaded or compiled when a run first has such rows)
 _KIND = {"knn": (), "radius": (("grid", ("count_within",)),)}
 _STRATEGY = {"multiscale": (("kernels", ("mean_over_scales",)),)}
 _DESCRIPTOR = {

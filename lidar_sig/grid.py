@@ -28,7 +28,8 @@ from .bounds import column_max, column_min
 
 # Hot loops index with unsigned integers (_U): numba wraps a negative signed index around (one
 # compare per access), which an unsigned index cannot need. The same arithmetic, to the bit; on
-# AHN3 the k-nearest search took 15% less time (docs/performance.md).
+# AHN3, one thread, the k-nearest search took 8% (k = 40) and 17% (k = 100) less time
+# (docs/performance.md).
 _U = np.uint64
 _ZERO = np.uint64(0)
 _ONE = np.uint64(1)

@@ -27,13 +27,8 @@ import numpy as np
 # enough that the descriptor reads a block's lists from the cache the search wrote them to: on
 # AHN3 96 MiB took 12% (defaults) to 40% (the paper's radii) longer (docs/performance.md).
 _BLOCK_BYTES = 24 * 2**20
-# Voxel shells a k-nearest query may grow before it is handed to a scan of every point or the
-# k-d tree. A query pays for the shells it lists, (2 s + 1)^3 voxels at most, far less than a scan
-# of the cloud: on AHN3 cropped_1, 15 queries at k = 40 needed 7 to 9 shells (their 40th
-# neighbour 5 to 8 voxel sides away), and scanning the cloud for them took 0.037 s of a 0.5 s
-# search, most of it on one core. Tiles use as many (a few isolated points per tile otherwise cost
-# a k-d tree of the whole tile), so that a tile and the whole cloud send a query the same way.
-KNN_SHELLS = 12
+# Voxel shells a k-nearest query may grow before it is handed to the k-d tree.
+_KNN_SHELLS = 6
 # Queries x points up to which unsettled k-nearest queries scan every point instead of building a
 # k-d tree (about 0.05 s; a tree of 640,000 points takes 0.15 s to build, for a handful of queries).
 _SCAN_ALL = 50_000_000
@@ -177,12 +172,11 @@ class NeighborIndex:
         the whole set's, found by an earlier pass): area weights then take it instead of
         searching again.
     shells : int, optional
-        Voxel shells a k-nearest query may grow before it goes to a scan or the k-d tree (default
-        ``KNN_SHELLS``).
+        Voxel shells a k-nearest query may grow before it goes to the k-d tree (default 6).
     """
 
     def __init__(self, xyz, kind, scales, *, max_neighbors=512, min_neighbors=3, weights="none",
-                 area_cap=None, second=None, shells=KNN_SHELLS):
+                 area_cap=None, second=None, shells=_KNN_SHELLS):
         from .grid import VoxelGrid
 
         xyz = np.asarray(xyz, dtype=np.float64)
@@ -297,7 +291,7 @@ class NeighborIndex:
         weights = np.minimum(d_second, cap)
         return np.multiply(weights, weights, out=weights)  # squared in place: one array, not two
 
-    def second_distances(self, rows=None, *, shells=KNN_SHELLS):
+    def second_distances(self, rows=None, *, shells=_KNN_SHELLS):
         """Distance from each point (sorted order; ``rows`` only, if given) to its second-nearest
         other point, in coordinate units (in a cloud of fewer than 3 points, to its farthest).
         ``shells``: voxel shells a query may grow before it goes to the k-d tree."""
