@@ -6,6 +6,7 @@ installed read-only, in the user's cache folder (``$XDG_CACHE_HOME/numba``, else
 """
 from __future__ import annotations
 
+import importlib
 import sys
 import threading
 
@@ -19,18 +20,21 @@ _COMMON = (("grid", ("nearest",)), ("kernels", ("saliency_rows", "entropy_rows")
 # search leaves to a scan or the k-d tree, is loaded or compiled when a run first has such rows)
 _KIND = {"knn": (), "radius": (("grid", ("count_within",)),)}
 _STRATEGY = {"multiscale": (("kernels", ("mean_over_scales",)),)}
+_WEIGHTS = {"area": (("grid", ("third_nearest",)),)}
 _DESCRIPTOR = {
     "c3dcm": (("kernels", ("covariance_eigenvalues",)),),
     "t3dvt": (("kernels", ("voting_eigenvalues",)),),
     "t3dvt-get": (("kernels", ("voting_eigenvalues",)), ("get", ("first_pass", "second_pass", "third_pass"))),
 }
+# numba modules that build an error message when imported, which numba colours through colorama
+# by setting sys.stderr and back; numba imports them at its first load of a cached kernel, so
+# warm_up imports them in the caller's thread first (about 5 ms), see there
+_COLOURING_IMPORTS = ("numba.cpython.listobj",)
 
 
-def _dispatchers(descriptor, kind=None, strategy=None):
-    import importlib
-
+def _dispatchers(descriptor, kind=None, strategy=None, weights=None):
     for module, names in (_COMMON + _DESCRIPTOR.get(descriptor, ()) + _KIND.get(kind, ())
-                          + _STRATEGY.get(strategy, ())):
+                          + _STRATEGY.get(strategy, ()) + _WEIGHTS.get(weights, ())):
         mod = importlib.import_module(f"lidar_sig.{module}")
         for name in names:
             yield getattr(mod, name)
@@ -46,14 +50,28 @@ def load_kernels(descriptor="c3dcm"):
 
 
 def warm_up(key, run):
-    """Start ``run``, a tiny run through the kernels of a run of kind ``key``, in a background
-    thread (once per ``key`` and process), and return the thread: loading the kernels from the
-    cache (about 0.25 s, mostly numba's first call) then overlaps the run's first numpy steps.
-    The caller joins the thread before it calls a kernel itself, so that two threads never run
-    parallel kernels at once (numba's workqueue threading layer would abort). A failure is
-    ignored: the run proper loads, and reports, whatever failed here."""
+    """Start ``run``, a tiny run through the kernels of a run of kind ``key`` (descriptor,
+    strategy, kind of scales, weights), in a background thread (once per ``key`` and process),
+    and return the thread: loading the kernels from the cache (about 0.25 s, mostly numba's first
+    call) then overlaps the run's first numpy steps. None when a kernel is not cached: numba
+    compiles in the run's own thread then. Numba sets ``sys.stderr`` and back each time it
+    builds an error message (it colours them through colorama), thousands of times while it
+    compiles; from a second thread that would undo a redirection of stderr the caller's thread
+    made meanwhile (as a test or a notebook does). The caller joins the thread before it
+    calls a kernel itself, so that two threads never run parallel kernels at once (numba's
+    workqueue threading layer would abort). A failure is ignored: the run proper loads, and
+    reports, whatever failed here."""
     thread = _WARMING.get(key)
     if thread is None:
+        descriptor, strategy, kind, weights = key
+        if kernels_cached(descriptor, kind, strategy, weights) is not True:
+            return None
+        for module in _COLOURING_IMPORTS:  # the messages a load from the cache builds, here
+            try:
+                importlib.import_module(module)
+            except ImportError:  # a numba without this module
+                pass
+
         def quietly():
             try:
                 run()
@@ -65,26 +83,28 @@ def warm_up(key, run):
     return thread
 
 
-def kernels_cached(descriptor="c3dcm", kind=None, strategy=None):
+def kernels_cached(descriptor="c3dcm", kind=None, strategy=None, weights=None):
     """True if every kernel a run of ``descriptor`` calls (with scales of ``kind``, "knn" or
-    "radius", and ``strategy``, when given) has a compiled version cached for its current source,
-    False if one will be compiled, None if that cannot be told (numba's cache layout is not
-    public)."""
+    "radius", ``strategy`` and ``weights``, when given) has a compiled version cached for its
+    current source, False if one will be compiled, None if that cannot be told (numba's cache
+    layout is not public)."""
     try:
-        return all(bool(d._cache._cache_file._load_index()) for d in _dispatchers(descriptor, kind, strategy))
+        return all(bool(d._cache._cache_file._load_index())
+                   for d in _dispatchers(descriptor, kind, strategy, weights))
     except Exception:  # a numba without this layout: do not guess
         return None
 
 
-def announce_compilation(enabled=None, descriptor="c3dcm", kind=None, strategy=None):
+def announce_compilation(enabled=None, descriptor="c3dcm", kind=None, strategy=None, weights=None):
     """Print once per process, on a terminal (or when ``enabled``), that the kernels a run of
-    ``descriptor`` (scales of ``kind``, ``strategy``) needs are being compiled, when they are."""
+    ``descriptor`` (scales of ``kind``, ``strategy``, ``weights``) needs are being compiled, when
+    they are."""
     global _ANNOUNCED
     if _ANNOUNCED:
         return
     if enabled is False or (enabled is None and not sys.stderr.isatty()):
         return
-    if kernels_cached(descriptor, kind, strategy) is False:
+    if kernels_cached(descriptor, kind, strategy, weights) is False:
         _ANNOUNCED = True
         print("lidar-sig: compiling the numerical kernels: the first run after installing takes "
               "15-20 s more, later runs use the cache", file=sys.stderr, flush=True)

@@ -192,7 +192,8 @@ class Pipeline:
         """Load this run's kernels in the background (:func:`lidar_sig.compile.warm_up`) by a
         tiny run through them (neighbour search, descriptor, strategy) on a made-up patch of
         ground; the thread, or None for a descriptor or strategy that is not built in (a
-        plugin's code runs on the user's data only)."""
+        plugin's code runs on the user's data only) or a kernel not cached yet (compiled in this
+        thread then, see there)."""
         if not all(type(p).__module__.startswith("lidar_sig.plugins.") for p in (self.descriptor, self.strategy)):
             return None
 
@@ -228,7 +229,7 @@ class Pipeline:
     def _saliency(self, cloud, n_excluded):
         """(N, 3) saliency values and (N,) chosen scales (or None) of every point of ``cloud``
         (the points a run uses), and the run statistics."""
-        announce_compilation(self.progress, self.descriptor.name, self.scales.kind, self.strategy.name)
+        announce_compilation(self.progress, self.descriptor.name, self.scales.kind, self.strategy.name, self.weights)
         load_kernels(self.descriptor.name)
         warming = self._warm_up()
         with step("neighbourhoods", enabled=self.progress, points=len(cloud),
