@@ -32,6 +32,11 @@ _KNN_SHELLS = 6
 # Queries x points up to which unsettled k-nearest queries scan every point instead of building a
 # k-d tree (about 0.05 s; a tree of 640,000 points takes 0.15 s to build, for a handful of queries).
 _SCAN_ALL = 50_000_000
+# Voxels the queries left unsettled by the shells may list in all, growing twice as many shells,
+# before a scan or the k-d tree takes them: a few isolated points settle so in well under a
+# millisecond (AHN3 cropped_1 at k = 40: 15 rows, within 12 shells) where a scan of every
+# point took 20 ms; thousands of spikes would list millions of voxels and go to the tree.
+_FARTHER_VOXELS = 2**22
 #: Neighbour weights: "area" (see the module docstring) or "none" (plain means, the paper's).
 WEIGHTS = ("area", "none")
 #: k-nearest neighbourhoods take every point tied with the k-th neighbour (squared distance
@@ -256,6 +261,8 @@ class NeighborIndex:
             self.grid.search(rows, d2, idx, n, total, done, ks=np.array([self.width]), s_max=self.s_max)
         else:
             self.grid.search(rows, d2, idx, n, total, done, cap=self.width, s_max=self.s_max, radii2=radii2)
+        if self.kind == "knn" and not done.all():
+            self._farther(rows, d2, idx, n, total, done, ks, counts, sigma)
         if not done.all():
             todo = np.flatnonzero(~done)
             self._complete(rows, d2, idx, n, total, done, self.width, kind="knn" if self.capped_search else None)
@@ -303,6 +310,12 @@ class NeighborIndex:
             third, done = np.empty(len(rows)), np.zeros(len(rows), np.bool_)
             self.grid.third_distances(rows, third, done, s_max=int(shells))
             todo = np.flatnonzero(~done)
+            s_far = self._farther_shells(len(todo), shells) if len(todo) else 0
+            if s_far:  # isolated points: again, alone, with more shells when that is cheap (_farther)
+                far, settled = np.empty(len(todo)), np.zeros(len(todo), np.bool_)
+                self.grid.third_distances(rows[todo], far, settled, s_max=s_far)
+                third[todo[settled]] = far[settled]
+                todo = todo[~settled]
             if len(todo):
                 d2, idx = np.empty((len(todo), k)), np.empty((len(todo), k), np.int64)
                 found, total = np.zeros(len(todo), np.int64), np.zeros(len(todo), np.int64)
@@ -329,6 +342,28 @@ class NeighborIndex:
 
             self._tree = cKDTree(self.xyz)
         return self._tree
+
+    def _farther_shells(self, n_todo, shells):
+        """Shells the ``n_todo`` queries a search of ``shells`` shells left unsettled may grow to
+        in a second search (twice as many), or 0 when their voxels would exceed _FARTHER_VOXELS
+        in all or, per query, the points a scan visits."""
+        s = 2 * int(shells)
+        per_query = (2 * s + 1) ** 3
+        return s if n_todo * per_query <= _FARTHER_VOXELS and per_query <= len(self.xyz) else 0
+
+    def _farther(self, rows, d2, idx, n, total, done, ks, counts, sigma):
+        # k-nearest rows the search left unsettled (isolated points): searched again, alone,
+        # with more shells when that is cheap; the k-th's ties and the counts as in the search
+        todo = np.flatnonzero(~done)
+        s_far = self._farther_shells(len(todo), self.s_max)
+        if not s_far:
+            return
+        t = len(todo)
+        far = (np.empty((t, self.width)), np.empty((t, self.width), np.int64), np.zeros(t, np.int64),
+               np.zeros(t, np.int64), np.zeros(t, np.bool_), np.empty((t, len(ks)), np.int64), np.empty((t, len(ks))))
+        self.grid.search(rows[todo], *far[:5], ks=ks, s_max=s_far, tie_factor=tie_limit(1.0),
+                         counts=far[5], sigma=far[6])
+        d2[todo], idx[todo], n[todo], total[todo], done[todo], counts[todo], sigma[todo] = far
 
     def _complete(self, rows, d2, idx, n, total, done, width, kind=None):
         # Queries the voxel shells could not settle (isolated points far from the rest), listed

@@ -84,6 +84,45 @@ def test_unsettled_queries_by_tree_or_by_scan_give_the_same_neighbours(monkeypat
     np.testing.assert_allclose(index.second_distances(), second[:, 2], rtol=1e-12)
 
 
+@pytest.mark.parametrize("farther", [True, False])
+def test_queries_a_few_shells_too_far_are_settled_by_more_shells(monkeypatch, farther):
+    # a few points 7 to 9 m beside a dense patch (voxels of about 1 m): 6 shells cannot settle
+    # their k nearest nor their second neighbour; a second search of 12 shells does, and gives
+    # what a scan of every point gives (with _FARTHER_VOXELS = 0, the scan)
+    import lidar_sig.neighbors as neighbors
+
+    completed = []
+    real = NeighborIndex._complete
+
+    def complete(self, rows, *args, **kwargs):
+        completed.append(len(rows))
+        return real(self, rows, *args, **kwargs)
+
+    monkeypatch.setattr(NeighborIndex, "_complete", complete)
+    if not farther:
+        monkeypatch.setattr(neighbors, "_FARTHER_VOXELS", 0)
+    rng = np.random.default_rng(4)
+    far = np.array([[37.0, 5.0, 0.0], [39.0, 15.0, 0.3], [37.0, 25.0, 0.1]])
+    xyz = np.vstack([rng.uniform(0, 30, (20000, 3)) * [1, 1, 0.003], far])
+    index = NeighborIndex(xyz, "knn", np.array([10, 20]), weights="area")
+    assert 0.8 < index.grid.cell < 1.2  # (the distances above are in voxels of about 1 m)
+    batch = index.query(np.arange(len(xyz)))
+    ref, _ = cKDTree(index.xyz).query(index.xyz, k=20)
+    np.testing.assert_allclose(batch.dist[:, :20], ref, rtol=1e-12)
+    assert (batch.counts == [10, 20]).all() and (batch.n == 20).all()
+    np.testing.assert_allclose(batch.sigma, ref[:, [9, 19]], rtol=1e-12)
+    second, _ = cKDTree(index.xyz).query(index.xyz, k=3)
+    np.testing.assert_allclose(index.second_distances(), second[:, 2], rtol=1e-12)
+    # the far points are what this is about: 6 shells settle neither their lists nor their second
+    rows = index.rows_of(np.arange(20000, 20003))
+    out = [np.empty((3, 20)), np.empty((3, 20), np.int64)] + [np.zeros(3, np.int64) for _ in "nt"] + [np.zeros(3, bool)]
+    index.grid.search(rows, *out, ks=np.array([20]), s_max=6)
+    third, done = np.empty(3), np.zeros(3, bool)
+    index.grid.third_distances(rows, third, done, s_max=6)
+    assert not out[-1].any() and not done.any()
+    assert bool(completed) != farther, completed
+
+
 @pytest.mark.parametrize("n", [2, 3])
 def test_second_distances_of_a_few_far_apart_points(n):
     # so far apart that no voxel shell around one point reaches another: the farthest then
