@@ -2,7 +2,9 @@
 
 Every scale of a run is a prefix of the neighbour list of its largest scale, so one search per
 block of points serves them all. The search runs on a voxel grid (:mod:`lidar_sig.grid`); the
-few queries it cannot settle within a few voxel shells (isolated outliers) go to a k-d tree.
+few queries it cannot settle within a few voxel shells (isolated outliers) are searched again
+with more shells when that is cheap, and what is left goes to a scan of every point (a few
+queries) or a k-d tree.
 The grid's kernels (numba) are loaded when a first index is built, the k-d tree (scipy) when a
 query needs it: importing this module loads neither.
 The index works on the points sorted by voxel: ``NeighborIndex.xyz`` is the sorted cloud and
@@ -27,7 +29,7 @@ import numpy as np
 # enough that the descriptor reads a block's lists from the cache the search wrote them to: on
 # AHN3 96 MiB took 12% (defaults) to 40% (the paper's radii) longer (docs/performance.md).
 _BLOCK_BYTES = 24 * 2**20
-# Voxel shells a k-nearest query may grow before it is handed to the k-d tree.
+# Voxel shells a k-nearest query may grow in a first search (then see _FARTHER_VOXELS).
 _KNN_SHELLS = 6
 # Queries x points up to which unsettled k-nearest queries scan every point instead of building a
 # k-d tree (about 0.05 s; a tree of 640,000 points takes 0.15 s to build, for a handful of queries).
@@ -177,7 +179,8 @@ class NeighborIndex:
         the whole set's, found by an earlier pass): area weights then take it instead of
         searching again.
     shells : int, optional
-        Voxel shells a k-nearest query may grow before it goes to the k-d tree (default 6).
+        Voxel shells a k-nearest query may grow (default 6); an unsettled query is searched
+        again with twice as many when few are, then goes to a scan or the k-d tree.
     """
 
     def __init__(self, xyz, kind, scales, *, max_neighbors=512, min_neighbors=3, weights="none",
@@ -301,7 +304,8 @@ class NeighborIndex:
     def second_distances(self, rows=None, *, shells=_KNN_SHELLS):
         """Distance from each point (sorted order; ``rows`` only, if given) to its second-nearest
         other point, in coordinate units (in a cloud of fewer than 3 points, to its farthest).
-        ``shells``: voxel shells a query may grow before it goes to the k-d tree."""
+        ``shells``: voxel shells a query may grow before a second search (see ``_farther``)
+        or the k-d tree."""
         n = len(self.xyz)
         k = min(3, n)  # the point itself and two others
         rows = np.arange(n) if rows is None else np.asarray(rows, dtype=np.int64)
