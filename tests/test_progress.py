@@ -11,17 +11,28 @@ from command_line import run, run_process
 from conftest import SAMPLES
 
 EPOCH2 = SAMPLES / "epoch2.laz"
-STEPS = ("reading epoch2.laz", "neighbourhoods", "saliency (c3dcm multiscale)", "signature", "writing out.laz")
+STEPS = ("reading epoch2.laz", "neighbourhoods", "saliency (c3dcm multiscale)")
+
+
+def _steps(stderr):
+    return [line for line in stderr.splitlines() if line.startswith("lidar-sig: ")]
 
 
 def test_verbose_logs_every_step_with_its_parameters_and_timing(tmp_path):
     done = run("saliency", EPOCH2, "-o", "out.laz", "--verbose", cwd=tmp_path)
     assert done.returncode == 0, done.stderr
-    lines = [line for line in done.stderr.splitlines() if line.startswith("lidar-sig: ")]
-    for name in STEPS:
+    lines = _steps(done.stderr)
+    for name in STEPS + ("writing out.laz",):
         assert any(line.startswith(f"lidar-sig: {name}: ") and " s" in line for line in lines), (name, lines)
     assert any("points 31,354" in line for line in lines)  # facts of the step, not only its time
     assert any("scales k 20, 30, 40" in line for line in lines)
+    # the points alone are written: no signature is made
+    assert not any(line.startswith("lidar-sig: signature") for line in lines), lines
+    done = run("signature", EPOCH2, "-o", "out.h5", "--verbose", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    lines = _steps(done.stderr)
+    for name in STEPS + ("signature", "writing out.h5"):
+        assert any(line.startswith(f"lidar-sig: {name}: ") and " s" in line for line in lines), (name, lines)
 
 
 def test_off_a_terminal_or_quiet_nothing_but_results(tmp_path):
