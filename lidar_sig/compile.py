@@ -15,7 +15,7 @@ _ANNOUNCED = False
 _WARMING = {}
 # Kernels every run calls, those of each kind of scales, of each strategy and of each built-in
 # descriptor (module, function names); the functions they call are compiled and cached with them.
-_COMMON = (("grid", ("nearest",)), ("kernels", ("saliency_rows", "entropy_rows")))
+_COMMON = (("grid", ("nearest",)), ("kernels", ("saliency_rows", "entropy_rows", "order_eigenvalues")))
 # (k-nearest scales are counted by the search itself; count_ties, which counts the few rows the
 # search leaves to a scan or the k-d tree, is loaded or compiled when a run first has such rows)
 _KIND = {"knn": (), "radius": (("grid", ("count_within",)),)}
@@ -24,7 +24,8 @@ _WEIGHTS = {"area": (("grid", ("third_nearest",)),)}
 _DESCRIPTOR = {
     "c3dcm": (("kernels", ("covariance_eigenvalues",)),),
     "t3dvt": (("kernels", ("voting_eigenvalues",)),),
-    "t3dvt-get": (("kernels", ("voting_eigenvalues",)), ("get", ("first_pass", "second_pass", "third_pass"))),
+    "t3dvt-get": (("kernels", ("voting_eigenvalues",)),
+                  ("get", ("first_pass", "second_pass", "third_pass", "_pack_rows"))),
 }
 # numba modules that build an error message when imported, which numba colours through colorama
 # by setting sys.stderr and back; numba imports them at its first load of a cached kernel, so
@@ -86,13 +87,19 @@ def warm_up(key, run):
 def kernels_cached(descriptor="c3dcm", kind=None, strategy=None, weights=None):
     """True if every kernel a run of ``descriptor`` calls (with scales of ``kind``, "knn" or
     "radius", ``strategy`` and ``weights``, when given) has a compiled version cached for its
-    current source, False if one will be compiled, None if that cannot be told (numba's cache
-    layout is not public)."""
+    current source and this machine's processor, False if one will be compiled, None if that
+    cannot be told (numba's cache layout is not public)."""
     try:
-        return all(bool(d._cache._cache_file._load_index())
-                   for d in _dispatchers(descriptor, kind, strategy, weights))
+        return all(_cached_here(d) for d in _dispatchers(descriptor, kind, strategy, weights))
     except Exception:  # a numba without this layout: do not guess
         return None
+
+
+def _cached_here(dispatcher):
+    # the cache index (emptied when the source changes) keys each version by its argument types
+    # and the processor it was compiled for: a cache made on another machine does not count
+    machine = dispatcher.targetctx.codegen().magic_tuple()
+    return any(key[1] == machine for key in dispatcher._cache._cache_file._load_index())
 
 
 def announce_compilation(enabled=None, descriptor="c3dcm", kind=None, strategy=None, weights=None):

@@ -2,9 +2,9 @@
 
 Every scale of a run is a prefix of the neighbour list of its largest scale, so one search per
 block of points serves them all. The search runs on a voxel grid (:mod:`lidar_sig.grid`); the
-few queries it cannot settle within a few voxel shells (isolated outliers) are searched again
-with more shells when that is cheap, and what is left goes to a scan of every point (a few
-queries) or a k-d tree.
+few queries it cannot settle within a few voxel shells (isolated outliers) go to a scan of every
+point (a few queries) or a k-d tree; k-nearest queries and the area weights' search are first
+searched again with more shells when that is cheap.
 The grid's kernels (numba) are loaded when a first index is built, the k-d tree (scipy) when a
 query needs it: importing this module loads neither.
 The index works on the points sorted by voxel: ``NeighborIndex.xyz`` is the sorted cloud and

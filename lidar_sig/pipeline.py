@@ -3,9 +3,7 @@ from __future__ import annotations
 
 import time
 import warnings
-from collections.abc import Callable
-from dataclasses import dataclass, field
-from functools import cached_property
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -28,21 +26,35 @@ from .signature import Frame, Signature
 CAPPED_WARNING = 0.5
 
 
-@dataclass
 class Result:
-    """Per-point saliency and the signature of one cloud, with the run's metadata. The signature
-    is made when first asked for (``signature``): writing the points does not need it, and a
-    `lidar-sig saliency` run saves its 0.1 s per million points."""
+    """Per-point saliency and the signature of one cloud, with the run's metadata.
 
-    cloud: PointCloud
-    saliency: Saliency
-    metadata: dict
-    make_signature: Callable[[], Signature] = field(repr=False, compare=False)
+    ``signature`` may be given, or made when first asked for by ``make_signature`` (a callable
+    of no argument that pickles: :meth:`Pipeline.run` passes one, so that writing the points,
+    which does not need a signature, saves its 0.1 s per million points).
+    """
 
-    @cached_property
+    def __init__(self, cloud, saliency, signature=None, metadata=None, *, make_signature=None):
+        if signature is None and make_signature is None:
+            raise LidarSigError("a Result needs its signature or make_signature")
+        self.cloud = cloud
+        self.saliency = saliency
+        self.metadata = {} if metadata is None else metadata
+        self._signature = signature
+        self._make_signature = make_signature
+
+    @property
     def signature(self) -> Signature:
         """The cloud's Signature (Sg and Sas with the Egeom histogram, SPEC 3)."""
-        return self.make_signature()
+        if self._signature is None:
+            self._signature = self._make_signature()
+            self._make_signature = None
+        return self._signature
+
+    def __repr__(self):
+        m = self.metadata
+        return (f"Result({len(self.cloud):,} points, {m.get('descriptor', '?')} {m.get('strategy', '?')}, "
+                f"{m.get('scales', '?')}, source={m.get('source')!r})")
 
     def write(self, path, *, overwrite=False, points=True, render="smooth"):
         """Write to ``path`` by extension: a point cloud with per-point saliency (.las/.laz extra
@@ -315,15 +327,18 @@ class Pipeline:
         codes = cloud.labels if cloud.labels is not None else np.zeros(len(cloud), np.int64)
         metadata = {"lidar_sig_version": __version__, "source": cloud.path,
                     "scales": self.scales.describe(), "crs": cloud.crs, **stats}
-        frame, kept, made_with = self.frame, self.kept(cloud), dict(metadata)  # as they are now
-        progress = self.progress
+        # what the signature is made of, as it is now (the metadata copied: a caller may add to
+        # the Result's own before asking for the signature)
+        make = partial(_signature_of, sal, classes, codes, self.frame, self.kept(cloud), dict(metadata),
+                       self.progress)
+        return Result(cloud, sal, metadata=metadata, make_signature=make)
 
-        def make_signature():
-            with step("signature", enabled=progress, classes=classes.name):
-                return Signature.from_saliency(sal.values, classes.index(codes), classes=classes, frame=frame,
-                                               egeom=sal.egeom, metadata=made_with, kept=kept)
 
-        return Result(cloud, sal, metadata, make_signature)
+def _signature_of(sal, classes, codes, frame, kept, metadata, progress):
+    """The Signature of a run's Saliency ``sal`` (:meth:`Pipeline.run`, when first asked for)."""
+    with step("signature", enabled=progress, classes=classes.name):
+        return Signature.from_saliency(sal.values, classes.index(codes), classes=classes, frame=frame,
+                                       egeom=sal.egeom, metadata=metadata, kept=kept)
 
 
 def pipeline_or_default(pipeline):

@@ -171,3 +171,27 @@ def test_bad_class_tables_name_the_file(tmp_path, text):
     path.write_text(text)
     with pytest.raises(ls.LidarSigError, match="bad.toml"):
         class_table(str(path))
+
+
+def test_a_run_makes_its_signature_when_asked_and_pickles_either_way():
+    # Pipeline.run leaves the signature to its first use (writing the points needs none); the
+    # Result must still cross a process boundary (a process pool's map of Pipeline.run)
+    import pickle
+
+    rng = np.random.default_rng(11)
+    xyz = rng.uniform(0, 20, (4000, 3)) * [1, 1, 0.2]
+    labels = rng.choice([2, 6], 4000)
+    result = ls.Pipeline(progress=False).run(xyz, labels=labels)
+    result.metadata["added later"] = True  # the signature keeps the run's metadata as it was
+    sent = pickle.loads(pickle.dumps(result))  # before the signature is made
+    sig = result.signature
+    assert sig is result.signature and "added later" not in sig.metadata
+    eager = Signature.from_saliency(result.saliency.values, ASPRS.index(labels), classes=ASPRS,
+                                    egeom=result.saliency.egeom)
+    for got in (sig, sent.signature, pickle.loads(pickle.dumps(result)).signature):
+        np.testing.assert_array_equal(got.counts, eager.counts)
+        np.testing.assert_array_equal(got.class_totals, eager.class_totals)
+    given = ls.Result(result.cloud, result.saliency, sig, result.metadata)  # a signature given as before
+    assert given.signature is sig
+    with pytest.raises(ls.LidarSigError):
+        ls.Result(result.cloud, result.saliency)

@@ -202,9 +202,13 @@ def test_a_background_load_leaves_sys_stderr_alone():
     assert "lidar-sig kernels" not in done.stdout, done.stdout
 
 
-def test_no_background_run_for_a_plugin_descriptor():
+def test_no_background_run_for_a_plugin_descriptor(monkeypatch):
     # a plugin's code runs on the user's data only, never on a made-up patch in a thread
     import lidar_sig as ls
+    import lidar_sig.compile as compile_
+
+    monkeypatch.setattr(compile_, "_WARMING", {})
+    monkeypatch.setattr(compile_, "kernels_cached", lambda *a, **k: True)  # as after a first run
     from lidar_sig.plugins import Descriptor
     from lidar_sig.plugins.descriptors.c3dcm import C3DCM
 

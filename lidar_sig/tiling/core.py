@@ -43,8 +43,8 @@ MARGIN = 1e-9
 #: neighbours: larger voxels than 3 neighbours would give leave fewer queries to the k-d tree
 #: and took a third of the time on generated airborne scenes.
 SECOND_GRID_K = 64
-#: A tile's k-nearest queries may grow 12 voxel shells (one block's 6) before going to the k-d
-#: tree: the few isolated points of a tile (3 of 1.8 million in a generated airborne tile)
+#: A tile's k-nearest queries may grow 12 voxel shells (one block's 6), then 24 when few are
+#: left (neighbors._FARTHER_VOXELS), before going to a scan or the k-d tree: the few isolated points of a tile (3 of 1.8 million in a generated airborne tile)
 #: otherwise cost a tree of the whole block, 40% of the cap pass's search and 8% of the tiles'
 #: time. The neighbours are the same; a distance found by the tree can differ in its last bit
 #: (it is squared back from the tree's), as it already could where a block and the whole cloud
