@@ -64,6 +64,18 @@ def test_knn_lists_are_sorted_where_distances_crowd_into_few_values():
     assert (np.diff(batch.d2[:, :60], axis=1) >= 0).all()
 
 
+def _assert_as_a_tree_finds(index):
+    """Every row of ``index`` (k = 10, 20) lists, counts and weighs what a k-d tree finds."""
+    batch = index.query(np.arange(len(index.xyz)))
+    ref, _ = cKDTree(index.xyz).query(index.xyz, k=20)
+    np.testing.assert_allclose(batch.dist[:, :20], ref, rtol=1e-12)
+    # the scales of every row, those the search settled (it counts them itself) and the others
+    assert (batch.counts == [10, 20]).all() and (batch.n == 20).all()
+    np.testing.assert_allclose(batch.sigma, ref[:, [9, 19]], rtol=1e-12)
+    second, _ = cKDTree(index.xyz).query(index.xyz, k=3)
+    np.testing.assert_allclose(index.second_distances(), second[:, 2], rtol=1e-12)
+
+
 @pytest.mark.parametrize("scan_all", [0, 10**9])
 def test_unsettled_queries_by_tree_or_by_scan_give_the_same_neighbours(monkeypatch, scan_all):
     # isolated points far from a dense patch: the voxel shells cannot settle them, and they are
@@ -74,14 +86,7 @@ def test_unsettled_queries_by_tree_or_by_scan_give_the_same_neighbours(monkeypat
     rng = np.random.default_rng(3)
     xyz = np.vstack([rng.uniform(0, 10, (2000, 3)) * [1, 1, 0.2], rng.uniform(200, 900, (30, 3))])
     index = NeighborIndex(xyz, "knn", np.array([10, 20]), weights="area")
-    batch = index.query(np.arange(len(xyz)))
-    ref, _ = cKDTree(index.xyz).query(index.xyz, k=20)
-    np.testing.assert_allclose(batch.dist[:, :20], ref, rtol=1e-12)
-    # the scales of every row, those the search settled (it counts them itself) and the others
-    assert (batch.counts == [10, 20]).all() and (batch.n == 20).all()
-    np.testing.assert_allclose(batch.sigma, ref[:, [9, 19]], rtol=1e-12)
-    second, _ = cKDTree(index.xyz).query(index.xyz, k=3)
-    np.testing.assert_allclose(index.second_distances(), second[:, 2], rtol=1e-12)
+    _assert_as_a_tree_finds(index)
 
 
 @pytest.mark.parametrize("farther", [True, False])
@@ -106,13 +111,7 @@ def test_queries_a_few_shells_too_far_are_settled_by_more_shells(monkeypatch, fa
     xyz = np.vstack([rng.uniform(0, 30, (20000, 3)) * [1, 1, 0.003], far])
     index = NeighborIndex(xyz, "knn", np.array([10, 20]), weights="area")
     assert 0.8 < index.grid.cell < 1.2  # (the distances above are in voxels of about 1 m)
-    batch = index.query(np.arange(len(xyz)))
-    ref, _ = cKDTree(index.xyz).query(index.xyz, k=20)
-    np.testing.assert_allclose(batch.dist[:, :20], ref, rtol=1e-12)
-    assert (batch.counts == [10, 20]).all() and (batch.n == 20).all()
-    np.testing.assert_allclose(batch.sigma, ref[:, [9, 19]], rtol=1e-12)
-    second, _ = cKDTree(index.xyz).query(index.xyz, k=3)
-    np.testing.assert_allclose(index.second_distances(), second[:, 2], rtol=1e-12)
+    _assert_as_a_tree_finds(index)
     # the far points are what this is about: 6 shells settle neither their lists nor their second
     rows = index.rows_of(np.arange(20000, 20003))
     out = [np.empty((3, 20)), np.empty((3, 20), np.int64)] + [np.zeros(3, np.int64) for _ in "nt"] + [np.zeros(3, bool)]

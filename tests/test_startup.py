@@ -27,11 +27,16 @@ def loaded(*args, cwd=None):
             "with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):\n"
             f"    status = main({[str(a) for a in args]!r})\n"
             "print(json.dumps([status, sorted(sys.modules)]))\n")
+    status, modules = json.loads(_python(code, cwd=cwd).splitlines()[-1])
+    return status, set(modules)
+
+
+def _python(code, cwd=None):
+    """What ``code`` prints, run in a fresh interpreter (stdin closed); it must succeed."""
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=cwd, timeout=600,
                           stdin=subprocess.DEVNULL)
     assert done.returncode == 0, done.stderr
-    status, modules = json.loads(done.stdout.splitlines()[-1])
-    return status, set(modules)
+    return done.stdout
 
 
 def test_the_check_sees_what_a_command_loads():
@@ -118,10 +123,8 @@ def test_the_lazy_names_of_io_are_the_names_it_had():
 def _fill_the_cache():
     """A default run in a first process, should a test that needs the kernels cached run first
     (a run starts no background load without them)."""
-    fill = subprocess.run([sys.executable, "-c", "import lidar_sig as ls, numpy as np\n"
-                           "ls.Pipeline(progress=False).run(np.random.default_rng(0).uniform(0, 9, (500, 3)))\n"],
-                          capture_output=True, text=True, timeout=600)
-    assert fill.returncode == 0, fill.stderr
+    _python("import lidar_sig as ls, numpy as np\n"
+            "ls.Pipeline(progress=False).run(np.random.default_rng(0).uniform(0, 9, (500, 3)))\n")
 
 
 def test_a_run_loads_its_kernels_in_the_background_before_it_calls_one():
@@ -135,9 +138,7 @@ def test_a_run_loads_its_kernels_in_the_background_before_it_calls_one():
             "names = [(grid, 'nearest'), (grid, 'third_nearest'),\n"
             "         (kernels, 'covariance_eigenvalues'), (kernels, 'mean_over_scales'), (kernels, 'entropy_rows')]\n"
             "print(sorted(n for m, n in names if not getattr(m, n).signatures))\n")
-    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600)
-    assert done.returncode == 0, done.stderr
-    assert done.stdout.split("\n")[-2] == "[]"
+    assert _python(code).split("\n")[-2] == "[]"
 
 
 def test_a_failed_background_load_leaves_the_run_as_it_was(monkeypatch):
@@ -195,11 +196,10 @@ def test_a_background_load_leaves_sys_stderr_alone():
             "import lidar_sig as ls\n"
             "ls.Pipeline(progress=False).run(__import__('numpy').random.default_rng(0).uniform(0, 9, (500, 3)))\n"
             "print(sorted(set(threads)))\n")
-    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600)
-    assert done.returncode == 0, done.stderr
-    if done.stdout.strip() == "no colorama":
+    out = _python(code)
+    if out.strip() == "no colorama":
         pytest.skip("numba colours no message here (colorama not installed)")
-    assert "lidar-sig kernels" not in done.stdout, done.stdout
+    assert "lidar-sig kernels" not in out, out
 
 
 def test_no_background_run_for_a_plugin_descriptor(monkeypatch):

@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..bounds import column_max, column_min
+from ..bounds import bounds
 from ..errors import LidarSigError, positive_metres
 from ..neighbors import NeighborIndex, area_cap, radius_reach, unique_points
 from ..plugins.base import Descriptor
@@ -44,12 +44,12 @@ MARGIN = 1e-9
 #: and took a third of the time on generated airborne scenes.
 SECOND_GRID_K = 64
 #: A tile's k-nearest queries may grow 12 voxel shells (one block's 6), then 24 when few are
-#: left (neighbors._FARTHER_VOXELS), before going to a scan or the k-d tree: the few isolated points of a tile (3 of 1.8 million in a generated airborne tile)
-#: otherwise cost a tree of the whole block, 40% of the cap pass's search and 8% of the tiles'
-#: time. The neighbours are the same; a distance found by the tree can differ in its last bit
-#: (it is squared back from the tree's), as it already could where a block and the whole cloud
-#: sent a query different ways. Such points lie farther than the area-weight cap, so their
-#: weight is the cap either way.
+#: left (neighbors._FARTHER_VOXELS), before going to a scan or the k-d tree: the few isolated
+#: points of a tile (3 of 1.8 million in a generated airborne tile) otherwise cost a tree of
+#: the whole block, 40% of the cap pass's search and 8% of the tiles' time. The neighbours are
+#: the same; a distance found by the tree can differ in its last bit (it is squared back from
+#: the tree's), as it already could where a block and the whole cloud sent a query different
+#: ways. Such points lie farther than the area-weight cap, so their weight is the cap either way.
 TILE_SHELLS = 12
 
 
@@ -450,7 +450,7 @@ def saliency_in_tiles(pipeline, cloud, tile_size, *, halo=None):
         sal, totals = saliency_in_tiles(pipeline, cloud.subset(kept), tile_size, halo=halo)
         return Saliency.of_kept(sal.values, sal.optimal_scale, kept), {**totals, "n_excluded": int((~kept).sum())}
     xyz = cloud.metric_xyz()
-    ctx = context_of(column_min(cloud.xyz), column_max(cloud.xyz), cloud.units.factors, pipeline, len(cloud))
+    ctx = context_of(*bounds(cloud.xyz), cloud.units.factors, pipeline, len(cloud))
     tiling = Tiling(ctx.lo, ctx.hi, float(tile_size))
     ids = np.arange(len(xyz))
 

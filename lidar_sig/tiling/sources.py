@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..bounds import column_max, column_min
+from ..bounds import bounds
 from ..cloud import MAX_COORDINATE, check_magnitude, kept_points
 from ..errors import LidarSigError, counted, reason
 from ..io import LAS_EXTENSIONS
@@ -229,7 +229,8 @@ def stage_part(work, source, part, start, stop, cells, noise_codes=None):
                     rec, xyz = rec[kept], xyz[kept]
                 if not len(rec):
                     continue
-                lo, hi = np.minimum(lo, column_min(xyz)), np.maximum(hi, column_max(xyz))
+                part_lo, part_hi = bounds(xyz)
+                lo, hi = np.minimum(lo, part_lo), np.maximum(hi, part_hi)
                 ci, cj = cells.of(rec["x"], rec["y"])
                 order = np.lexsort((cj, ci))
                 ci, cj, rec = ci[order], cj[order], rec[order]
