@@ -363,11 +363,13 @@ class NeighborIndex:
         if not s_far:
             return
         t = len(todo)
-        far = (np.empty((t, self.width)), np.empty((t, self.width), np.int64), np.zeros(t, np.int64),
-               np.zeros(t, np.int64), np.zeros(t, np.bool_), np.empty((t, len(ks)), np.int64), np.empty((t, len(ks))))
-        self.grid.search(rows[todo], *far[:5], ks=ks, s_max=s_far, tie_factor=tie_limit(1.0),
-                         counts=far[5], sigma=far[6])
-        d2[todo], idx[todo], n[todo], total[todo], done[todo], counts[todo], sigma[todo] = far
+        far_d2, far_idx = np.empty((t, self.width)), np.empty((t, self.width), np.int64)
+        far_n, far_total, far_done = np.zeros(t, np.int64), np.zeros(t, np.int64), np.zeros(t, np.bool_)
+        far_counts, far_sigma = np.empty((t, len(ks)), np.int64), np.empty((t, len(ks)))
+        self.grid.search(rows[todo], far_d2, far_idx, far_n, far_total, far_done, ks=ks, s_max=s_far,
+                         tie_factor=tie_limit(1.0), counts=far_counts, sigma=far_sigma)
+        d2[todo], idx[todo], n[todo], total[todo], done[todo] = far_d2, far_idx, far_n, far_total, far_done
+        counts[todo], sigma[todo] = far_counts, far_sigma
 
     def _complete(self, rows, d2, idx, n, total, done, width, kind=None):
         # Queries the voxel shells could not settle (isolated points far from the rest), listed
