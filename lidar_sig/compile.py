@@ -2,13 +2,13 @@
 
 numba keeps the compiled kernels beside the package (``__pycache__``) or, where the package is
 installed read-only, in the user's cache folder (``$XDG_CACHE_HOME/numba``, else
-``~/.cache/numba``), so only the first run after installing pays the 15-20 s.
+``~/.cache/numba``), so only the first run after installing pays the half minute.
 """
 from __future__ import annotations
 
 import importlib
-import sys
 import threading
+import warnings
 
 _ANNOUNCED = False
 # Background loads started (warm_up), by kind of run: one per kind and process.
@@ -102,16 +102,26 @@ def _cached_here(dispatcher):
     return any(key[1] == machine for key in dispatcher._cache._cache_file._load_index())
 
 
+#: What the first run after installing is told, once per process (measured on 2 cores: the
+#: defaults' kernels compile in 30 s, another descriptor's or strategy's in a few more).
+COMPILING = ("compiling the numerical kernels ({what}): about half a minute, once after installing; "
+             "later runs load them from the cache")
+
+
 def announce_compilation(enabled=None, descriptor="c3dcm", kind=None, strategy=None, weights=None):
-    """Print once per process, on a terminal (or when ``enabled``), that the kernels a run of
-    ``descriptor`` (scales of ``kind``, ``strategy``, ``weights``) needs are being compiled, when
-    they are."""
+    """Say once per process, when the kernels a run of ``descriptor`` (scales of ``kind``,
+    ``strategy``, ``weights``) calls are about to be compiled, that they are: a LidarSigWarning,
+    which the command line prints as one note line on stderr, on a terminal or not (a script, a
+    notebook or a GIS calling the command would otherwise wait in silence), and Python shows
+    as a warning. Not when ``enabled`` is False (``--quiet``, or a worker process of a tiled
+    run, whose main process says it)."""
     global _ANNOUNCED
-    if _ANNOUNCED:
-        return
-    if enabled is False or (enabled is None and not sys.stderr.isatty()):
+    if _ANNOUNCED or enabled is False:
         return
     if kernels_cached(descriptor, kind, strategy, weights) is False:
+        from .errors import LidarSigWarning
+
         _ANNOUNCED = True
-        print("lidar-sig: compiling the numerical kernels: the first run after installing takes "
-              "15-20 s more, later runs use the cache", file=sys.stderr, flush=True)
+        what = ", ".join(x for x in (descriptor, strategy, {"knn": "k-nearest", "radius": "radii"}.get(kind),
+                                     f"{weights} weights" if weights else None) if x)
+        warnings.warn(COMPILING.format(what=what), LidarSigWarning, stacklevel=3)

@@ -230,6 +230,12 @@ class Pipeline:
         key = (self.descriptor.name, self.strategy.name, self.scales.kind, self.weights)
         return warm_up(key, tiny_run)
 
+    def announce_compilation(self):
+        """Say once per process, when this method's kernels are about to be compiled (the first
+        run after installing), that they are (:func:`lidar_sig.compile.announce_compilation`);
+        a run of tiles says it before its workers start."""
+        announce_compilation(self.progress, self.descriptor.name, self.scales.kind, self.strategy.name, self.weights)
+
     def describe(self, batch):
         """(B, 3) saliency of a NeighborhoodBatch, and the chosen scale index per point (or None)."""
         per_scale = self.descriptor.saliency(batch)
@@ -250,7 +256,7 @@ class Pipeline:
     def _saliency(self, cloud, n_excluded):
         """(N, 3) saliency values and (N,) chosen scales (or None) of every point of ``cloud``
         (the points a run uses), and the run statistics."""
-        announce_compilation(self.progress, self.descriptor.name, self.scales.kind, self.strategy.name, self.weights)
+        self.announce_compilation()
         load_kernels(self.descriptor.name)
         warming = self._warm_up()
         with step("neighbourhoods", enabled=self.progress, points=len(cloud),

@@ -23,7 +23,6 @@ from lidar_sig.metrics import METRIC_KEYS
 from robustness.helpers import assert_one_line_error, leftovers
 
 sys.path.insert(0, str(ROOT / "benchmarks"))
-sys.path.insert(0, str(SAMPLES))
 needs_rasterio = pytest.mark.skipif(importlib.util.find_spec("rasterio") is None,
                                     reason="rasterio not installed: pip install -e '.[geo]'")
 
@@ -122,10 +121,10 @@ def test_one_unlabelled_epoch_is_said_not_shown_as_a_class_change():
 # -- the synthetic scene of data_samples -------------------------------------------------------
 
 def coregistered_samples():
-    """The two epochs of data_samples/make_scene.py without epoch 2's 20 degree rotation (the
-    committed epoch2.laz is rotated about the scene centre to test rotation invariance, so its
+    """The two epochs of the sample scene (lidar_sig/data/scene.py) without epoch 2's 20 degree
+    rotation (the committed epoch2.laz is rotated about the scene centre to test rotation invariance, so its
     coordinates no longer describe the same ground as epoch 1's), and the changes' places."""
-    import make_scene as ms
+    from lidar_sig.data import scene as ms
 
     scenes = ms.build_scenes()
     clouds = []
@@ -154,7 +153,7 @@ def test_removed_trees_and_the_new_building_are_in_the_top_cells_of_the_sample_s
 def sample_truth(grid):
     """Flat indices of the cells of ``grid`` that the sample scene's epoch 2 changed: those a cut
     tree's crown or the new building's footprint reaches."""
-    import make_scene as ms
+    from lidar_sig.data import scene as ms
 
     scenes = ms.build_scenes()
     removed = [t for t in scenes[1].trees if t not in scenes[2].trees]

@@ -1,6 +1,9 @@
 """Every code example of the docs runs: the ```python blocks of README.md and docs/**/*.md, and
-the `$ lidar-sig ...` lines of the ```console blocks, and the output a console block shows is
-the command's real output.
+the `$ lidar-sig ...` lines of the ```console blocks, and the output a block shows is the real
+output: what a console block shows after a command, and what a Python statement prints, which
+the page shows in comments starting with ``# -> `` (at the end of the statement's lines, or on
+lines of their own just after it, one per line printed). A Python statement that prints without
+showing what is a failure: no printed value of the docs goes unchecked.
 
 Each page runs in a folder of its own, laid out like the project's (data_samples/ in it,
 ../shared/data beside it), its blocks in the order of the page, as a reader follows it: a block
@@ -15,9 +18,13 @@ the package version are not compared; figures with a decimal point are compared 
 1e-6 (the last digits of a float depend on the CPU's floating-point kernels), whole numbers
 exactly; a JSON line is compared as JSON, value by value, the same way.
 """
+import ast
+import contextlib
+import io
 import json
 import math
 import re
+import tokenize
 
 import pytest
 
@@ -80,8 +87,8 @@ def same_line(real, shown):
     if shown.startswith("{"):
         try:
             return same_value(json.loads(real), json.loads(shown))
-        except ValueError:
-            return False
+        except ValueError:  # not JSON (a Python dict as print shows it): compared as text below
+            pass
     for pattern, mask in UNCOMPARED:
         real, shown = pattern.sub(mask, real), pattern.sub(mask, shown)
     return (NUMBER.sub("#", real) == NUMBER.sub("#", shown)
@@ -118,6 +125,35 @@ def run_console(text, folder):
         assert_shows(done.stderr, [line for line in shown if line.startswith("lidar-sig: ")], command, "stderr")
 
 
+SHOWN = re.compile(r"#\s*->\s?(.*)$")
+
+
+def shown_prints(text):
+    """``(statement, shown lines)`` for each top-level statement of a Python block: the lines
+    its ``# -> `` comments show it prints."""
+    lines = text.splitlines()
+    tree = ast.parse(text)
+    out = []
+    for i, node in enumerate(tree.body):
+        stop = tree.body[i + 1].lineno - 1 if i + 1 < len(tree.body) else len(lines)
+        shown = []
+        for line in lines[node.lineno - 1:stop]:
+            match = SHOWN.search(line)
+            if match and (line.lstrip().startswith("#") or _in_comment(line, match.start())):
+                shown.append(match.group(1).rstrip())
+        out.append((node, shown))
+    return out
+
+
+def _in_comment(line, at):
+    """Whether position ``at`` of a code line is inside its trailing comment, not in a string."""
+    try:
+        tokens = list(tokenize.generate_tokens(io.StringIO(line).readline))
+    except (tokenize.TokenError, IndentationError):
+        return False
+    return any(t.type == tokenize.COMMENT and t.start[1] <= at for t in tokens)
+
+
 def run_python(text, folder, name, monkeypatch):
     with monkeypatch.context() as patch:
         if "o3d.visualization.draw" in text:  # no screen here: the window is the only thing not run
@@ -125,7 +161,17 @@ def run_python(text, folder, name, monkeypatch):
 
             patch.setattr(open3d.visualization, "draw", lambda *a, **k: None)
         patch.chdir(folder)
-        exec(compile(text, name, "exec"), {"__name__": "__main__"})
+        namespace = {"__name__": "__main__"}
+        for node, shown in shown_prints(text):
+            printed = io.StringIO()
+            with contextlib.redirect_stdout(printed):
+                exec(compile(ast.Module([node], type_ignores=[]), name, "exec"), namespace)
+            real = printed.getvalue().splitlines()
+            where = f"{name}, line {node.lineno}"
+            assert real or not shown, f"{where} shows {shown} but prints nothing"
+            assert shown or not real, f"{where} prints {real} but the page does not show it (a '# -> ' comment)"
+            assert len(real) == len(shown) and all(same_line(r, s) for r, s in zip(real, shown)), \
+                f"{where} prints:\n" + "\n".join(real) + "\nthe page shows:\n" + "\n".join(shown)
 
 
 @pytest.fixture(scope="session")
@@ -194,6 +240,18 @@ def test_console_example_runs(run_block, page, i):
 @pytest.mark.parametrize("page, i", PYTHON, ids=[f"{p.relative_to(ROOT)}#{i}" for p, i in PYTHON])
 def test_python_example_runs(run_block, page, i):
     run_block(page, i)
+
+
+def test_a_python_statement_must_show_what_it_prints_and_print_what_it_shows(tmp_path, monkeypatch):
+    block = 'x = 41507\nprint(x, "points")   # -> 41507 points\nfor k in (1, 2):\n    print(k / 3)\n# -> 0.3333333\n# -> 0.6666667\n'
+    run_python(block, tmp_path, "page", monkeypatch)
+    for wrong in (block.replace("# -> 41507 points", "# -> 41508 points"),   # a value changed
+                  block.replace("   # -> 41507 points", ""),                 # printed, not shown
+                  block.replace("# -> 0.6666667\n", ""),                    # a line printed, not shown
+                  'x = 1   # -> 1\n',                                         # shown, not printed
+                  'print("# -> 1")\n'):                                     # a string is not a comment
+        with pytest.raises(AssertionError):
+            run_python(wrong, tmp_path, "page", monkeypatch)
 
 
 def test_shown_output_is_compared_to_the_tolerance_of_the_cpu_not_beyond():

@@ -101,6 +101,7 @@ def build_catalog(inputs, output, pipeline=None, *, backend=None, work=None, res
     work = Path(work) if work is not None else output.with_name(output.name + ".work")
     work = prepare_work(work, resume, keep=[*files, output])
     run = CatalogRun(str(output), execution=backend.description, grown=old is not None)
+    pipeline.announce_compilation()  # the workers compile in silence
     quiet = copy.copy(pipeline)
     quiet.progress = False  # workers show nothing; this process shows tiles done
     known = dict(zip(old[1]["path"], old[1]["sha256"])) if old else {}

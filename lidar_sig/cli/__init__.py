@@ -9,8 +9,8 @@ import signal
 
 import click
 
-from . import (catalog, changes, compare, info, outliers, plugins, resilience, saliency, signature,  # noqa: F401
-               similar)  # (registers the commands)
+from . import (catalog, changes, compare, info, outliers, plugins, resilience, saliency, sample,  # noqa: F401
+               signature, similar)  # (registers the commands)
 from .group import cli
 
 

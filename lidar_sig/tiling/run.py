@@ -59,6 +59,7 @@ def run_set(pipeline, inputs, *, work, tile_size=None, backend=None, resume=Fals
     from .execute import InProcess
 
     check_tileable(pipeline)
+    pipeline.announce_compilation()  # the workers compile in silence (their pipelines are quiet)
     sized = tile_size is None  # sized to the memory budget
     if not sized:
         tile_size = check_tile_size(tile_size)

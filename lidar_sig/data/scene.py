@@ -1,58 +1,45 @@
-"""Generate a small synthetic two-epoch airborne-LiDAR urban scene.
+"""The embedded sample: a small synthetic two-epoch airborne-LiDAR urban scene.
 
-This script writes ``epoch1.laz`` and ``epoch2.laz``, a small demo and test
-data set (and ``epoch2_aligned.laz``, epoch 2 without its rotation, for the
-change map, which compares the same ground cell by cell) for the ``lidar_sig`` toolbox. The toolbox compares point-cloud
-signatures between two acquisitions of the same area. Real data sets are large
-and have licences, so here is a synthetic scene that fits in a repository and
-that any user can rebuild exactly.
+It makes ``epoch1.laz`` and ``epoch2.laz`` (and ``epoch2_aligned.laz``, epoch 2 without its
+rotation, for the change map, which compares the same ground cell by cell): a demo and test data
+set that fits in a package. Real data sets are large and have licences; this scene is made
+here, from fixed seeds, the same on every machine.
 
 The scene is a square urban block in Lambert-93 coordinates (EPSG:2154):
 
-* gently sloped, slightly undulating terrain and two straight roads
-  (ASPRS class 2, ground);
+* gently sloped, slightly undulating terrain and two straight roads (ASPRS class 2, ground);
 * gable-roofed buildings, some rotated, with sparse wall points (class 6);
-* trees with ellipsoidal crowns and a few trunk points (class 5, high
-  vegetation), and small bushes (class 3, low vegetation).
+* trees with ellipsoidal crowns and a few trunk points (class 5, high vegetation), and small
+  bushes (class 3, low vegetation).
 
-Points are simulated as nadir laser pulses, like a simple airborne scanner.
-Pulses are spread uniformly in x/y. A pulse gives one return on ground and
-roofs, and up to four returns in vegetation, where the last return may reach
-the ground. The scanner only sees a few points on vertical walls.
+Points are simulated as nadir laser pulses, like a simple airborne scanner. Pulses are spread
+uniformly in x/y. A pulse gives one return on ground and roofs, and up to four returns in
+vegetation, where the last return may reach the ground. The scanner only sees a few points on
+vertical walls.
 
 Epoch 2 is the same place, changed:
 
 * about one third of the trees are removed (deforestation);
 * a new gable-roof building stands on a lot that was open ground;
-* the whole scene is rotated by 20 degrees about the vertical axis through
-  the scene centre;
-* it is sampled again at 80 % of the epoch 1 pulse density, with another
-  random seed (new pulses, not a subsample of epoch 1).
+* the whole scene is rotated by 20 degrees about the vertical axis through the scene centre;
+* it is sampled again at 80 % of the epoch 1 pulse density, with another random seed (new
+  pulses, not a subsample of epoch 1).
 
-Everything comes from fixed seeds and fixed header fields (including the
-creation date), so running the script again gives the same files, byte for
-byte. It needs only numpy and laspy (with the lazrs backend for LAZ).
+Everything comes from fixed seeds and fixed header fields (including the creation date), so the
+files are the same byte for byte each time (tests/test_data_samples.py checks the repository's
+``data_samples/`` against them). It needs only numpy and laspy (with the lazrs backend for LAZ).
 
-Note on size: a 120 m square at 8 pulses/m^2 would give more than 120,000
-points, too many for a small sample file. So the scene keeps a realistic
-airborne density (8 pulses/m^2, like recent national LiDAR surveys) and is
-smaller, 64 m x 64 m. This gives about 40,000 points in epoch 1.
-
-Usage::
-
-    python make_scene.py [--out DIR]
+Note on size: a 120 m square at 8 pulses/m^2 would give more than 120,000 points, too many for
+a small sample. So the scene keeps a realistic airborne density (8 pulses/m^2, like recent
+national LiDAR surveys) and is smaller, 64 m x 64 m: about 40,000 points in epoch 1.
 """
 
 from __future__ import annotations
 
-import argparse
 import datetime
 from dataclasses import dataclass
-from pathlib import Path
 
-import laspy
 import numpy as np
-from laspy.vlrs.known import WktCoordinateSystemVlr
 
 # ---------------------------------------------------------------------------
 # Scene constants
@@ -84,7 +71,8 @@ GROUND, LOW_VEGETATION, HIGH_VEGETATION, BUILDING = 2, 3, 5, 6
 ROADS = (("x", 31.0, 3.0), ("y", 43.0, 3.0))
 
 # Coordinate system VLR text: OGC WKT (WKT1) for RGF93 / Lambert-93.
-# It is written out here because pyproj is not a dependency.
+# Written out, as a file of the time would hold it (TOWGS84 included), so that the files
+# stay the same byte for byte whatever pyproj would write today.
 EPSG_2154_WKT = (
     'PROJCS["RGF93 / Lambert-93",'
     'GEOGCS["RGF93",'
@@ -530,6 +518,9 @@ def adjusted_gps_time(date):
 
 def to_las(pts, date, flight_line):
     """Sort the points in acquisition order and fill a LAS 1.4 / PF 6 record."""
+    import laspy
+    from laspy.vlrs.known import WktCoordinateSystemVlr
+
     # The aircraft flies north over the middle of the scene, so pulses are
     # fired in order of northing, at a fixed pulse rate. Returns of one pulse
     # share its time; a rank-based time keeps every pulse time distinct.
@@ -582,31 +573,11 @@ def make_epoch(scene, epoch, rotate=True):
     return to_las(pts, date, flight_line=epoch)
 
 
-CLASS_NAMES = {GROUND: "ground", LOW_VEGETATION: "low vegetation",
-               HIGH_VEGETATION: "high vegetation", BUILDING: "building"}
+#: The sample's files: name -> (epoch, rotated as surveyed).
+FILES = {"epoch1.laz": (1, True), "epoch2.laz": (2, True), "epoch2_aligned.laz": (2, False)}
 
 
-def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=Path(__file__).resolve().parent,
-                        help="output folder (default: the folder of this script)")
-    args = parser.parse_args(argv)
-    args.out.mkdir(parents=True, exist_ok=True)
-
+def sample_las():
+    """The sample's files as ``laspy.LasData``, by name (:data:`FILES`)."""
     scenes = build_scenes()
-    # epoch2_aligned.laz: epoch 2 without the rotation, on epoch 1's ground (for the change map)
-    for epoch, scene, rotate, name in ((1, scenes[1], True, "epoch1"), (2, scenes[2], True, "epoch2"),
-                                       (2, scenes[2], False, "epoch2_aligned")):
-        las = make_epoch(scene, epoch, rotate)
-        path = args.out / f"{name}.laz"
-        las.write(path)  # LAZ compression follows the .laz extension
-        print(f"wrote {path}: {len(las.points)} points, "
-              f"{len(scene.buildings)} buildings, {len(scene.trees)} trees, "
-              f"{len(scene.bushes)} bushes")
-        classes, counts = np.unique(np.asarray(las.classification), return_counts=True)
-        for c, k in zip(classes, counts):
-            print(f"    class {c:2d} ({CLASS_NAMES.get(int(c), '?')}): {k}")
-
-
-if __name__ == "__main__":
-    main()
+    return {name: make_epoch(scenes[epoch], epoch, rotate) for name, (epoch, rotate) in FILES.items()}

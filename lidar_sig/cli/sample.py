@@ -1,0 +1,22 @@
+"""`lidar-sig sample`: the embedded sample's files written into a folder."""
+import click
+
+from .group import cli
+from .options import overwrite_option
+
+
+@cli.command()
+@click.argument("folder")
+@overwrite_option
+def sample(folder, overwrite):
+    """Write the embedded sample, a synthetic two-epoch urban scene, into FOLDER: epoch1.laz,
+    epoch2.laz (turned by 20 degrees) and epoch2_aligned.laz (epoch 2 on epoch 1's ground).
+
+    The files are the same on every machine; one already in FOLDER with the same bytes is left
+    as it is. The README's first command then runs from an installed package as from a clone.
+    """
+    from ..data import write_sample
+
+    for f in write_sample(folder, overwrite=overwrite):
+        click.echo(f"{'wrote' if f.written else 'kept'} {f.path} ({f.points:,} points"
+                   + ("" if f.written else ", already there and the same") + ")")
