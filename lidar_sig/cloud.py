@@ -19,7 +19,7 @@ from .errors import LidarSigError, counted
 MAX_COORDINATE = 1e9
 
 
-@dataclass
+@dataclass(repr=False)
 class PointCloud:
     """N points x_i in R^3 (metres or any linear unit, z up).
 
@@ -60,6 +60,15 @@ class PointCloud:
     crs: str | None = None
     units: Units | None = None
     withheld: np.ndarray | None = None
+
+    def __repr__(self):
+        from .crs import crs_name
+
+        labelled = "labelled" if self.labels is not None else "unlabelled"
+        crs = crs_name(self.crs) if self.crs else None
+        extra = f", {len(self.attributes)} attributes" if self.attributes else ""
+        return (f"<PointCloud {len(self):,} points, {labelled}{extra}" + (f", {crs}" if crs else "")
+                + (f", from {self.path}" if self.path else "") + ">")
 
     def __post_init__(self):
         try:

@@ -11,8 +11,9 @@ PointCloud, a Signature or a pipeline Result; :class:`Side` holds one as compare
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Any
 
 from .class_schemes import class_scheme_warnings
 from .cloud import PointCloud
@@ -53,17 +54,41 @@ class Side:
                 "units": m.get("units", "unknown")}
 
 
-@dataclass
-class Comparison:
-    """The result of :func:`compare_sources`: both sides, the metrics, the rendering they were
-    computed under, the method, and the warnings of the run."""
+class Comparison(dict):
+    """The result of :func:`compare`: a dict of every metric (key -> value; None for a metric the
+    inputs cannot give, such as delta_KL without labels), with both sides (``a``, ``b``: each a
+    :class:`Side`), the ``render``-ing the image metrics were computed under, the ``method`` both
+    were made with, and the ``warnings`` of the run (what may make the figures mislead)."""
 
-    a: Side
-    b: Side
-    metrics: dict
-    render: str
-    method: dict
-    warnings: list = field(default_factory=list)
+    def __init__(self, a: Side, b: Side, metrics: dict, render: str, method: dict,
+                 warnings: list | None = None) -> None:
+        super().__init__(metrics)
+        self.a, self.b, self.render, self.method = a, b, render, method
+        self.warnings = list(warnings or [])
+
+    @property
+    def metrics(self) -> dict:
+        """The metrics as a plain dict."""
+        return dict(self)
+
+    def __repr__(self) -> str:
+        shown = ", ".join(f"{k} {'n/a' if v is None else format(v, '.4g')}" for k, v in self.metrics.items())
+        return f"<Comparison {self.a.name} vs {self.b.name}: {shown}>"
+
+    def _repr_html_(self) -> str:
+        """A notebook's view: the metrics with their ranges and what each reacts to."""
+        from .metrics import METRICS
+        from .views import card
+
+        rows = [(m.name, "n/a" if self.metrics[m.key] is None else f"{self.metrics[m.key]:.4f}", m.range,
+                 f"{m.same:g}", m.reacts) for m in METRICS]
+        facts = [f"{side.kind} {side.name}: {side.summary()['points']:,} points" for side in (self.a, self.b)]
+        facts.append(f"rendering {self.render}")
+        return card("Comparison", facts + [f"warning: {w}" for w in self.warnings],
+                    header=("metric", "value", "range", "same", "reacts to"), rows=rows, numeric=(1,))
+
+    def __reduce__(self):
+        return (type(self), (self.a, self.b, dict(self), self.render, self.method, self.warnings))
 
     def to_dict(self):
         """Everything as plain JSON-able values: the metrics at the top level (as before),
@@ -79,6 +104,37 @@ class Comparison:
         from .reporting import comparison_report
 
         return comparison_report(self)
+
+
+def compare(a: Any, b: Any, *, pipeline: Any = None, render: str | None = None, columns: Any = None,
+            execution: Any = None, color_bins: int = 8) -> Comparison:
+    """Every metric between two clouds or their signatures (docs/method.md, "Comparison
+    metrics"), both made the same way, as a :class:`Comparison` (a mapping of metric key to
+    value).
+
+    Parameters
+    ----------
+    a, b : path, PointCloud, Signature or Result
+        Point-cloud files (.las/.laz, .ply, .pcd, text), signature archives (.h5), folders of
+        LAS/LAZ tiles (an epoch, processed in tiles), clouds, signatures or pipeline results,
+        in any mix: what :func:`report` takes.
+    pipeline : Pipeline, optional
+        The method for clouds; default ``Pipeline()``; an archive brings its own.
+    render : str, optional
+        Rendering of Sg and Sas for the image metrics; default the archives' own, else "smooth".
+    columns : str or list, optional
+        Columns of text clouds.
+    execution : Execution, optional
+        Memory budget and tiles (see :func:`compare_sources`).
+    color_bins : int
+        Bins per RGB channel of the colour histograms (d_BD-Img, d_EMD-Img).
+
+    >>> import lidar_sig as ls                                                    # doctest: +SKIP
+    >>> ls.compare("epoch1.laz", "epoch2.laz")["l1"]                              # doctest: +SKIP
+    0.1558...
+    """
+    return compare_sources(a, b, pipeline, render=render, columns=columns, execution=execution,
+                           color_bins=color_bins)
 
 
 def report(a, b=None, pipeline=None, *, render=None, columns=None):
@@ -109,10 +165,11 @@ def report(a, b=None, pipeline=None, *, render=None, columns=None):
 def side_of(x, pipeline=None, columns=None):
     """The :class:`Side` of one input: a pipeline Result as it is, an archive loaded, a cloud
     read and run through ``pipeline`` (default ``Pipeline()``)."""
-    from .pipeline import Pipeline, Result
+    from .pipeline import Pipeline
+    from .result import Result
 
     if isinstance(x, Result):
-        return Side(input_name(x.cloud), x.signature, x)
+        return Side(input_name(x), x.signature, x)
     loaded = load_input(x, columns)
     if isinstance(loaded, Signature):
         return Side(input_name(x), loaded)
@@ -120,7 +177,8 @@ def side_of(x, pipeline=None, columns=None):
     return Side(input_name(x), result.signature, result)
 
 
-def compare_sources(a, b, pipeline=None, *, render=None, columns=None, method_given=(), tiling=None):
+def compare_sources(a, b, pipeline=None, *, render=None, columns=None, method_given=(), execution=None,
+                    color_bins=8):
     """Compare two point clouds or signature archives, in any mix (SPEC 6).
 
     Parameters
@@ -135,40 +193,39 @@ def compare_sources(a, b, pipeline=None, *, render=None, columns=None, method_gi
         archives' own when they agree, else "smooth".
     columns : tuple, optional
         Column names of text clouds.
-    tiling : dict, optional
-        ``tile_size``, ``workers``, ``scheduler`` for a folder of LAS/LAZ tiles given as a or b
-        (an epoch): it is processed as one set in tiles (:mod:`lidar_sig.tiling`). When any of
-        them is set, a LAS/LAZ file is processed in tiles too. ``memory``: the budget of each
-        process in bytes (default :data:`lidar_sig.tiling.memory.DEFAULT_MEMORY`); a LAS/LAZ
-        file that needs more as one block is processed in tiles, as a set is (a worker process
-        per core unless ``workers`` says otherwise).
+    execution : Execution, optional
+        How a folder of LAS/LAZ tiles given as a or b (an epoch) is processed as one set in
+        tiles (:mod:`lidar_sig.tiling`): tile size, workers, scheduler; when any of them is
+        set, a LAS/LAZ file is processed in tiles too. Its memory budget (default 1 GiB per
+        process): a LAS/LAZ file that needs more as one block is processed in tiles, as a set
+        is (a worker process per core unless ``workers`` says otherwise).
     """
     from .pipeline import pipeline_or_default
-    from .tiling.core import tileable
-    from .tiling.memory import DEFAULT_MEMORY, one_block_note, points_over_budget
-    from .tiling.run import tiles_asked
+    from .result import Result
+    from .tiling.execution import as_execution
+    from .tiling.memory import one_block_note, points_over_budget
 
     pipeline = pipeline_or_default(pipeline)
+    execution = as_execution(execution)
     names = [input_name(x) for x in (a, b)]
-    tiling = dict(tiling or {})
-    as_set = tiles_asked(tiling)
-    tiling["memory"] = tiling.get("memory") or DEFAULT_MEMORY
-    over = [points_over_budget(x, tiling["memory"]) if not as_set else None for x in (a, b)]
-    loaded = [load_input(x, columns, as_set or bool(n)) for x, n in zip((a, b), over)]
+    as_set = execution.tiles_asked
+    memory = int(execution.memory)
+    over = [points_over_budget(x, memory) if not as_set else None for x in (a, b)]
+    loaded = [load_input(x, columns, as_set or bool(n), what) for x, n, what in zip((a, b), over, "ab")]
     sigs = [x for x in loaded if isinstance(x, Signature)]
     if sigs:
         reference = sigs[0]
         pipeline = _archive_pipeline(reference, pipeline, method_given, names[loaded.index(reference)])
     for i, n in enumerate(over):
-        if n and not tileable(pipeline):  # a descriptor that needs the whole cloud: one block after all
-            warnings.warn(one_block_note(names[i], n, tiling["memory"], pipeline.descriptor.name), LidarSigWarning,
+        if n and not pipeline.descriptor.tileable:  # a descriptor that needs the whole cloud: one block after all
+            warnings.warn(one_block_note(names[i], n, memory, pipeline.descriptor.name), LidarSigWarning,
                           stacklevel=2)
             loaded[i] = load_input(loaded[i], columns)
     # a set's labels are known once it is run: with an unlabelled cloud or archive on the other
     # side, it is run without them straight away (see geometry_only below)
     unlabelled = (any(not x.classes.names for x in sigs)
                   or any(isinstance(x, PointCloud) and x.labels is None for x in loaded))
-    sets = {i: _signature_of_set(x, _unlabelled(pipeline) if unlabelled else pipeline, tiling, over=over[i])
+    sets = {i: _signature_of_set(x, _unlabelled(pipeline) if unlabelled else pipeline, execution, over=over[i])
             for i, x in enumerate(loaded) if isinstance(x, Path)}
     labelled = [bool(x.classes.names) if isinstance(x, Signature) else x.labels is not None
                 if isinstance(x, PointCloud) else sets[i][1] for i, x in enumerate(loaded)]
@@ -185,11 +242,12 @@ def compare_sources(a, b, pipeline=None, *, render=None, columns=None, method_gi
                   for x in loaded]
         for i, (sig, _) in list(sets.items()):
             if sig.classes.names:  # run with its labels before the other's were known: again without
-                sets[i] = _signature_of_set(loaded[i], _unlabelled(pipeline), tiling, over=over[i])
+                sets[i] = _signature_of_set(loaded[i], _unlabelled(pipeline), execution, over=over[i])
     sides = []
     for i, (name, x) in enumerate(zip(names, loaded)):
+        given = (a, b)[i]
         if isinstance(x, Signature):
-            sides.append(Side(name, x))
+            sides.append(Side(name, x, given if isinstance(given, Result) else None))
         elif i in sets:  # a folder of tiles (one epoch), or a file over the memory budget
             sides.append(Side(name, sets[i][0], tiled=True))
         else:
@@ -202,7 +260,7 @@ def compare_sources(a, b, pipeline=None, *, render=None, columns=None, method_gi
                             + "; ".join(differ) + "); make both with the same settings")
     render = render or _recorded_render(sides)
     with step("metrics", rendering=render):
-        metrics = compare_signatures(first, second, render=render)
+        metrics = compare_signatures(first, second, render=render, color_bins=color_bins)
     notes += _undefined_warnings(sides) + _class_warnings(sides) + _radii_warnings(sides)
     method = {k: first.metadata[k] for k in ("descriptor", "descriptor_params", "strategy", "scale_kind",
                                              "scale_values", "scale_units", "weights", "keep_noise")
@@ -211,27 +269,36 @@ def compare_sources(a, b, pipeline=None, *, render=None, columns=None, method_gi
 
 
 def input_name(x):
-    """The name an input is shown under: its path, a signature's source, or "(in memory)"."""
+    """The name an input is shown under: its path, a signature's or result's source, or "(in
+    memory)"."""
+    from .result import Result
+
     if isinstance(x, (str, Path)):
         return str(x)
+    if isinstance(x, Result):
+        return x.metadata.get("source") or "(in memory)"
     return getattr(x, "path", None) or (x.metadata.get("source") if isinstance(x, Signature) else None) or "(in memory)"
 
 
-def load_input(x, columns=None, as_set=False):
+def load_input(x, columns=None, as_set=False, what="the input"):
     """An input made ready to compare: a PointCloud or Signature as it is, an archive (.h5)
     loaded, a cloud file read (``columns`` of a text file), a folder of tiles (or, with
     ``as_set``, a LAS/LAZ file) as a Path to process as one set."""
     from .io import HDF5_EXTENSIONS, LAS_EXTENSIONS, load_signature, read
 
+    from .result import Result
+
     if isinstance(x, (PointCloud, Signature)):
         return x
+    if isinstance(x, Result):  # computed already: its signature
+        return x.signature
     if isinstance(x, (str, Path)):
         if Path(x).is_dir() or (as_set and Path(x).suffix.lower() in LAS_EXTENSIONS):
             return Path(x)  # processed as a set of tiles
         if Path(x).suffix.lower() in HDF5_EXTENSIONS:
             return load_signature(x)
         return read(x, columns=columns)
-    raise LidarSigError(f"cannot compare {a_kind(x)}; give a file path, a PointCloud or a Signature")
+    raise LidarSigError(f"{what} is {a_kind(x)}: give a file path, a PointCloud, a Signature or a Result to compare")
 
 
 def _archive_pipeline(signature, pipeline, method_given, name):
@@ -310,29 +377,29 @@ def _unlabelled(pipeline):
     return pipe
 
 
-def _signature_of_set(folder, pipeline, tiling, over=None):
+def _signature_of_set(folder, pipeline, execution, over=None):
     """The signature of a folder of LAS/LAZ tiles (or one LAS/LAZ file) processed as one set,
-    with scratch files in a temporary folder (``TMPDIR``), and whether its points are labelled;
-    refuses an incomplete set. ``over``: the points of one file processed in tiles because of
-    the memory budget (a note says so)."""
+    with scratch files in the execution's work folder or a temporary one (``TMPDIR``), removed
+    after the run, and whether its points are labelled; refuses an incomplete set. ``over``: the
+    points of one file processed in tiles because of the memory budget (a note says so)."""
     import tempfile
 
-    from .tiling.execute import executor
     from .tiling.memory import exceed
     from .tiling.run import run_set
+    from .tiling.work import remove_work
 
-    backend = executor(tiling.get("workers"), tiling.get("scheduler"))
-    try:
-        with tempfile.TemporaryDirectory(prefix="lidar-sig-") as tmp:
-            run = run_set(pipeline, [folder], work=Path(tmp) / "work", tile_size=tiling.get("tile_size"),
-                          backend=backend, memory=tiling["memory"])
-    finally:
-        backend.close()
+    with execution.backend() as backend, tempfile.TemporaryDirectory(prefix="lidar-sig-") as tmp:
+        work = Path(execution.work_dir) if execution.work_dir is not None else Path(tmp) / "work"
+        try:
+            run = run_set(pipeline, [folder], work=work, tile_size=execution.tile_size, backend=backend,
+                          memory=execution.memory)
+        finally:
+            remove_work(work)
     if not run.complete:
         raise LidarSigError("the set is incomplete, its signature would lack points: " + "; ".join(run.missing),
                             path=folder)
     if over:
-        warnings.warn(f"{folder}: {exceed(over, tiling['memory'])}: processed in {counted(len(run.tile_stats), 'tile')}",
+        warnings.warn(f"{folder}: {exceed(over, int(execution.memory))}: processed in {counted(len(run.tile_stats), 'tile')}",
                       LidarSigWarning, stacklevel=3)
     run.signature.metadata["tiling"] = run.tiling_record()
     return run.signature, run.labelled

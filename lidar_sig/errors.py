@@ -1,10 +1,18 @@
-"""Errors a user can cause and fix, and the wording of counts in messages.
+"""Errors a user can cause and fix, and the wording of counts and arguments in messages.
 
 The command line turns a :class:`LidarSigError` into one line on stderr and exit status 2;
-anything else is a bug and keeps its traceback.
+anything else is a bug and keeps its traceback. A message names the fix in the words of the
+face the user speaks through (:func:`arg`): ``overwrite=True`` in Python, ``--overwrite`` on
+the command line.
 """
+import contextlib
+import contextvars
 import os
 from pathlib import Path
+
+#: The face the user speaks through: "python" (arguments) or "cli" (options, set by the
+#: command line for the run of a command).
+FACE = contextvars.ContextVar("lidar_sig_face", default="python")
 
 
 class LidarSigError(ValueError):
@@ -29,6 +37,26 @@ class Interrupted(KeyboardInterrupt):
 
         self.signum = int(signum)
         super().__init__(signal.Signals(self.signum).name)
+
+
+def arg(name, value=None):
+    """An argument as the user gives it in the face that runs (:data:`FACE`): ``arg("overwrite",
+    True)`` is "overwrite=True" in Python and "--overwrite" on the command line, ``arg("memory",
+    "2GiB")`` 'memory="2GiB"' and "--memory 2GiB", ``arg("cell")`` "cell" and "--cell"."""
+    if FACE.get() == "cli":
+        option = "--" + name.replace("_", "-")
+        return option if value is None or value is True else f"{option} {value}"
+    return name if value is None else f"{name}={value!r}"
+
+
+@contextlib.contextmanager
+def speaking(face):
+    """Within the block, messages name arguments as ``face`` ("python" or "cli") takes them."""
+    token = FACE.set(face)
+    try:
+        yield
+    finally:
+        FACE.reset(token)
 
 
 def whole_number(value, what, *, low=0, high=None):

@@ -41,6 +41,9 @@ _SCAN_ALL = 50_000_000
 _FARTHER_VOXELS = 2**22
 #: Neighbour weights: "area" (see the module docstring) or "none" (plain means, the paper's).
 WEIGHTS = ("area", "none")
+#: The compiled kernels each kind of weights calls, as (module, function names): the area
+#: weights' third-nearest search.
+WEIGHT_KERNELS = {"area": (("lidar_sig.grid", ("third_nearest",)),), "none": ()}
 #: k-nearest neighbourhoods take every point tied with the k-th neighbour (squared distance
 #: within this relative tolerance): coordinates quantized to LAS steps tie often, and which of
 #: two tied points is "the k-th" would otherwise depend on round-off (a rotation, a unit

@@ -1,22 +1,23 @@
 """Pipeline: cloud -> neighbourhoods -> descriptor -> strategy -> Saliency and Signature."""
 from __future__ import annotations
 
+import os
 import time
 import warnings
 from functools import partial
-from pathlib import Path
 
 import numpy as np
 
 from . import __version__
 from .classes import UNLABELED, class_table
 from .cloud import PointCloud, kept_points
-from .compile import announce_compilation, load_kernels, warm_up
+from .compile import COMMON, announce_compilation, load_kernels, warm_up
 from .errors import LidarSigError, LidarSigWarning, a_kind, counted
 from .io.open3d import from_open3d, is_open3d
-from .neighbors import WEIGHTS, NeighborIndex, unique_points
+from .neighbors import WEIGHT_KERNELS, WEIGHTS, NeighborIndex, unique_points
 from .plugins import get_descriptor, get_strategy
 from .progress import step
+from .result import Result
 from .saliency import Saliency
 from .scales import Scales, knn, radii
 from .signature import Frame, Signature
@@ -24,55 +25,6 @@ from .signature import Frame, Signature
 
 #: Share of neighbourhoods cut at max_neighbors above which a run warns.
 CAPPED_WARNING = 0.5
-
-
-class Result:
-    """Per-point saliency and the signature of one cloud, with the run's metadata.
-
-    ``signature`` may be given, or made when first asked for by ``make_signature`` (a callable
-    of no argument that pickles: :meth:`Pipeline.run` passes one, so that writing the points,
-    which does not need a signature, saves its 0.1 s per million points).
-    """
-
-    def __init__(self, cloud, saliency, signature=None, metadata=None, *, make_signature=None):
-        if signature is None and make_signature is None:
-            raise LidarSigError("a Result needs its signature or make_signature")
-        self.cloud = cloud
-        self.saliency = saliency
-        self.metadata = {} if metadata is None else metadata
-        self._signature = signature
-        self._make_signature = make_signature
-
-    @property
-    def signature(self) -> Signature:
-        """The cloud's Signature (Sg and Sas with the Egeom histogram, SPEC 3)."""
-        if self._signature is None:
-            self._signature = self._make_signature()
-            self._make_signature = None
-        return self._signature
-
-    def __repr__(self):
-        m = self.metadata
-        return (f"Result({len(self.cloud):,} points, {m.get('descriptor', '?')} {m.get('strategy', '?')}, "
-                f"{m.get('scales', '?')}, source={m.get('source')!r})")
-
-    def write(self, path, *, overwrite=False, points=True, render="smooth"):
-        """Write to ``path`` by extension: a point cloud with per-point saliency (.las/.laz extra
-        dimensions, .ply/.pcd attributes, .xyz/.txt/.pts/.csv columns), a signature archive
-        (.h5/.hdf5, with per-point datasets unless ``points=False``) or an image of Sas (.png);
-        images are rendered as ``render`` (:func:`lidar_sig.io.results.write_result`)."""
-        from .io.results import write_result
-
-        write_result(self, path, overwrite=overwrite, points=points, render=render)
-
-    def to_open3d(self, *, colors="saliency"):
-        """An ``open3d.t.geometry.PointCloud`` with the per-point outputs as attributes and, by
-        default, colours (R, G, B) = (Cl, Cs, Cp), undefined points grey; see
-        :func:`lidar_sig.io.open3d.to_open3d`. ``o3d.visualization.draw(result.to_open3d())``
-        shows the saliency."""
-        from .io.open3d import to_open3d
-
-        return to_open3d(self, colors=colors)
 
 
 class Pipeline:
@@ -150,6 +102,11 @@ class Pipeline:
         self.frame = frame or Frame()
         self.progress = progress
 
+    def __repr__(self):
+        noise = ", keeps noise" if self.keep_noise else ""
+        return (f"<Pipeline {self.descriptor.name} {self.strategy.name}, {self.scales.describe()}, {self.weights} "
+                f"weights, classes {self.classes.name}{noise}>")
+
     @classmethod
     def from_method(cls, method, **kwargs):
         """The pipeline that made a signature, from its recorded method (:meth:`method`, as
@@ -211,13 +168,9 @@ class Pipeline:
 
     def _warm_up(self):
         """Load this run's kernels in the background (:func:`lidar_sig.compile.warm_up`) by a
-        tiny run through them (neighbour search, descriptor, strategy) on a made-up patch of
-        ground; the thread, or None for a descriptor or strategy that is not built in (a
-        plugin's code runs on the user's data only) or a kernel not cached yet (compiled in this
-        thread then, see there)."""
-        if not all(type(p).__module__.startswith("lidar_sig.plugins.") for p in (self.descriptor, self.strategy)):
-            return None
-
+        tiny run through them (neighbour search, descriptor, strategy: a plugin's as a
+        built-in's) on a made-up patch of ground; the thread, or None for a kernel not cached
+        yet (compiled in this thread then, see there)."""
         def tiny_run():
             rng = np.random.default_rng(0)
             n = 4 * max(64, self.min_points())
@@ -227,14 +180,23 @@ class Pipeline:
             combined, _ = self.strategy.combine(self.descriptor.saliency(index.query(np.arange(n))))
             Saliency.from_values(combined)
 
-        key = (self.descriptor.name, self.strategy.name, self.scales.kind, self.weights)
-        return warm_up(key, tiny_run)
+        key = (type(self.descriptor), type(self.strategy), self.scales.kind, self.weights)
+        return warm_up(key, tiny_run, self.kernels())
+
+    def kernels(self):
+        """The compiled kernels a run of this method calls, as (module, function names) pairs:
+        those of every run, of the scales' search, of the weights, and those the descriptor and
+        the strategy declare (a plugin's too)."""
+        return (COMMON + self.scales.kernels + WEIGHT_KERNELS[self.weights] + tuple(self.descriptor.kernels)
+                + tuple(self.strategy.kernels))
 
     def announce_compilation(self):
         """Say once per process, when this method's kernels are about to be compiled (the first
         run after installing), that they are (:func:`lidar_sig.compile.announce_compilation`);
         a run of tiles says it before its workers start."""
-        announce_compilation(self.progress, self.descriptor.name, self.scales.kind, self.strategy.name, self.weights)
+        kind = "k-nearest" if self.scales.kind == "knn" else "radii"
+        announce_compilation(self.progress, self.kernels(),
+                             f"{self.descriptor.name}, {self.strategy.name}, {kind}, {self.weights} weights")
 
     def describe(self, batch):
         """(B, 3) saliency of a NeighborhoodBatch, and the chosen scale index per point (or None)."""
@@ -257,7 +219,7 @@ class Pipeline:
         """(N, 3) saliency values and (N,) chosen scales (or None) of every point of ``cloud``
         (the points a run uses), and the run statistics."""
         self.announce_compilation()
-        load_kernels(self.descriptor.name)
+        load_kernels(self.kernels())
         warming = self._warm_up()
         with step("neighbourhoods", enabled=self.progress, points=len(cloud),
                   scales=self.scales.describe(), weights=self.weights) as s:
@@ -323,11 +285,26 @@ class Pipeline:
                  **self.method()}
         return values, chosen, stats
 
-    def run(self, cloud, *, labels=None):
-        """Saliency and signature of ``cloud``: a PointCloud, a path, an (N, 3) array of
-        coordinates in metres (with optional ``labels``, one class code per point) or an Open3D
-        point cloud."""
-        cloud = as_point_cloud(cloud, labels)
+    def run(self, cloud, *, labels=None, columns=None, execution=None):
+        """Saliency and signature of ``cloud``: a PointCloud, a path (``columns`` names the
+        columns of a text file), an (N, 3) array of coordinates in metres (with optional
+        ``labels``, one class code per point) or an Open3D point cloud.
+
+        A LAS/LAZ file that one block would hold above the memory budget of ``execution`` (a
+        :class:`lidar_sig.Execution`; default 1 GiB per process) is processed in tiles with
+        halos, with the same results: the Result then keeps its per-point values on disk, in
+        tiles, until they are asked for, and ``write`` streams them into a LAS/LAZ file
+        (docs/scale-out.md). The file's header alone decides, before any point is read."""
+        from .tiling.execution import as_execution
+
+        execution = as_execution(execution)
+        if isinstance(cloud, (str, os.PathLike)):
+            n = execution.over_budget(cloud, self)
+            if n is not None:
+                from .tiling.run import run_in_tiles
+
+                return run_in_tiles(self, cloud, execution, n_points=n)
+        cloud = as_point_cloud(cloud, labels, columns)
         sal, stats = self.saliency(cloud)
         classes = self.classes if cloud.labels is not None else UNLABELED
         codes = cloud.labels if cloud.labels is not None else np.zeros(len(cloud), np.int64)
@@ -357,7 +334,7 @@ def pipeline_or_default(pipeline):
     return pipeline
 
 
-def as_point_cloud(cloud, labels=None):
+def as_point_cloud(cloud, labels=None, columns=None):
     """A PointCloud from what :meth:`Pipeline.run` accepts (see there)."""
     if isinstance(cloud, PointCloud):
         if labels is not None:
@@ -367,10 +344,10 @@ def as_point_cloud(cloud, labels=None):
         return from_open3d(cloud)
     if isinstance(cloud, np.ndarray):
         return PointCloud(cloud, labels)
-    if isinstance(cloud, (str, Path)):
+    if isinstance(cloud, (str, os.PathLike)):
         from .io import read
 
-        return read(cloud)
+        return read(cloud, columns=columns)
     raise LidarSigError(f"cannot run on {a_kind(cloud)}; give a PointCloud, a file path, an "
                         "(N, 3) numpy array or an Open3D point cloud")
 

@@ -46,7 +46,7 @@ def geometric_class(sal):
     return cls
 
 
-@dataclass
+@dataclass(repr=False)
 class Saliency:
     """Per-point saliency of a cloud.
 
@@ -67,6 +67,13 @@ class Saliency:
     egeom: np.ndarray
     geom_class: np.ndarray
     optimal_scale: np.ndarray | None = None
+
+    def __repr__(self):
+        n = len(self.values)
+        undefined = int(np.isnan(self.values).any(axis=1).sum()) if n else 0
+        mean = np.nanmean(self.values, axis=0) if n > undefined else np.full(3, np.nan)
+        return (f"<Saliency {n:,} points, {undefined:,} undefined; mean Cl {mean[0]:.3f}, Cs {mean[1]:.3f}, "
+                f"Cp {mean[2]:.3f}" + (", with the optimal scale" if self.optimal_scale is not None else "") + ">")
 
     @classmethod
     def from_values(cls, values, optimal_scale=None):

@@ -17,7 +17,7 @@ from .progress import progress as _progress
 DEFAULT_FRACTIONS = tuple(round(f, 1) for f in np.arange(1.0, 0.05, -0.1))
 
 
-@dataclass
+@dataclass(repr=False)
 class Resilience:
     """Metrics of subsamples against the full cloud.
 
@@ -33,6 +33,11 @@ class Resilience:
     render: str
     method: dict
     values: dict
+
+    def __repr__(self):
+        return (f"<Resilience of {self.source}: {len(self.fractions)} fractions "
+                f"({', '.join(f'{f:g}' for f in self.fractions[:4])}{', ...' if len(self.fractions) > 4 else ''}), "
+                f"{self.repeats} repeats, {self.render} rendering>")
 
     def summary(self, key):
         """(mean, std, min, max) over the repeats, each a (F,) array, of metric ``key``."""

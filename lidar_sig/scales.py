@@ -65,6 +65,14 @@ class Scales:
     def __len__(self):
         return len(self.values)
 
+    @property
+    def kernels(self):
+        """Compiled kernels the neighbour search calls for these scales besides those of every
+        run (:data:`lidar_sig.compile.COMMON`), as (module, function names): radius scales are
+        counted within each sphere; k-nearest scales are counted by the search itself (the few
+        rows it leaves to a scan are counted by a kernel loaded when first needed)."""
+        return (("lidar_sig.grid", ("count_within",)),) if self.kind == "radius" else ()
+
     def resolve(self, xyz):
         """Scales for coordinates ``xyz`` in metres (:meth:`PointCloud.metric_xyz`): radii in
         metres as float64, k as int64.

@@ -135,7 +135,7 @@ def transfer(share):
     return np.minimum(v, 1.0)
 
 
-@dataclass
+@dataclass(repr=False)
 class Signature:
     """The signature of one cloud: count raster per class plus its Egeom histogram.
 
@@ -200,6 +200,36 @@ class Signature:
         hist = np.bincount(egeom_bin[egeom_bin >= 0], minlength=egeom_bins).astype(np.int64)
         totals = np.bincount(np.asarray(class_index), minlength=n_classes).astype(np.int64)
         return cls(counts, frame, classes, hist, int((~defined).sum()), dict(metadata or {}), totals)
+
+    def __repr__(self):
+        m = self.metadata
+        method = " ".join(str(m[k]) for k in ("descriptor", "strategy", "scales") if m.get(k))
+        return (f"<Signature {self.n_points:,} points, {len(self.classes)} classes ({self.classes.name}), "
+                f"{self.frame.size} px" + (f", {method}" if method else "")
+                + (f", from {m['source']}" if m.get("source") else "") + ">")
+
+    def summary(self):
+        """The signature's facts as plain JSON-able values: points, undefined, class totals by
+        name, frame, class table and the method that made it."""
+        m = self.metadata
+        return {"points": self.n_points, "undefined": int(self.n_undefined), "frame": self.frame.size,
+                "classes": self.classes.name,
+                "class_totals": {name: int(n) for name, n in zip(self.classes.class_names, self.class_totals)},
+                **{k: m[k] for k in ("source", "descriptor", "strategy", "scales", "weights") if k in m}}
+
+    def _repr_html_(self):
+        """A notebook's view: Sas (smooth rendering) beside the points per class."""
+        from .views import card
+
+        s = self.summary()
+        facts = [f"{s['points']:,} points, {s['undefined']:,} undefined; frame {s['frame']} px"]
+        if "descriptor" in s:
+            facts.append(f"{s['descriptor']} {s.get('strategy', '')}, {s.get('scales', '')}")
+        if s.get("source"):
+            facts.append(f"from {s['source']}")
+        return card("Signature", facts, header=("class", "points"), numeric=(1,),
+                    rows=[(name, f"{n:,}") for name, n in s["class_totals"].items() if n],
+                    image=self.sas("smooth"), width=180, note="Sas: line-type top, point-type left, surface-type right")
 
     @property
     def n_points(self):

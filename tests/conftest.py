@@ -98,3 +98,19 @@ def noisy_las(path, n=3000, seed=11, version="1.4", point_format=6):
     scene = np.zeros(len(all_xyz), bool)
     scene[:n] = True
     return scene
+
+
+@pytest.fixture(scope="session", autouse=True)
+def compiled_kernels():
+    """Every kernel compiled and cached before the first test, as after a first run: a test's
+    stderr then holds its own lines, not the first run's compilation notice, on a fresh machine
+    as here (tests/test_release.py and tests/robustness/test_robust_first_run.py check that
+    notice, each on a cache of its own)."""
+    import lidar_sig as ls
+
+    xyz, labels = airborne_like(600)
+    for descriptor in ("c3dcm", "t3dvt", "t3dvt-get"):
+        for strategy in ("multiscale", "optimal"):
+            for scales in (ls.knn(6, 10), ls.radii(2.0, 3.0)):
+                for weights in ("area", "none"):
+                    ls.Pipeline(descriptor, strategy, scales, weights=weights, progress=False).run(xyz, labels=labels)

@@ -182,3 +182,24 @@ def test_every_import_goes_to_the_same_layer_or_below():
     up = [f"{m} -> {t}" for m, targets in graph().items() for t in targets
           if t != "lidar_sig" and m != "lidar_sig" and level[t.split(".")[1]] < level[m.split(".")[1]]]
     assert not up, "imports of a higher layer: " + ", ".join(up)
+
+
+#: What only the library decides: one block or tiles, sets of tiles, work folders, where tiles run.
+DECIDING = {"over_budget", "points_over_budget", "tiles_asked", "is_set", "run_set", "run_in_tiles", "executor",
+            "prepare_work", "remove_work", "discard_work", "work_folder", "mkdir", "rmdir", "rmtree", "unlink"}
+
+
+def test_the_command_line_decides_no_block_or_tiles_and_handles_no_work_folder():
+    # the command line builds an Execution from its options and calls one job, which decides
+    found = []
+    for module, path in MODULES.items():
+        if not module.startswith("lidar_sig.cli"):
+            continue
+        for target, name, _ in imports(module):
+            if target.startswith("lidar_sig.tiling") and target != "lidar_sig.tiling.execution":
+                found.append(f"{module} imports {name or target} from {target}")
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            used = node.attr if isinstance(node, ast.Attribute) else node.id if isinstance(node, ast.Name) else None
+            if used in DECIDING:
+                found.append(f"{module} uses {used} (line {node.lineno})")
+    assert not found, "\n".join(found)

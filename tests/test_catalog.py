@@ -23,6 +23,7 @@ from lidar_sig.catalog.footprint import convex_hull, neighbours, polygon_area, p
 from lidar_sig.catalog.outliers import robust_z
 from lidar_sig.catalog.tile import tile_task
 from lidar_sig.io.geopackage import APPLICATION_ID
+from lidar_sig.tiling.execute import executor
 
 ORIGINAL = "test_data_77055_627755_LA93_IGN69.laz"
 OTHER = "test_data_77060_627760_LA93_IGN69.laz"
@@ -273,7 +274,7 @@ def test_a_dask_cluster_makes_the_same_catalogue(tmp_path):
     synthetic_tile(tiles / "a.laz", 0, (0, 0))
     synthetic_tile(tiles / "b.laz", 1, (40, 0))
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
-        backend = ls.executor(scheduler=cluster.scheduler_address)
+        backend = executor(scheduler=cluster.scheduler_address)
         try:
             on_dask = build_catalog([tiles], tmp_path / "dask.h5", backend=backend)
         finally:

@@ -11,7 +11,7 @@ import pytest
 import lidar_sig as ls
 from lidar_sig.errors import LidarSigError
 from lidar_sig.tiling.median import sorted_median
-from lidar_sig.tiling.memory import DEFAULT_MEMORY, GIB, MIB, block_bytes, over_budget, parse_memory
+from lidar_sig.tiling.memory import DEFAULT_MEMORY, GIB, MIB, block_bytes, budget_bytes, over_budget
 
 from command_line import run as lidar_sig_cli
 from conftest import SAMPLES
@@ -39,13 +39,13 @@ def saliency_of(path):
     ("1", GIB), ("0.5", GIB // 2), ("900m", 900 * MIB), (" 4 GiB ", 4 * GIB), ("1t", 2**40),
 ])
 def test_memory_sizes_are_read_in_binary_units_a_bare_number_in_gib(text, expected):
-    assert parse_memory(text) == expected
+    assert budget_bytes(text) == expected
 
 
 @pytest.mark.parametrize("text", ["", "abc", "-1", "0", "1.5.2", "1XB", "nan", "inf", "1,5G", "G"])
 def test_a_memory_size_that_is_not_one_is_refused_naming_it(text):
-    with pytest.raises(LidarSigError, match="--memory") as err:
-        parse_memory(text)
+    with pytest.raises(LidarSigError, match="memory") as err:
+        budget_bytes(text)
     assert repr(text) in str(err.value) and "1GiB" in str(err.value)
 
 

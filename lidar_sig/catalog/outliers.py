@@ -32,7 +32,7 @@ CLASSES_LISTED = 3
 CLASS_DIFFERENCE_MIN = 1.0
 
 
-@dataclass
+@dataclass(repr=False)
 class Outliers:
     """The answer of :func:`outliers`: ``results`` (a dict per tile, highest score first), the
     matrix of screening distances ``distances`` (catalogue order), each tile's spatial
@@ -45,6 +45,10 @@ class Outliers:
     reach: float
     metrics: tuple
     notes: list = field(default_factory=list)
+
+    def __repr__(self):
+        top = ", ".join(f"{r['name']} {r['score']:.2f}" for r in self.results[:3])
+        return f"<Outliers of {len(self.results)} tiles within {self.reach:.3g} m; highest {top}>"[:300]
 
     def to_dict(self):
         """The JSON shape of ``lidar-sig outliers --json``."""

@@ -33,7 +33,7 @@ SHORTLIST_FACTOR = 4
 SHORTLIST_MIN = 20
 
 
-@dataclass
+@dataclass(repr=False)
 class Similar:
     """The answer of :func:`similar`: the query, the metric ranked by, the tiles best first
     (``results``: dicts with rank, name, path, distance and every metric), and how the
@@ -44,6 +44,10 @@ class Similar:
     results: list
     shortlist: dict
     spread: dict = field(default_factory=dict)
+
+    def __repr__(self):
+        best = ", ".join(f"{r['name']} {r['distance']:.3g}" for r in self.results[:3])
+        return f"<Similar to {self.query.get('name')}: {len(self.results)} tiles by {self.metric}; {best}>"[:300]
 
     def to_dict(self):
         """The JSON shape of ``lidar-sig similar --json``."""

@@ -15,7 +15,7 @@ from .distances import SCREENING, combine, metric_keys, pair_metrics, screening
 from .features import Features, sg_image, signature_features
 
 
-@dataclass
+@dataclass(repr=False)
 class Query:
     """What a catalogue is asked about: its name, kind ("tile", "cloud" or "archive"), its
     :class:`~lidar_sig.catalog.features.Features` (one row), its Sg image, and its row in the
@@ -27,8 +27,11 @@ class Query:
     sg: np.ndarray
     index: int | None = None
 
+    def __repr__(self):
+        return f"<Query {self.name} ({self.kind})>"
 
-@dataclass
+
+@dataclass(repr=False)
 class Distances:
     """A labelled matrix of distances between the tiles of a catalogue: ``values[i, j]`` between
     ``names[i]`` and ``names[j]``, of ``metric`` (a metric's key, "screening" or "distance")."""
@@ -36,6 +39,9 @@ class Distances:
     names: list
     values: np.ndarray
     metric: str
+
+    def __repr__(self):
+        return f"<Distances {len(self.names)} x {len(self.names)} tiles, {self.metric}>"
 
     def at(self, a, b):
         """The value between the tiles named ``a`` and ``b``."""
@@ -81,7 +87,22 @@ class Catalog:
         return len(self.columns["name"])
 
     def __repr__(self):
-        return f"Catalog({str(self.path)!r}: {counted(len(self), 'tile')})"
+        m = self.method
+        return (f"<Catalog {self.path}: {counted(len(self), 'tile')}, {m.get('descriptor', '?')} "
+                f"{m.get('strategy', '?')}, classes {self.classes.name}>")
+
+    def _repr_html_(self):
+        """A notebook's view: the method, and the tiles with their points, area and density."""
+        from ..views import card
+
+        m = self.method
+        c = self.columns
+        rows = [(name, f"{int(n):,}", f"{float(a):,.0f}", f"{float(d):.1f}")
+                for name, n, a, d in zip(c["name"][:12], c["n_points"][:12], c["area"][:12], c["density"][:12])]
+        more = f"... and {len(self) - 12:,} more tiles" if len(self) > 12 else ""
+        return card(f"Catalog {self.path.name}", [f"{counted(len(self), 'tile')}, {m.get('descriptor', '?')} "
+                                                  f"{m.get('strategy', '?')}, class table {self.classes.name}"],
+                    header=("tile", "points", "area m²", "points/m²"), rows=rows, numeric=(1, 2, 3), note=more)
 
     @property
     def names(self):

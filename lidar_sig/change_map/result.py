@@ -52,7 +52,7 @@ def metric_levels(table, null, *, confidence=CONFIDENCE):
             for m, k in enumerate(METRIC_KEYS)}
 
 
-@dataclass
+@dataclass(repr=False)
 class ChangeMap:
     """The result of :func:`lidar_sig.change_map.changes` for two epochs.
 
@@ -106,6 +106,42 @@ class ChangeMap:
     density: tuple = ()
     warnings: list = field(default_factory=list)
     timings: dict = field(default_factory=dict)
+
+    def __repr__(self):
+        return (f"<ChangeMap {self.grid.rows} x {self.grid.cols} cells of {self.cell:g} m, "
+                f"{int(self.table['valid'].sum())} compared, {self.n_significant} significant by {self.score} "
+                f"({self.confidence:.0%}); {self.a.name} -> {self.b.name}>")
+
+    def thumbnail(self, size=240):
+        """(H, W, 3) RGB picture of the map, about ``size`` pixels on its longer side: cells
+        compared shaded from white (least changed) to orange (most) by their rank, those that
+        changed significantly red, the others grey (row 0 north)."""
+        valid = self.raster("valid") > 0
+        score = np.where(valid, self.raster("score"), np.nan)
+        rank = np.zeros(score.shape)
+        if valid.any():
+            order = np.argsort(np.argsort(score[valid]))
+            rank[valid] = order / max(len(order) - 1, 1)
+        rgb = np.where(valid[..., None], np.array([1.0, 1.0, 1.0]) - rank[..., None] * np.array([0.0, 0.45, 0.8]),
+                       np.array([0.82, 0.82, 0.82]))
+        rgb[self.raster("significant") > 0] = (0.80, 0.05, 0.05)
+        k = max(1, size // max(self.grid.rows, self.grid.cols))
+        return np.repeat(np.repeat(rgb, k, axis=0), k, axis=1)
+
+    def _repr_html_(self):
+        """A notebook's view: the map's thumbnail, its counts and the most changed cells."""
+        from ..views import card
+
+        rows = [(item["rank"], f"{item['bounds'][0]:.1f}, {item['bounds'][1]:.1f}", item["points_a"], item["points_b"],
+                 f"{item['score']:.4f}", "yes" if item["significant"] else "no") for item in self.top(5)]
+        facts = [f"{self.a.name} -> {self.b.name}", f"{self.grid.rows} x {self.grid.cols} cells of {self.cell:g} m, "
+                 f"{int(self.table['valid'].sum())} compared, {self.n_significant} significant "
+                 f"({self.confidence:.0%} level of detection of {self.score})"]
+        return card("ChangeMap", facts + [f"warning: {w}" for w in self.warnings],
+                    header=("rank", "x, y min", "points A", "points B", "score", "significant"), rows=rows,
+                    numeric=(0, 2, 3, 4), image=self.thumbnail(), width=220,
+                    note="red: changed significantly; orange to white: compared, most to least changed; grey: not "
+                         "compared")
 
     def rank_by(self, score):
         """Fill the table's ranking fields (``score``, ``lod``, ``z``, ``significant``) from

@@ -14,7 +14,7 @@ from ..progress import step
 NEVER = 0
 
 
-@dataclass
+@dataclass(repr=False)
 class ChangeSeries:
     """The result of :func:`lidar_sig.change_map.changes` for three epochs or more.
 
@@ -25,6 +25,15 @@ class ChangeSeries:
 
     maps: list
     epochs: list
+
+    def __repr__(self):
+        counts = ", ".join(str(m.n_significant) for m in self.maps)
+        return (f"<ChangeSeries {len(self.epochs)} epochs, {len(self.maps)} intervals, {self.grid.rows} x "
+                f"{self.grid.cols} cells; significant per interval: {counts}>")
+
+    def _repr_html_(self):
+        """A notebook's view: each interval's map card."""
+        return "".join(m._repr_html_() for m in self.maps)
 
     @property
     def grid(self):

@@ -4,45 +4,41 @@ import json
 import click
 
 from .group import cli
-from .options import (check_report_outputs, columns_option, overwrite_option, pipeline_options, render_option,
-                      report_options, tiling_options, write_report)
-from .summaries import archive_summary_line, run_summary
+from .options import (columns_option, execution_options, json_option, overwrite_option, pipeline_options,
+                      render_option, report_options)
+from .summaries import archive_summary_line
 
 
 @cli.command()
 @click.argument("a")
 @click.argument("b")
-@click.option("--json", "as_json", is_flag=True, help="Print one JSON object on stdout.")
+@json_option
 @report_options
 @render_option
 @overwrite_option
 @columns_option
-@tiling_options
+@execution_options(work_dir=False)
 @pipeline_options
-def compare(a, b, as_json, report, plots, render, overwrite, columns, tiling, pipeline, method_given, quiet):
+def compare(a, b, as_json, report, plots, render, overwrite, columns, execution, pipeline, method_given, quiet):
     """Compare the signatures of A and B (point-cloud files, signature archives or folders of
     LAS/LAZ tiles, each folder one epoch processed in tiles; in any mix).
 
     Both are made the same way: two clouds with the same method; a cloud compared with an
     archive the archive's way; two archives must record the same method.
     """
-    if report or plots:
-        from ..reporting import COMPARISON_PLOTS
-
-        check_report_outputs(report, plots, COMPARISON_PLOTS, overwrite)
-    from ..comparison import compare_sources
+    from ..jobs import compare as compare_job
     from ..metrics import METRICS
 
-    result = compare_sources(a, b, pipeline, render=render, columns=columns, method_given=method_given,
-                             tiling=tiling)
-    written = write_report(result.report(), report, plots, overwrite) if report or plots else []
+    done = compare_job(a, b, report=report, plots=plots, overwrite=overwrite, pipeline=pipeline, render=render,
+                       columns=columns, execution=execution, method_given=method_given)
+    result = done.comparison
     for note in result.warnings:
         click.echo(f"lidar-sig: warning: {note}", err=True)
     if as_json:
         click.echo(json.dumps(result.to_dict()))
         return
     for label, side in (("A", result.a), ("B", result.b)):
-        line = run_summary(side.name, side.result) if side.result is not None else archive_summary_line(side)
+        line = side.result.summary(side.name) if side.result is not None else archive_summary_line(side)
         click.echo(f"{label} {line}")
     click.echo(f"  rendering {result.render}")
     click.echo("")
@@ -51,5 +47,5 @@ def compare(a, b, as_json, report, plots, render, overwrite, columns, tiling, pi
         shown = "n/a" if value is None else f"{value:.4f}"
         click.echo(f"  {m.name:<11} {shown:>8}   {m.short}, {m.same:g} = same")
     if not quiet:
-        for line in written:
+        for line in done.lines:
             click.echo(line)

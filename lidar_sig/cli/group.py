@@ -8,7 +8,7 @@ import warnings
 
 import click
 
-from ..errors import Interrupted, LidarSigError, LidarSigWarning
+from ..errors import Interrupted, LidarSigError, LidarSigWarning, speaking
 from ..io.atomic import recording_outputs
 from ..progress import say
 
@@ -25,7 +25,7 @@ class _Group(click.Group):
     def invoke(self, ctx):
         written = []
         try:
-            with warnings.catch_warnings(), recording_outputs() as written:
+            with warnings.catch_warnings(), recording_outputs() as written, speaking("cli"):
                 warnings.simplefilter("always", LidarSigWarning)
                 warnings.showwarning = show_note
                 return super().invoke(ctx)

@@ -213,80 +213,54 @@ def report_options(func):
                         help="Write an HTML report with the figures (one self-contained file).")(func)
 
 
-def check_report_outputs(report, plots, names, overwrite):
-    """Refuse report and plot outputs that cannot be written, before anything is computed."""
-    from ..io import check_outputs
-    from ..reporting import check_plots_folder, check_report_path
-
-    if report:
-        check_outputs([report], overwrite=overwrite)
-        check_report_path(report, overwrite=overwrite)
-    if plots:
-        check_plots_folder(plots, names, overwrite=overwrite)
-
-
-def write_report(made, report, plots, overwrite):
-    """Write the report made for ``--report`` and ``--plots``, all files or none; lines saying
-    what was written."""
-    from ..io import output_group
-
-    lines = []
-    with output_group():
-        if report:
-            made.save(report, overwrite=overwrite)
-            lines.append(f"wrote {report}")
-        if plots:
-            lines.append(f"wrote {len(made.save_plots(plots, overwrite=overwrite))} plots in {plots}")
-    return lines
-
-
-workers_option = click.option("--workers", type=click.IntRange(1, 1024), default=None,
-                              help="Local worker processes for a set of tiles [default: all cores].")
-scheduler_option = click.option("--scheduler", default=None, metavar="ADDRESS", callback=not_empty("an address"),
-                                help="Run the tiles on this dask.distributed scheduler (e.g. tcp://host:8786) "
-                                     "instead of local processes; needs the dask extra.")
-
-
-def _memory(ctx, param, value):
-    from ..tiling.memory import DEFAULT_MEMORY, parse_memory
-
-    return DEFAULT_MEMORY if value is None else parse_memory(value)
-
-
-def tiling_options(func):
-    """Decorate a command with the options of tiled runs: ``--tile-size``, ``--workers``,
-    ``--scheduler`` and ``--memory`` (``tiling`` receives them as a dict, the memory budget in
-    bytes)."""
-    opts = [
-        click.option("--tile-size", type=click.FloatRange(0, min_open=True), default=None, metavar="METRES",
-                     help="Side of the square processing tiles of a set, in metres [default: as many points as "
-                          "a process holds within --memory, from the files' density]."),
-        click.option("--workers", type=click.IntRange(1, 1024), default=None,
-                     help="Local worker processes for a set of tiles, or for one file processed in tiles "
-                          "because of --memory [default: all cores; 1: this process alone]."),
-        scheduler_option,
-        click.option("--memory", default=None, metavar="SIZE", callback=_memory,
-                     help="Memory budget of each process, e.g. 1GiB, 800MiB, 1.5G (a bare number is GiB): a "
-                          "LAS/LAZ file that needs more as one block is processed in tiles sized to it "
-                          "[default: 1GiB]."),
-    ]
+def execution_options(func=None, *, tiles=True, work_dir=True):
+    """Decorate a command with the options of how it runs: ``--memory`` and, with ``tiles``,
+    ``--tile-size``, ``--workers``, ``--scheduler``, with ``work_dir`` ``--work-dir``; it
+    receives ``execution``, a :class:`lidar_sig.Execution` built from them (the library decides
+    from it whether a file runs as one block or in tiles)."""
+    if func is None:
+        return functools.partial(execution_options, tiles=tiles, work_dir=work_dir)
+    opts = []
+    if tiles:
+        opts += [click.option("--tile-size", type=click.FloatRange(0, min_open=True), default=None, metavar="METRES",
+                              help="Side of the square processing tiles of a set, in metres [default: as many points "
+                                   "as a process holds within --memory, from the files' density]."),
+                 click.option("--memory", default=None, metavar="SIZE",
+                              help="Memory budget of each process, e.g. 1GiB, 800MiB, 1.5G (a bare number is GiB): "
+                                   "a LAS/LAZ file that needs more as one block is processed in tiles sized to it "
+                                   "[default: 1GiB]."),
+                 click.option("--workers", type=click.IntRange(1, 1024), default=None,
+                              help="Local worker processes for tiles (a set, or one file processed in tiles because "
+                                   "of --memory) [default: all cores; 1: this process alone]."),
+                 click.option("--scheduler", default=None, metavar="ADDRESS", callback=not_empty("an address"),
+                              help="Run the tiles on this dask.distributed scheduler (e.g. tcp://host:8786) instead "
+                                   "of local processes; needs the dask extra.")]
+    else:
+        opts += [click.option("--workers", type=click.IntRange(1, 1024), default=None,
+                              help="Local worker processes [default: all cores; 1: this process alone]."),
+                 click.option("--scheduler", default=None, metavar="ADDRESS", callback=not_empty("an address"),
+                              help="Run the tasks on this dask.distributed scheduler (e.g. tcp://host:8786) instead "
+                                   "of local processes; needs the dask extra.")]
+    if work_dir:
+        opts.append(click.option("--work-dir", default=None, metavar="DIR", callback=not_empty("a folder"),
+                                 help="Scratch folder of a run in tiles (staged points, finished tiles); every worker "
+                                      "must see it at this path [default: beside or inside the output]."))
 
     @functools.wraps(func)
-    def wrapper(tile_size, workers, scheduler, memory, **kwargs):
-        return func(tiling={"tile_size": tile_size, "workers": workers, "scheduler": scheduler, "memory": memory},
-                    **kwargs)
+    def wrapper(**kwargs):
+        from ..tiling.execution import Execution
+
+        given = {k: kwargs.pop(k) for k in ("memory", "tile_size", "workers", "scheduler", "work_dir") if k in kwargs}
+        if given.get("memory") is None:
+            given.pop("memory", None)
+        return func(execution=Execution(**given), **kwargs)
 
     for opt in reversed(opts):
         wrapper = opt(wrapper)
     return wrapper
 
 
-def resume_options(func):
-    """``--resume`` and ``--work-dir`` for commands that write a set's results."""
-    func = click.option("--work-dir", default=None, metavar="DIR", callback=not_empty("a folder"),
-                        help="Scratch folder of a tiled run (staged points, finished tiles); every worker "
-                             "must see it at this path [default: OUT/.lidar-sig-work for saliency, "
-                             "OUT.work for signature, .OUT.lidar-sig-work for one file over --memory].")(func)
-    return click.option("--resume", is_flag=True,
-                        help="Reuse what an earlier tiled run of the same files and method finished "
-                             "(kept in its work folder after a failure).")(func)
+resume_option = click.option("--resume", is_flag=True,
+                             help="Reuse what an earlier run in tiles of the same files and method finished (kept "
+                                  "in its work folder after a failure).")
+json_option = click.option("--json", "as_json", is_flag=True, help="Print one JSON object on stdout.")

@@ -1,25 +1,9 @@
 """Printing of run summaries shared by the commands."""
+import json
+
 import click
 
 from ..errors import counted
-
-
-def run_summary(source, result):
-    """One line: points, method, scales, units, undefined, capped, duplicate and left-out counts."""
-    from ..reporting.sections import scales_text
-
-    m = result.metadata
-    text = (f"{source}: {counted(m['n_points'], 'point')}, {m['descriptor']} {m['strategy']}, {scales_text(m)}, "
-            f"{m['weights']} weights, units {m['units']}; {m['n_undefined']:,} undefined")
-    if m["n_undefined"]:
-        text += " (left out of the signature)"
-    if m["n_capped"]:
-        text += f", {counted(m['n_capped'], 'neighbourhood')} capped at {m['max_neighbors']}"
-    if m["n_duplicates"]:
-        text += f", {counted(m['n_duplicates'], 'duplicate point')} (one location each)"
-    if m.get("n_excluded"):
-        text += f", {counted(m['n_excluded'], 'withheld or noise point')} left out"
-    return text
 
 
 def archive_summary_line(side):
@@ -33,5 +17,16 @@ def archive_summary_line(side):
             f"{m.get('strategy', '?')}, {scales}, {m.get('weights', 'none')} weights")
 
 
-def echo_run(source, result):
-    click.echo(run_summary(source, result))
+def show(done, *, quiet=False, as_json=False):
+    """Print what a job did (a :class:`lidar_sig.jobs.common.JobRun`): its JSON object with
+    ``--json``, else its lines unless ``--quiet``; an incomplete run's problems on stderr, then
+    exit status 1."""
+    if as_json:
+        click.echo(json.dumps(done.to_dict()))
+    elif not quiet:
+        for line in done.lines:
+            click.echo(line)
+    if not done.complete:
+        for line in done.problems():
+            click.echo(f"lidar-sig: {line}", err=True)
+        raise click.exceptions.Exit(1)

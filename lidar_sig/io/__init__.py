@@ -9,8 +9,9 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+import lazy_loader
+
 from ..errors import LidarSigError, as_path
-from ..lazy import lazy_names
 from ..progress import step
 from .atomic import atomic_output, check_output, check_outputs, output_group
 from .formats import CLOUD_EXTENSIONS, HDF5_EXTENSIONS, LAS_EXTENSIONS, OPEN3D_EXTENSIONS, TEXT_EXTENSIONS
@@ -27,7 +28,15 @@ __all__ = ["read", "write_cloud", "parse_columns", "CLOUD_EXTENSIONS", "atomic_o
            "archive_summary", "LAS_EXTENSIONS", "TEXT_EXTENSIONS", "HDF5_EXTENSIONS"]
 
 
-__getattr__, __dir__ = lazy_names(__name__, _EXPORTS)
+_SUBMODULES = ("atomic", "catalog", "fields", "formats", "geopackage", "geotiff", "h5", "hdf5", "las", "open3d", "png",
+               "results", "table", "text")
+__getattr__, _lazy_dir, _ = lazy_loader.attach(
+    __name__, submodules=_SUBMODULES,
+    submod_attrs={m: [n for n, where in _EXPORTS.items() if where == m] for m in set(_EXPORTS.values())})
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_lazy_dir()))
 
 
 def read(path, *, columns=None):

@@ -16,11 +16,28 @@ class Descriptor:
 
     Subclasses set ``name`` and ``summary`` and give either ``eigenvalues(batch)``, returning
     the (B, S, 3) eigenvalues (in any order, >= 0 up to round-off, NaN where undefined) of the
-    tensor at each scale, or override ``saliency(batch)`` directly.
+    tensor at each scale, or override ``saliency(batch)`` directly. ``kernels`` lists the
+    compiled (numba) functions it calls, as ``(module, (function, ...))`` pairs: a run loads
+    them before its first step, the first run after installing says that they compile, and
+    later runs warm them up in the background (:mod:`lidar_sig.compile`). ``tileable`` says
+    whether a run may cut the cloud into tiles with halos (docs/scale-out.md).
     """
 
     name = ""
     summary = ""
+    kernels: tuple = ()
+
+    def __repr__(self):
+        params = ", ".join(f"{k}={v!r}" for k, v in self.params().items())
+        return f"<descriptor {self.name}" + (f" ({params})" if params else "") + ">"
+
+    @property
+    def tileable(self):
+        """True when a tile's block gives its points the whole cloud's saliency: every
+        descriptor whose tensors come from the neighbourhoods alone. One that needs a pass over
+        the whole cloud first (it overrides :meth:`prepare`) runs as one block; a subclass may
+        say otherwise by setting ``tileable`` itself."""
+        return type(self).prepare is Descriptor.prepare
 
     def eigenvalues(self, batch):
         raise NotImplementedError(f"descriptor {self.name!r} gives neither eigenvalues nor saliency")
@@ -47,11 +64,20 @@ class Descriptor:
 
 
 class Strategy:
-    """Scale strategy: per-scale saliency maps -> one saliency map per point (SPEC 4)."""
+    """Scale strategy: per-scale saliency maps -> one saliency map per point (SPEC 4).
+
+    ``chooses_scale`` says whether :meth:`combine` picks one scale per point (an output of the
+    run, e.g. Optimal-scale's OptimalScale); ``kernels`` as for :class:`Descriptor`.
+    """
 
     name = ""
     summary = ""
     default_scales = None
+    chooses_scale = False
+    kernels: tuple = ()
+
+    def __repr__(self):
+        return f"<strategy {self.name}>"
 
     def combine(self, per_scale):
         """Return ((B, 3) saliency, (B,) chosen scale index or None)."""

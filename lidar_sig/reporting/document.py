@@ -10,7 +10,7 @@ from . import page
 from .paths import check_plots_folder, check_report_path
 
 
-@dataclass
+@dataclass(repr=False)
 class Report:
     """An HTML report: ``title``, the page's ``body`` (an HTML fragment with its style) and its
     ``figures`` (file name -> PNG bytes), in the page's order."""
@@ -18,6 +18,9 @@ class Report:
     title: str
     body: str
     figures: dict = field(default_factory=dict)
+
+    def __repr__(self):
+        return f"<Report {self.title!r}, {len(self.figures)} figures, {len(self.body) / 1e6:.1f} MB of HTML>"
 
     def html(self):
         """The whole page, as text."""

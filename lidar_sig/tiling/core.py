@@ -35,7 +35,6 @@ import numpy as np
 from ..bounds import bounds
 from ..errors import LidarSigError, positive_metres
 from ..neighbors import NeighborIndex, area_cap, radius_reach, unique_points
-from ..plugins.base import Descriptor
 
 #: Relative margin kept between a needed distance and the halo's edge (round-off of the tests).
 MARGIN = 1e-9
@@ -183,14 +182,10 @@ class TileResult:
     stats: dict = field(default_factory=dict)
 
 
-def tileable(pipeline):
-    """False for a descriptor that needs a pass over the whole cloud before the blocks."""
-    return type(pipeline.descriptor).prepare is Descriptor.prepare
-
-
 def check_tileable(pipeline):
-    """Refuse descriptors that need a pass over the whole cloud before the blocks."""
-    if not tileable(pipeline):
+    """Refuse a descriptor that cannot run in tiles (``Descriptor.tileable``: one that needs a
+    pass over the whole cloud before the blocks)."""
+    if not pipeline.descriptor.tileable:
         raise LidarSigError(f"the {pipeline.descriptor.name} descriptor needs the whole cloud at once "
                             "(its prepare step) and cannot run in tiles; process each file alone")
 

@@ -22,7 +22,7 @@ import math
 import re
 from pathlib import Path
 
-from ..errors import LidarSigError, counted
+from ..errors import LidarSigError, arg, counted
 
 GIB = 2**30
 MIB = 2**20
@@ -45,18 +45,24 @@ _UNITS = {"": GIB, "k": 2**10, "m": MIB, "g": GIB, "t": 2**40}
 _PATTERN = re.compile(r"^\s*([0-9]*\.?[0-9]+(?:e[+-]?[0-9]+)?)\s*([kmgt]?)(?:i?b)?\s*$", re.IGNORECASE)
 
 
-def parse_memory(text):
-    """Bytes of a memory budget written as ``1GiB``, ``800MiB``, ``1.5G``, ``2GB`` or a bare
-    number of GiB (units are binary: 1G = 1GiB = 2**30 bytes); LidarSigError naming the value
-    and the fix otherwise, and for a budget too small to run a tile in."""
-    match = _PATTERN.match(str(text))
-    value = float(match.group(1)) if match else math.nan
-    if not math.isfinite(value) or value <= 0:
-        raise LidarSigError(f"--memory must be a positive size such as 1GiB, 800MiB or 2G, got {text!r}")
-    budget = int(value * _UNITS[match.group(2).lower()])
+def budget_bytes(value):
+    """Bytes of a memory budget given as a whole number of bytes or as a size ``1GiB``,
+    ``800MiB``, ``1.5G``, ``2GB`` or a bare number of GiB in text (units are binary: 1G = 1GiB
+    = 2**30 bytes); LidarSigError naming the value and the fix otherwise, and for a budget too
+    small to run a tile in."""
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        shown = f"{value!r} bytes"
+        budget = int(value) if math.isfinite(value) and value > 0 else None
+    else:
+        match = _PATTERN.match(str(value)) if isinstance(value, str) else None
+        number = float(match.group(1)) if match else math.nan
+        shown = repr(value)
+        budget = int(number * _UNITS[match.group(2).lower()]) if math.isfinite(number) and number > 0 else None
+    if budget is None:
+        raise LidarSigError(f"{arg('memory')} must be a positive size such as 1GiB, 800MiB or 2G, got {shown}")
     least = BASE_BYTES + TILE_BYTES_PER_POINT * MIN_BUDGET_TILE_POINTS
     if budget < least:
-        raise LidarSigError(f"--memory {text} is less than a process needs to run a tile ({size(least)}); "
+        raise LidarSigError(f"{arg('memory', value)} is less than a process needs to run a tile ({size(least)}); "
                             f"give at least {math.ceil(least / MIB)}MiB")
     return budget
 

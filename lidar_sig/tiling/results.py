@@ -1,15 +1,19 @@
 """What a tiled run of a set made, read back from the work folder: the tiles' statistics, what
 failed and why, the set's signature (the sum of the tiles'), and each input file's per-point
-saliency merged from the tiles' results chunk by chunk, or streamed into its LAS/LAZ output."""
+saliency merged from the tiles' results chunk by chunk, or streamed into its LAS/LAZ output;
+and the Result of one file run in tiles (:class:`TiledResult`), which keeps them there."""
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from .. import __version__
+from ..errors import LidarSigError, arg, counted
 from ..progress import step
+from ..result import Result
 from ..saliency import Saliency
 from ..signature import Signature
 from .core import SetContext, Tiling
@@ -17,7 +21,7 @@ from .sources import ID_BITS
 from .tasks import Plan, points_paths, result_path
 
 
-@dataclass
+@dataclass(repr=False)
 class SetRun:
     """What a tiled run of a set made, and what it could not."""
 
@@ -34,6 +38,11 @@ class SetRun:
     labelled: bool = False  # some point has a class code
     seconds: float = 0.0
     execution: str = ""
+
+    def __repr__(self):
+        state = "complete" if self.complete else f"incomplete: {len(self.missing)} missing"
+        return (f"<SetRun {counted(len(self.sources), 'file')}, {counted(len(self.tile_stats), 'tile')}, {state}, "
+                f"{self.execution or 'not run'}>")
 
     @property
     def missing(self):
@@ -53,6 +62,28 @@ class SetRun:
                 "n_tiles_run": len(self.tile_stats),
                 "n_recomputed": sum(s["n_recomputed"] for s in self.tile_stats.values())}
 
+    def summary(self, over=None, memory=None):
+        """Two lines for people: the tiles (for one file run in tiles because its ``over``
+        points exceed the ``memory`` budget as one block, why), and where and how fast they
+        ran. None before the tiles were made (every input failed)."""
+        from .memory import exceed
+
+        if self.tiling is None:
+            return []
+        n = sum(s["n_points"] for s in self.tile_stats.values())
+        recomputed = sum(s["n_recomputed"] for s in self.tile_stats.values())
+        resumed = sum(bool(s.get("resumed")) for s in self.tile_stats.values())
+        nx, ny = self.tiling.shape
+        lost = f" ({len(self.failed_sources)} missing)" if self.failed_sources else ""
+        excluded = sum(self.excluded.values())
+        head = (f"{exceed(over, memory)}: processed in {counted(len(self.tile_stats), 'tile')}" if over else
+                f"set of {counted(len(self.sources), 'file')}{lost}: {counted(n, 'point')} in "
+                f"{counted(len(self.tile_stats), 'tile')}")
+        return [f"{head} of {self.tiling.size:.4g} m ({nx} x {ny} grid"
+                + (f", {resumed} reused" if resumed else "") + f"), {counted(recomputed, 'point')} recomputed "
+                "with a wider halo" + (f"; {counted(excluded, 'withheld or noise point')} left out" if excluded else ""),
+                f"{self.execution}: {self.seconds:.1f} s, {n / max(self.seconds, 1e-9):,.0f} points/s"]
+
     def source_records(self):
         """Every source file with its SHA-256 (those that could be read)."""
         return [{"path": s.path, "sha256": self.sha256[s.path]} for s in self.sources if s.path in self.sha256]
@@ -68,7 +99,7 @@ class SetRun:
         found = self.excluded.get(source.id, 0) + sum(self.tile_stats[ij]["sources"][key] for ij in tiles)
         if found != source.n_points:
             return None
-        has_chosen = self.plan.pipeline.strategy.name == "optimal"
+        has_chosen = self.plan.pipeline.strategy.chooses_scale
         base = np.int64(source.id) << np.int64(ID_BITS)
 
         def chunk(start, stop):
@@ -106,6 +137,93 @@ class SetRun:
             write_las_chunks(output, source.path, chunk, scale_kind=pipe.scales.kind, scale_values=pipe.scales.values,
                              overwrite=overwrite)
         return True
+
+
+class TiledResult(Result):
+    """The :class:`~lidar_sig.result.Result` of one LAS/LAZ file that one block would hold
+    above the memory budget, run in tiles with halos (the same values as one block): its
+    per-point values stay in the run's work folder, in tiles, until they are asked for
+    (``saliency``, ``cloud``, a point cloud written other than as LAS/LAZ, which hold them all
+    in memory); ``write`` streams them into a LAS/LAZ file chunk by chunk. The work folder is
+    removed by :meth:`close`, by leaving a ``with`` block, or when the result is collected.
+    """
+
+    tiled = True
+
+    def __init__(self, run, work, over, memory, remove):
+        self.run = run
+        self.source = run.sources[0]
+        self.over = over
+        self.memory = memory
+        self.work = Path(work)
+        self.metadata = {**run.signature.metadata, "source": self.source.path, "tiling": run.tiling_record()}
+        self._cloud = None
+        self._closed = weakref.finalize(self, remove, self.work)
+
+    @property
+    def signature(self):
+        """The file's Signature: the sum of its tiles' (count rasters are additive)."""
+        return self.run.signature
+
+    @property
+    def cloud(self):
+        """The file read into a PointCloud (every point in memory: read when first asked for)."""
+        if self._cloud is None:
+            from ..io import read
+
+            self._cloud = read(self.source.path)
+        return self._cloud
+
+    @property
+    def saliency(self):
+        """Per-point Saliency of the whole file, in its point order (gathered from the tiles
+        into memory when asked for)."""
+        self._check_open()
+        return self.run.saliency_of(self.source)
+
+    def summary_lines(self):
+        """What the tiles were (:meth:`SetRun.summary`)."""
+        return self.run.summary(self.over, self.memory)
+
+    def write(self, path, *, overwrite=False, points=None, render="smooth"):
+        """As :meth:`Result.write`, without holding the points: a LAS/LAZ file is streamed from
+        the tiles, an archive (.h5) holds the signature and the tiling without per-point
+        datasets (``points=True`` is refused: they would not fit the budget), a .png is Sas.
+        Other point-cloud formats are refused: they are written whole."""
+        from ..errors import as_path
+        from ..io import CLOUD_EXTENSIONS, HDF5_EXTENSIONS, LAS_EXTENSIONS, check_output, write_archive
+        from ..io.png import write_signature_png
+        from .memory import exceed
+
+        path = as_path(path, "write")
+        ext = path.suffix.lower()
+        self._check_open()
+        if ext in LAS_EXTENSIONS:
+            check_output(path, overwrite=overwrite)
+            self.run.write_points(self.source, path, overwrite=overwrite)
+        elif ext in HDF5_EXTENSIONS:
+            if points:
+                raise LidarSigError(f"{exceed(self.over, self.memory)}: its archive holds the signature without "
+                                    f"per-point datasets; leave out {arg('points', True)}, or write the points as "
+                                    "LAS/LAZ", path=path)
+            write_archive(path, self.signature, sources=self.run.source_records(), render=render,
+                          overwrite=overwrite, tiling=self.run.tiling_record())
+        elif ext == ".png":
+            write_signature_png(path, self.signature, mode=render, overwrite=overwrite)
+        elif ext in CLOUD_EXTENSIONS:
+            raise LidarSigError(f"{exceed(self.over, self.memory)}; tiles write per-point results to LAS/LAZ only: "
+                                f"give a .las or .laz name, or raise {arg('memory')}", path=path)
+        else:
+            raise LidarSigError(f"cannot write {ext or 'files without extension'}; use a point-cloud "
+                                "format, .h5 or .png", path=path)
+
+    def close(self):
+        """Remove the work folder that holds the per-point values (the signature stays)."""
+        self._closed()
+
+    def _check_open(self):
+        if not self._closed.alive:
+            raise LidarSigError("this result in tiles was closed: its per-point values are gone; run it again")
 
 
 def sum_signatures(run):

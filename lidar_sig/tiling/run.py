@@ -23,7 +23,9 @@ from __future__ import annotations
 import json
 import math
 import os
+import tempfile
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -33,11 +35,11 @@ from ..neighbors import AREA_CAP
 from ..progress import progress, step
 from .core import SetContext, Tiling, check_tile_size, check_tileable, context_of, tile_name
 from .median import sorted_median
-from .memory import DEFAULT_MEMORY, tile_points
-from .results import SetRun, sum_signatures
+from .memory import DEFAULT_MEMORY, budget_bytes, tile_points
+from .results import SetRun, TiledResult, sum_signatures
 from .sources import Cells, cell_files, densest, expand, scan, staged, tile_side_for
 from .tasks import Plan, second_paths, second_task, stage_task, tile_task
-from .work import forget_area_cap, prepare_work, save_area_cap, saved_area_cap
+from .work import discard_work, forget_area_cap, prepare_work, remove_work, save_area_cap, saved_area_cap
 
 #: Staging cells per tile side.
 CELLS_PER_TILE = 4
@@ -59,6 +61,7 @@ def run_set(pipeline, inputs, *, work, tile_size=None, backend=None, resume=Fals
     from .execute import InProcess
 
     check_tileable(pipeline)
+    memory = budget_bytes(memory)
     pipeline.announce_compilation()  # the workers compile in silence (their pipelines are quiet)
     sized = tile_size is None  # sized to the memory budget
     if not sized:
@@ -189,14 +192,26 @@ def run_set(pipeline, inputs, *, work, tile_size=None, backend=None, resume=Fals
     return run
 
 
-#: The options that make a set processed in tiles whatever its size.
-TILING_OPTIONS = ("tile_size", "workers", "scheduler")
-
-
-def tiles_asked(tiling):
-    """True when the options ``tiling`` (a dict, as the command line passes them) ask for tiles:
-    any of TILING_OPTIONS given (the memory budget alone decides by the size)."""
-    return any((tiling or {}).get(k) is not None for k in TILING_OPTIONS)
+def run_in_tiles(pipeline, source, execution, *, n_points, work=None, outputs=()):
+    """One LAS/LAZ file whose ``n_points`` points one block would hold above the memory budget
+    of ``execution``, processed in tiles (:func:`run_set`) into a
+    :class:`~lidar_sig.tiling.results.TiledResult`, which keeps the per-point values in the
+    work folder: ``work``, else the execution's ``work_dir``, else a new temporary folder. The
+    folder goes with the result (:meth:`TiledResult.close`), or at once when the run fails or
+    lacks a point (LidarSigError naming what is missing)."""
+    ours = work is None and execution.work_dir is None
+    work = Path(tempfile.mkdtemp(prefix="lidar-sig-work-")) if ours else Path(work or execution.work_dir)
+    remove = discard_work if ours else remove_work
+    try:
+        with execution.backend() as backend:
+            run = run_set(pipeline, [source], work=work, tile_size=execution.tile_size, backend=backend,
+                          outputs=outputs, memory=execution.memory)
+        if not run.complete:
+            raise LidarSigError("could not be processed in tiles: " + "; ".join(run.missing), path=source)
+    except BaseException:
+        remove(work)
+        raise
+    return TiledResult(run, work, n_points, execution.memory, remove)
 
 
 def _quiet(pipeline):

@@ -44,6 +44,12 @@ def remove_work(work):
         shutil.rmtree(work, ignore_errors=True)
 
 
+def discard_work(work):
+    """Remove a temporary work folder made for one run (all of it: it was made new and holds
+    nothing else)."""
+    shutil.rmtree(work, ignore_errors=True)
+
+
 def saved_area_cap(work, key):
     """The area-weight cap an earlier run of the same set and method (``key``, see
     :meth:`lidar_sig.tiling.tasks.Plan.key`) saved in ``work``, or None."""

@@ -233,7 +233,7 @@ def test_interrupt_after_an_output_was_written_names_it(tmp_path, monkeypatch, c
     def signalled(*args, **kwargs):  # SIGTERM while the summary is printed, after the write
         raise Interrupted(signal.SIGTERM)
 
-    monkeypatch.setattr(lidar_sig.cli.saliency, "echo_run", signalled)
+    monkeypatch.setattr(lidar_sig.cli.saliency, "show", signalled)
     src = write_las(tmp_path / "c.las", SMALL)
     out = tmp_path / "o.las"
     assert main(["saliency", str(src), "-o", str(out), "--k", "10"]) == 128 + signal.SIGTERM
@@ -304,8 +304,8 @@ def test_fractions_with_an_empty_item_or_twice_the_same_are_refused(tmp_path, fr
 
 def test_counts_of_one_are_singular():
     # "1 points have NaN ...", "holds 1 distinct locations", "1 duplicate points", ...
-    from lidar_sig.cli.summaries import run_summary
     from lidar_sig.errors import counted
+    from lidar_sig.result import Result
 
     assert (counted(1, "point"), counted(2, "point"), counted(12345, "class", "classes")) == \
         ("1 point", "2 points", "12,345 classes")
@@ -318,12 +318,10 @@ def test_counts_of_one_are_singular():
     with pytest.raises(ls.LidarSigError, match=r"holds 1 point,"):
         ls.Pipeline(scales=ls.knn(2), progress=False).run(np.ones((1, 3)))
 
-    class Result:
-        metadata = {"n_points": 1, "descriptor": "c3dcm", "strategy": "multiscale", "scale_kind": "knn",
-                    "resolved_scales": [10], "weights": "area", "units": "metre", "n_undefined": 1,
-                    "n_capped": 1, "max_neighbors": 512, "n_duplicates": 1}
-
-    line = run_summary("c.las", Result())
+    metadata = {"n_points": 1, "descriptor": "c3dcm", "strategy": "multiscale", "scale_kind": "knn",
+                "resolved_scales": [10], "weights": "area", "units": "metre", "n_undefined": 1,
+                "n_capped": 1, "max_neighbors": 512, "n_duplicates": 1}
+    line = Result(None, None, metadata=metadata, make_signature=lambda: None).summary("c.las")
     assert "1 point," in line and "1 neighbourhood capped" in line and "1 duplicate point " in line
 
 

@@ -12,6 +12,7 @@ class C3DCM(Descriptor):
 
     name = "c3dcm"
     summary = "covariance tensor of the neighbourhood (C3DCM)"
+    kernels = (("lidar_sig.kernels", ("covariance_eigenvalues",)),)
 
     def eigenvalues(self, batch):
         from ...kernels import covariance_eigenvalues  # numba: loaded to compute, not to list plugins

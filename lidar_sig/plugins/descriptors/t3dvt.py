@@ -30,6 +30,7 @@ class T3DVT(Descriptor):
 
     name = "t3dvt"
     summary = "tensor voting with ball tensors and anisotropic diffusion (T3DVT)"
+    kernels = (("lidar_sig.kernels", ("voting_eigenvalues",)),)
 
     def __init__(self, delta=0.16, diffusion=True):
         if not delta > 0:

@@ -33,6 +33,8 @@ class T3DVTGET(T3DVT):
 
     name = "t3dvt-get"
     summary = "tensor voting modified by the gradient energy tensor of the height field (T3DVT-GET)"
+    kernels = (("lidar_sig.kernels", ("voting_eigenvalues",)),
+               ("lidar_sig.get", ("first_pass", "second_pass", "third_pass", "_pack_rows")))
 
     def __init__(self, delta=0.16, diffusion=True, get_threshold=GET_THRESHOLD):
         super().__init__(delta=delta, diffusion=diffusion)

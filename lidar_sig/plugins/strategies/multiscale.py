@@ -16,6 +16,7 @@ class Multiscale(Strategy):
     name = "multiscale"
     summary = "average saliency over scales (default k = 20, 30, 40)"
     default_scales = knn(20, 30, 40)
+    kernels = (("lidar_sig.kernels", ("mean_over_scales",)),)
 
     def combine(self, per_scale):
         from ...kernels import mean_over_scales  # numba loads with the first kernel a run calls

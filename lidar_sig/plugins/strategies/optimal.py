@@ -15,6 +15,7 @@ class OptimalScale(Strategy):
     name = "optimal"
     summary = "saliency at the scale of minimum entropy (default k = 10, 20, ..., 100)"
     default_scales = PAPER_K
+    chooses_scale = True
 
     def combine(self, per_scale):
         entropy = geometric_entropy(per_scale)

@@ -1,0 +1,15 @@
+"""The jobs: one library call per thing a user asks for, deciding everything a run decides
+(one block or tiles from the memory budget, the work folder, which outputs are checked before
+the work), writing its outputs whole or not at all, and returning what it did. The command line
+and the QGIS provider only gather options and show the result (docs/python.md, "Jobs").
+
+>>> import lidar_sig as ls                                              # doctest: +SKIP
+>>> ls.jobs.saliency("big.laz", "big_sal.laz")                          # doctest: +SKIP
+<SaliencyRun complete; wrote big_sal.laz>
+"""
+from .catalog import CatalogJob, catalog
+from .compare import CompareRun, compare
+from .saliency import SaliencyRun, saliency
+from .signature import SignatureRun, signature
+
+__all__ = ["CatalogJob", "CompareRun", "SaliencyRun", "SignatureRun", "catalog", "compare", "saliency", "signature"]

@@ -1,0 +1,61 @@
+"""A survey catalogue made or grown (``lidar-sig catalog``; docs/commands/catalog.md)."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from ..errors import counted
+from .common import JobRun
+
+
+@dataclass(repr=False)
+class CatalogJob(JobRun):
+    """What :func:`catalog` did (:class:`JobRun`), with the catalogue's own account
+    (:class:`~lidar_sig.catalog.build.CatalogRun`: tiles added, recomputed, unchanged, failed)."""
+
+    run: Any = None
+
+    def to_dict(self) -> dict[str, Any]:
+        r = self.run
+        return {**super().to_dict(), "catalogue": r.output, "tiles": r.n_tiles, "added": list(r.added),
+                "updated": list(r.updated), "unchanged": list(r.unchanged), "resumed": list(r.resumed),
+                "failed": dict(r.failed), "method": r.method, "crs": list(r.crs), "execution": r.execution}
+
+    def problems(self) -> list[str]:
+        if self.complete:
+            return []
+        from ..errors import arg
+
+        return [f"missing: {line}" for line in self.missing] + [
+            f"the catalogue lacks the {counted(len(self.missing), 'tile')} above: fix or replace them and run the "
+            f"same job again (with {arg('resume', True)} the tiles finished in the work folder are reused)"]
+
+
+def catalog(inputs: Any, output: Any, *, pipeline: Any = None, execution: Any = None, resume: bool = False,
+            overwrite: bool = False, method_given: Any = None) -> CatalogJob:
+    """Make the catalogue ``output`` (.h5) of the LAS/LAZ tiles of ``inputs``, or grow it
+    (:func:`lidar_sig.catalog.build_catalog`), on the workers or cluster of ``execution``, its
+    work folder the execution's ``work_dir`` (default ``OUTPUT.work``)."""
+    from ..catalog import build_catalog
+    from ..crs import crs_name
+    from ..reporting.sections import scales_text
+    from ..tiling.execution import as_execution
+
+    execution = as_execution(execution)
+    with execution.backend() as backend:
+        run = build_catalog(inputs, output, pipeline, backend=backend, work=execution.work_dir, resume=resume,
+                            overwrite=overwrite, method_given=method_given)
+    lines = []
+    if run.n_tiles:
+        what = [f"{len(run.added)} added"] if run.added or not run.grown else []
+        what += [f"{len(run.updated)} recomputed (changed)"] if run.updated else []
+        what += [f"{len(run.unchanged)} unchanged"] if run.unchanged else []
+        what += [f"{len(run.resumed)} reused from the work folder"] if run.resumed else []
+        m = run.method
+        crs = [crs_name(c) or "none" for c in run.crs]
+        where = f"CRS {crs[0]}" if len(crs) == 1 else f"{len(crs)} CRSs ({', '.join(crs)}): neighbours are found within each"
+        lines = [f"{output}: {run.n_tiles:,} tile{'s' if run.n_tiles != 1 else ''} ({', '.join(what)}), "
+                 f"{m['descriptor']} {m['strategy']}, {scales_text(m)}, {m['weights']} weights; {where}",
+                 f"{run.execution}: {run.seconds:.1f} s"]
+    return CatalogJob(written=[str(output)] if run.n_tiles else [], missing=run.missing, seconds=run.seconds,
+                      lines=lines, run=run)

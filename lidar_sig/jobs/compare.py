@@ -1,0 +1,36 @@
+"""Two inputs compared, and the report written (``lidar-sig compare``; docs/commands/compare.md)."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from .common import JobRun
+
+
+@dataclass(repr=False)
+class CompareRun(JobRun):
+    """What :func:`compare` did (:class:`JobRun`): the :class:`~lidar_sig.comparison.Comparison`
+    and the report files written."""
+
+    comparison: Any = None
+
+    def to_dict(self) -> dict[str, Any]:
+        return {**self.comparison.to_dict(), "written": list(self.written)}
+
+
+def compare(a: Any, b: Any, *, report: Any = None, plots: Any = None, overwrite: bool = False, pipeline: Any = None,
+            render: str | None = None, columns: Any = None, execution: Any = None,
+            method_given: Any = ()) -> CompareRun:
+    """Compare ``a`` and ``b`` (:func:`lidar_sig.comparison.compare_sources`) and write the
+    report (``report``, an .html file) and its figures (``plots``, a folder), checked before any
+    work and written together or not at all. ``method_given``: the method options a user set,
+    which an archive's recorded method must then agree with."""
+    from ..comparison import compare_sources
+    from ..reporting import COMPARISON_PLOTS
+    from .reports import check_report_outputs, write_report
+
+    check_report_outputs(report, plots, COMPARISON_PLOTS, overwrite)
+    comparison = compare_sources(a, b, pipeline, render=render, columns=columns, method_given=method_given,
+                                 execution=execution)
+    written, lines = write_report(comparison.report, report, plots, overwrite) if report or plots else ([], [])
+    return CompareRun(comparison=comparison, written=written, lines=lines)

@@ -1,0 +1,167 @@
+"""The per-point saliency of files, written (``lidar-sig saliency``; docs/commands/saliency.md).
+
+One file gives one output (LAS/LAZ extra dimensions, PLY/PCD attributes, text columns), as one
+block or, when one block would exceed the memory budget, in tiles streamed into the one LAS/LAZ
+file named; several files, folders or tiles asked for make a set processed in tiles, with one
+LAS/LAZ output per input file in an output folder. Outputs are checked before any work and
+written whole or not at all.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from ..errors import LidarSigError
+from ..io import CLOUD_EXTENSIONS, LAS_EXTENSIONS, check_cloud_output, check_output, read
+from .common import JobRun, as_sources, is_set, work_folder
+
+
+@dataclass(repr=False)
+class SaliencyRun(JobRun):
+    """What :func:`saliency` did (:class:`JobRun`), with the Result of one file (None for a
+    set; a closed :class:`~lidar_sig.tiling.results.TiledResult` for one run in tiles)."""
+
+    result: Any = None
+
+
+def saliency(sources: Any, output: str | Path, *, pipeline: Any = None, execution: Any = None,
+             overwrite: bool = False, resume: bool = False, columns: Any = None) -> SaliencyRun:
+    """Write each of ``sources`` with its per-point Cl, Cs, Cp, Egeom, GeomClass (and
+    OptimalScale) to ``output``.
+
+    Parameters
+    ----------
+    sources : path or list of paths
+        One point-cloud file (LAS/LAZ, PLY/PCD, text), or LAS/LAZ files and folders of them
+        processed as one set in tiles with halos (the same results as one block).
+    output : path
+        For one file: a point cloud (its format by extension). For a set: a folder that gets
+        one LAS/LAZ file per input (or, for one input file, a LAS/LAZ file).
+    pipeline : Pipeline, optional
+        The method; default ``Pipeline()``.
+    execution : Execution, optional
+        Memory budget, tiles, workers, work folder (default: 1 GiB per process, all cores, the
+        work folder beside the output).
+    overwrite, resume
+        Replace existing outputs; reuse what an earlier run of the same set finished in its
+        work folder (kept after a failure).
+    columns : str or list, optional
+        Columns of a text cloud.
+    """
+    from ..pipeline import pipeline_or_default
+    from ..tiling.execution import as_execution
+
+    pipeline = pipeline_or_default(pipeline)
+    execution = as_execution(execution)
+    sources = as_sources(sources)
+    output = Path(output)
+    one_output = (len(sources) == 1 and Path(sources[0]).is_file() and not resume
+                  and output.suffix.lower() in CLOUD_EXTENSIONS)  # one file in, one file out
+    if is_set(sources, execution, resume) and not one_output:
+        return _of_set(sources, output, pipeline, execution, overwrite, resume)
+    source = sources[0]
+    if output.suffix.lower() not in CLOUD_EXTENSIONS:
+        raise LidarSigError(f"output must be a point cloud: {', '.join(CLOUD_EXTENSIONS)}", path=output)
+    check_output(output, overwrite=overwrite)
+    start = time.perf_counter()
+    over = execution.over_budget(source, pipeline)
+    if over or execution.tiles_asked:
+        from ..tiling.run import run_in_tiles
+
+        check_las_output(output, over, execution)
+        work = work_folder(execution, output.with_name(f".{output.name}.lidar-sig-work"))
+        with run_in_tiles(pipeline, source, execution, n_points=over, work=work, outputs=[output]) as result:
+            result.write(output, overwrite=overwrite)
+        lines = result.summary_lines()
+    else:
+        cloud = read(source, columns=columns)
+        check_cloud_output(output, cloud)  # before the work, not after
+        result = pipeline.run(cloud)
+        result.write(output, overwrite=overwrite)
+        lines = [result.summary(source)]
+    seconds = time.perf_counter() - start
+    return SaliencyRun(written=[str(output)], seconds=seconds, result=result,
+                       lines=lines + [f"wrote {output} in {seconds:.1f} s"])
+
+
+def check_las_output(output: Path, over: int | None, execution: Any) -> None:
+    """Refuse a per-point output other than LAS/LAZ for a file processed in tiles."""
+    from ..errors import arg
+    from ..tiling.memory import exceed
+
+    if output.suffix.lower() not in LAS_EXTENSIONS:
+        what = f"{exceed(over, int(execution.memory))}; tiles" if over else "a file processed in tiles"
+        fix = f"raise {arg('memory')}" if over else f"leave out {arg('tile_size')}, {arg('workers')} and {arg('scheduler')}"
+        raise LidarSigError(f"{what} write per-point results to LAS/LAZ only: give a .las or .laz name, or {fix}",
+                            path=output)
+
+
+def output_name(outdir: Path, source: Any) -> Path:
+    """Per-point output of one input file of a set: its name, in ``outdir`` (LAS stays LAS,
+    LAZ LAZ)."""
+    p = Path(source.path)
+    return outdir / (p.name if p.suffix.lower() in LAS_EXTENSIONS else p.stem + ".laz")
+
+
+def _of_set(sources, outdir, pipeline, execution, overwrite, resume):
+    from ..tiling.run import run_set
+    from ..tiling.sources import expand, scan
+    from ..tiling.work import remove_work
+
+    start = time.perf_counter()
+    files = expand(sources)  # the inputs first: an empty folder is named, not the output
+    if outdir.suffix.lower() in CLOUD_EXTENSIONS or (outdir.exists() and not outdir.is_dir()):
+        raise LidarSigError("a set of tiles writes one file per input: give a folder as output", path=outdir)
+    outputs = {s.path: output_name(outdir, s) for s in scan(files)}
+    inputs = {Path(p).resolve(): p for p in outputs}
+    seen: dict[Path, str] = {}
+    for src, path in outputs.items():
+        if Path(path).resolve() in inputs:  # an input is never replaced
+            raise LidarSigError(f"would be written over its input {src}; give another output folder", path=path)
+        if path in seen:
+            raise LidarSigError(f"would be written for both {seen[path]} and {src} (same file name); give "
+                                "them in separate runs", path=path)
+        seen[path] = src
+    if not outdir.parent.is_dir():
+        raise LidarSigError("the output folder's parent does not exist; create it first", path=outdir)
+    made = make_folder(outdir)
+    work = work_folder(execution, outdir / ".lidar-sig-work")
+    try:
+        for path in outputs.values():  # before the work; a resumed run rewrites what it must
+            check_output(path, overwrite=overwrite or resume)
+        with execution.backend() as backend:
+            run = run_set(pipeline, sources, work=work, tile_size=execution.tile_size, backend=backend,
+                          resume=resume, outputs=list(outputs.values()), memory=execution.memory)
+    except BaseException:
+        if made and not any(outdir.iterdir()):
+            outdir.rmdir()
+        raise
+    job = SaliencyRun(lines=run.summary(), work=str(work))
+    for source in run.sources:
+        if source.path in run.failed_sources or run.plan is None:
+            continue
+        if run.write_points(source, outputs[source.path], overwrite=overwrite or resume):
+            job.written.append(str(outputs[source.path]))
+        else:
+            job.not_written.append(f"{outputs[source.path]} (a tile holding some of its points is missing)")
+    job.missing = run.missing
+    job.lines += [f"wrote {path}" for path in job.written]
+    if job.complete:
+        remove_work(work)
+        job.work = None
+    job.seconds = time.perf_counter() - start
+    return job
+
+
+def make_folder(folder: Path) -> bool:
+    """Make the output folder ``folder`` (its parent exists); True when it was made now. A
+    folder that cannot be made is a LidarSigError naming it and the fix."""
+    from ..io.atomic import os_errors
+
+    if folder.is_dir():
+        return False
+    with os_errors(folder):
+        folder.mkdir()
+    return True

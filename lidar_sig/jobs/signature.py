@@ -1,0 +1,156 @@
+"""The signature of a cloud or a set, written as an archive, images and a report (``lidar-sig
+signature``; docs/commands/signature.md).
+
+One file is processed as one block, or in tiles when one block would exceed the memory budget;
+several files, folders or tiles asked for make a set, whose signature is the sum of its tiles'.
+Every output is checked before any work, and all of them are written, or none.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from ..errors import LidarSigError, arg
+from ..io import HDF5_EXTENSIONS, check_outputs, output_group, read
+from .common import JobRun, as_sources, is_set, work_folder
+
+
+@dataclass(repr=False)
+class SignatureRun(JobRun):
+    """What :func:`signature` did (:class:`JobRun`), with the signature made and, for one
+    cloud, its Result."""
+
+    signature: Any = None
+    result: Any = None
+
+    def to_dict(self) -> dict[str, Any]:
+        out = super().to_dict()
+        if self.result is not None:
+            out["run"] = self.result.to_dict()
+        if self.signature is not None:
+            out["signature"] = self.signature.summary()
+        return out
+
+
+def signature(sources: Any, output: str | Path | None = None, *, png: str | Path | None = None,
+              sg: str | Path | None = None, report: str | Path | None = None, plots: str | Path | None = None,
+              points: bool = True, render: str | None = None, pipeline: Any = None, execution: Any = None,
+              overwrite: bool = False, resume: bool = False, columns: Any = None) -> SignatureRun:
+    """Compute the signature of ``sources`` and write it: an archive (``output`` .h5) or an image
+    of Sas (``output`` .png), Sas as PNG (``png``), Sg as PNG (``sg``), one cloud's HTML report
+    (``report``) and its figures (``plots``, a folder).
+
+    One file is one block, or tiles when one block would exceed the budget of ``execution``;
+    several files, folders, or tiles asked for make a set processed in tiles, whose archive
+    records the tiling and every file with its SHA-256 (no per-point datasets). ``points``:
+    per-point datasets in the archive of one cloud run as one block. A report needs the whole
+    cloud in memory. Other parameters as for :func:`lidar_sig.jobs.saliency`.
+    """
+    from ..pipeline import pipeline_or_default
+    from ..signature import RENDERINGS
+    from ..tiling.execution import as_execution
+
+    pipeline = pipeline_or_default(pipeline)
+    execution = as_execution(execution)
+    sources = as_sources(sources)
+    tiled = is_set(sources, execution, resume)
+    over = None if tiled else execution.over_budget(sources[0], pipeline)
+    if over and (report or plots):
+        from ..tiling.memory import exceed
+
+        raise LidarSigError(f"{exceed(over, int(execution.memory))}; {arg('report')} and {arg('plots')} need the whole "
+                            f"cloud in memory: raise {arg('memory')}, or write the archive", path=sources[0])
+    if tiled and (report or plots):
+        raise LidarSigError(f"{arg('report')} and {arg('plots')} are made from one cloud; for a set of tiles write "
+                            "the archive and compare it")
+    if output is None and not (report or plots):
+        raise LidarSigError(f"give an output: an .h5 or .png file, and/or a {arg('report')} or {arg('plots')}")
+    ext = Path(output).suffix.lower() if output else None
+    if output and ext not in HDF5_EXTENSIONS + (".png",):
+        raise LidarSigError("the signature is written as .h5 (archive) or .png (image)", path=output)
+    images = [p for p in (png, sg) if p]
+    for path in images:
+        if Path(path).suffix.lower() != ".png":
+            raise LidarSigError("signature images are written as .png", path=path)
+    outputs = [str(p) for p in ([output] if output else []) + images]
+    check_outputs(outputs + ([str(report)] if report else []), overwrite=overwrite)  # all of them, before any work
+    if report or plots:
+        from ..reporting import SIGNATURE_PLOTS
+        from .reports import check_report_outputs
+
+        check_report_outputs(report, plots, SIGNATURE_PLOTS, overwrite)
+    render = render or RENDERINGS[0]
+    start = time.perf_counter()
+    if tiled and not over:
+        return _of_set(sources, output, ext, png, sg, render, pipeline, execution, overwrite, resume, start)
+    if over:
+        from ..tiling.run import run_in_tiles
+
+        first = Path(outputs[0])
+        work = work_folder(execution, first.with_name(f".{first.name}.lidar-sig-work"))
+        with run_in_tiles(pipeline, sources[0], execution, n_points=over, work=work, outputs=outputs) as result, \
+                output_group():  # all outputs or none
+            _write(result.signature, output, ext, png, sg, render, overwrite, archive=result.write)
+        return SignatureRun(written=outputs, signature=result.signature, result=result,
+                            lines=result.summary_lines() + [f"wrote {', '.join(outputs)}"],
+                            seconds=time.perf_counter() - start)
+    result = pipeline.run(read(sources[0], columns=columns))
+    lines = [result.summary(sources[0])] + ([f"wrote {', '.join(outputs)}"] if outputs else [])
+    written = list(outputs)
+    with output_group():  # all outputs or none
+        _write(result.signature, output, ext, png, sg, render, overwrite,
+               archive=lambda path, **kw: result.write(path, points=points, **kw))
+        if report or plots:
+            from ..comparison import report as make_report
+            from .reports import write_report
+
+            more, said = write_report(lambda: make_report(result, render=render), report, plots, overwrite)
+            written += more
+            lines += said
+    return SignatureRun(written=written, signature=result.signature, result=result, lines=lines,
+                        seconds=time.perf_counter() - start)
+
+
+def _write(sig, output, ext, png, sg, render, overwrite, *, archive):
+    """The signature's outputs (inside the caller's output group): ``archive(path, overwrite=,
+    render=)`` writes the .h5 of the run."""
+    from ..io.png import write_signature_png
+
+    if ext == ".png":
+        write_signature_png(output, sig, kind="sas", mode=render, overwrite=overwrite)
+    elif output:
+        archive(output, overwrite=overwrite, render=render)
+    if png:
+        write_signature_png(png, sig, kind="sas", mode=render, overwrite=overwrite)
+    if sg:
+        write_signature_png(sg, sig, kind="sg", mode=render, overwrite=overwrite)
+
+
+def _of_set(sources, output, ext, png, sg, render, pipeline, execution, overwrite, resume, start):
+    from ..io import write_archive
+    from ..tiling.run import run_set
+    from ..tiling.work import remove_work
+
+    outputs = [str(p) for p in (output, png, sg) if p]
+    first = Path(outputs[0])
+    work = work_folder(execution, first.with_name(first.name + ".work"))
+    with execution.backend() as backend:
+        run = run_set(pipeline, sources, work=work, tile_size=execution.tile_size, backend=backend, resume=resume,
+                      outputs=outputs, memory=execution.memory)
+    job = SignatureRun(lines=run.summary(), work=str(work), missing=run.missing)
+    if run.complete:
+        sig = job.signature = run.signature
+        with output_group():  # all outputs or none
+            _write(sig, output, ext, png, sg, render, overwrite,
+                   archive=lambda path, **kw: write_archive(path, sig, sources=run.source_records(),
+                                                            tiling=run.tiling_record(), **kw))
+        job.written = outputs
+        job.lines.append(f"wrote {', '.join(outputs)}")
+        remove_work(work)
+        job.work = None
+    else:
+        job.not_written = ["the set's signature (it would lack the points above)"]
+    job.seconds = time.perf_counter() - start
+    return job

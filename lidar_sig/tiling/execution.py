@@ -1,0 +1,120 @@
+"""How a job runs: :class:`Execution`, the memory budget of each process (which decides whether a
+LAS/LAZ file runs as one block or in tiles) and, for work in tiles, their size, where they run
+(this process, local processes, a Dask cluster) and where their scratch files go
+(docs/scale-out.md). Every face passes one: the command line builds it from ``--memory``,
+``--tile-size``, ``--workers``, ``--scheduler`` and ``--work-dir``; Python gives it to
+``Pipeline.run`` and to the jobs of :mod:`lidar_sig.jobs`, or takes the default.
+"""
+from __future__ import annotations
+
+import contextlib
+import math
+import os
+import warnings
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from ..errors import LidarSigError, LidarSigWarning, a_kind, arg, whole_number
+from .memory import DEFAULT_MEMORY, budget_bytes, one_block_note, points_over_budget, size
+
+#: Most local worker processes.
+MAX_WORKERS = 1024
+
+
+@dataclass(frozen=True)
+class Execution:
+    """How a job runs.
+
+    Parameters
+    ----------
+    memory : int or str
+        Memory budget of each process: bytes, or a size such as ``"1GiB"``, ``"800MiB"``,
+        ``"1.5G"`` (binary units); default 1 GiB. A LAS/LAZ file that needs more as one block
+        is processed in tiles sized to it (docs/performance.md has the model).
+    tile_size : float, optional
+        Side of the processing tiles in metres; given, a set of files or a file is processed
+        in tiles whatever its size.
+    workers : int, optional
+        Local worker processes of a run in tiles (default: all cores; 1: this process alone).
+    scheduler : str, optional
+        Address of a dask.distributed scheduler (``tcp://host:8786``) to run the tiles on
+        instead of local processes (needs the dask extra).
+    work_dir : str or Path, optional
+        Scratch folder of a run in tiles, seen by every worker at this path (default: beside
+        the output, or a temporary folder for a result kept in Python).
+    """
+
+    memory: int | str = DEFAULT_MEMORY
+    tile_size: float | None = None
+    workers: int | None = None
+    scheduler: str | None = None
+    work_dir: str | os.PathLike[str] | None = None
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "memory", budget_bytes(self.memory))
+        if self.tile_size is not None:
+            if isinstance(self.tile_size, bool) or not isinstance(self.tile_size, (int, float)) \
+                    or not math.isfinite(self.tile_size) or self.tile_size <= 0:
+                raise LidarSigError(f"{arg('tile_size')} must be a positive number of metres, got {self.tile_size!r}")
+            object.__setattr__(self, "tile_size", float(self.tile_size))
+        if self.workers is not None:
+            object.__setattr__(self, "workers", whole_number(self.workers, arg("workers"), low=1, high=MAX_WORKERS))
+        if self.scheduler is not None and (not isinstance(self.scheduler, str) or not self.scheduler.strip()):
+            raise LidarSigError(f"{arg('scheduler')} must be an address such as tcp://host:8786, got "
+                                f"{a_kind(self.scheduler) if not isinstance(self.scheduler, str) else 'an empty text'}")
+        if self.scheduler and self.workers:
+            raise LidarSigError(f"give {arg('workers')} or {arg('scheduler')}, not both (the cluster has its own workers)")
+        if self.work_dir is not None:
+            if not isinstance(self.work_dir, (str, os.PathLike)) or not str(self.work_dir):
+                raise LidarSigError(f"{arg('work_dir')} must be a folder path, got {a_kind(self.work_dir)}")
+            object.__setattr__(self, "work_dir", Path(self.work_dir))
+
+    def __repr__(self) -> str:
+        where = (f"Dask {self.scheduler}" if self.scheduler else "all cores" if self.workers is None
+                 else f"{self.workers} process{'es' if self.workers > 1 else ''}")
+        tiles = f", tiles of {self.tile_size:g} m" if self.tile_size else ""
+        work = f", work in {self.work_dir}" if self.work_dir else ""
+        return f"Execution({size(int(self.memory))} per process, {where}{tiles}{work})"
+
+    @property
+    def tiles_asked(self) -> bool:
+        """True when tiles are asked for whatever the size: a tile size, workers or a
+        scheduler given (the memory budget alone decides by the size)."""
+        return self.tile_size is not None or self.workers is not None or self.scheduler is not None
+
+    def over_budget(self, source: Any, pipeline: Any) -> int | None:
+        """The points of ``source`` when one block of them would need more than the memory
+        budget, so that the job runs it in tiles; None when it fits, when it is not a LAS/LAZ
+        file (its size is known only once read), or when the descriptor needs the whole cloud
+        at once (a note then says it runs as one block after all). The one place where a job
+        chooses between one block and tiles."""
+        if not isinstance(source, (str, os.PathLike)):
+            return None
+        n = points_over_budget(source, int(self.memory))
+        if n is not None and not pipeline.descriptor.tileable:
+            warnings.warn(one_block_note(source, n, int(self.memory), pipeline.descriptor.name), LidarSigWarning,
+                          stacklevel=3)
+            return None
+        return n
+
+    @contextlib.contextmanager
+    def backend(self) -> Iterator[Any]:
+        """Where the tiles run (:mod:`lidar_sig.tiling.execute`), closed when the block ends."""
+        from .execute import executor
+
+        backend = executor(self.workers, self.scheduler)
+        try:
+            yield backend
+        finally:
+            backend.close()
+
+
+def as_execution(execution: Execution | None) -> Execution:
+    """``execution``, or the default for None; a LidarSigError naming anything else."""
+    if execution is None:
+        return Execution()
+    if not isinstance(execution, Execution):
+        raise LidarSigError(f"execution must be a lidar_sig.Execution, got {a_kind(execution)}")
+    return execution
