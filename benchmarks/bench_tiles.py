@@ -15,7 +15,10 @@ area weights), the cases of ``--cases``:
   tiles in the command's own process, into the one output file;
 - single: ``lidar-sig saliency big.laz -o out.laz`` and ``lidar-sig signature big.laz -o s.h5``
   as one block whatever the size (``--memory 1000G``);
-- tiled: the same two commands with ``--workers N`` (tiles with halos, output to a folder).
+- tiled: the same two commands with ``--workers N`` (tiles with halos, output to a folder);
+- python: the notebook's line ``ls.Pipeline().run(big.laz).write(out.laz)`` in a Python process
+  (``execution=ls.Execution(memory=...)`` when ``--memory`` is given): it decides as the command
+  does, and its output is compared, dimension by dimension, with the auto case's when both run.
 
 Every process of a run is sampled every 0.1 s (psutil): the peak resident set size of the main
 process and of the largest worker, the wall time, microseconds per point and, for auto, that
@@ -71,13 +74,13 @@ def make_laz(path, n, density=DENSITY):
             writer.write_points(rec)
 
 
-def measure(args):
-    """Run ``python -m lidar_sig args``; (wall seconds, peak RSS MiB of the main process, of the
-    largest other process of its tree, stdout)."""
+def measure(args, command=None):
+    """Run ``python -m lidar_sig args`` (or ``command``); (wall seconds, peak RSS MiB of the main
+    process, of the largest other process of its tree, stdout)."""
     import psutil
 
     start = time.monotonic()
-    proc = subprocess.Popen([sys.executable, "-m", "lidar_sig", *map(str, args)], stdout=subprocess.PIPE,
+    proc = subprocess.Popen(command or [sys.executable, "-m", "lidar_sig", *map(str, args)], stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
     main = psutil.Process(proc.pid)
     peak_main, peak_worker = 0, 0
@@ -115,6 +118,16 @@ def run_case(name, src, folder, n, args):
         t, m, w, said = measure(["saliency", src, "-o", out.with_suffix(".laz"), *memory])
         return {"case": name, "points": n, "seconds": round(t, 1), "us_per_point": round(1e6 * t / n, 2),
                 "peak_main_mib": round(m), "peak_worker_mib": round(w), "run": tiles_line(said)}
+    if name == "python":
+        execution = f"execution=ls.Execution(memory={args.memory!r})" if args.memory else ""
+        code = (f"import lidar_sig as ls\nresult = ls.Pipeline().run({str(src)!r}{', ' if execution else ''}{execution})\n"
+                f"result.write({str(out.with_suffix('.laz'))!r})\nprint('tiles' if result.tiled else 'one block')\n")
+        t, m, w, said = measure(None, [sys.executable, "-c", code])
+        auto = folder / f"out_auto_{src.stem}.laz"
+        same = identical(auto, out.with_suffix(".laz")) if auto.exists() else "auto not run"
+        return {"case": name, "points": n, "seconds": round(t, 1), "us_per_point": round(1e6 * t / n, 2),
+                "peak_main_mib": round(m), "peak_worker_mib": round(w), "run": said.strip(),
+                "same_as_auto": same}
     extra = ["--memory", "1000G"] if name == "single" else ["--workers", args.workers, *memory]
     sal = out.with_suffix(".laz") if name == "single" else out
     t1, m1, w1, said = measure(["saliency", src, "-o", sal, "-q", *extra])
@@ -125,11 +138,29 @@ def run_case(name, src, folder, n, args):
             "run": "one block" if name == "single" else f"{args.workers} workers"}
 
 
+def identical(a, b):
+    """Whether two LAS/LAZ files hold the same points, dimension by dimension (NaN equal to NaN),
+    read chunk by chunk."""
+    import laspy
+
+    with laspy.open(a) as ra, laspy.open(b) as rb:
+        if ra.header.point_count != rb.header.point_count:
+            return False
+        names = list(ra.header.point_format.dimension_names)
+        if names != list(rb.header.point_format.dimension_names):
+            return False
+        for ca, cb in zip(ra.chunk_iterator(2_000_000), rb.chunk_iterator(2_000_000)):
+            for dim in names:
+                if not np.array_equal(np.asarray(ca[dim]), np.asarray(cb[dim]), equal_nan=True):
+                    return False
+    return True
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--sizes", default="1000000,20000000,100000000")
     parser.add_argument("--density", type=float, default=DENSITY, help="points per square metre [20]")
-    parser.add_argument("--cases", default="auto", help="comma-separated: auto, single, tiled [auto]")
+    parser.add_argument("--cases", default="auto", help="comma-separated: auto, single, tiled, python [auto]")
     parser.add_argument("--memory", default=None, help="--memory passed to the commands (auto and tiled)")
     parser.add_argument("--workers", type=int, default=2, help="workers of the tiled case [2]")
     parser.add_argument("--dir", default=None, help="where the generated files go (kept for reuse)")
@@ -137,7 +168,7 @@ def main():
                         help="run the single case only up to this many points")
     args = parser.parse_args()
     cases = [c.strip() for c in args.cases.split(",")]
-    unknown = set(cases) - {"auto", "single", "tiled"}
+    unknown = set(cases) - {"auto", "single", "tiled", "python"}
     if unknown:
         parser.error(f"unknown cases: {', '.join(sorted(unknown))}")
     folder = Path(args.dir or tempfile.mkdtemp(prefix="lidar-sig-bench-"))
@@ -162,8 +193,9 @@ def main():
     print(f"{'case':<7} {'points':>12} {'seconds':>9} {'µs/point':>9} {'relative':>9} {'main MiB':>9} "
           f"{'worker MiB':>11}  run")
     for r in rows:
+        same = f", same as auto: {r['same_as_auto']}" if "same_as_auto" in r else ""
         print(f"{r['case']:<7} {r['points']:>12,} {r['seconds']:>9} {r['us_per_point']:>9} {r['relative']:>9} "
-              f"{r['peak_main_mib']:>9} {r['peak_worker_mib']:>11}  {r['run']}")
+              f"{r['peak_main_mib']:>9} {r['peak_worker_mib']:>11}  {r['run']}{same}")
 
 
 if __name__ == "__main__":

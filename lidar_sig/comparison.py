@@ -17,7 +17,7 @@ from typing import Any
 
 from .class_schemes import class_scheme_warnings
 from .cloud import PointCloud
-from .errors import LidarSigError, LidarSigWarning, a_kind, counted
+from .errors import LidarSigError, LidarSigWarning, a_kind, arg, counted
 from .metrics import compare as compare_signatures
 from .progress import step
 from .signature import RENDERINGS, Signature, method_differences
@@ -309,7 +309,7 @@ def _archive_pipeline(signature, pipeline, method_given, name):
     recorded = {k: signature.metadata[k] for k in signature.metadata if k in pipeline.method()}
     if "classes" in method_given and signature.classes.names and pipeline.classes != signature.classes:
         raise LidarSigError(f"{name} is an archive made with class table {signature.classes.name!r}, not "
-                            f"{pipeline.classes.name!r}; leave out --classes or make the archive again with it")
+                            f"{pipeline.classes.name!r}; leave out {arg('classes')} or make the archive again with it")
     if set(method_given) - {"classes"}:
         differ = method_differences(recorded, pipeline.method())
         if differ:
@@ -324,7 +324,7 @@ def _recorded_render(sides):
                 if s.kind == "archive" and "render" in s.signature.metadata}
     if len(recorded) > 1:
         raise LidarSigError(f"the archives were rendered differently ({', '.join(sorted(recorded))}); give "
-                            f"--render ({', '.join(RENDERINGS)}) to compare both under one rendering")
+                            f"{arg('render')} ({', '.join(RENDERINGS)}) to compare both under one rendering")
     return recorded.pop() if recorded else RENDERINGS[0]
 
 
@@ -362,7 +362,7 @@ def _radii_warnings(sides):
         return []
     return [f"normalized radii resolve to different metric radii ({ra:.4g} m in A, {rb:.4g} m in B: "
             f"{abs(ra / rb - 1):.0%} apart) because the clouds' bounding boxes differ; for the same "
-            "neighbourhoods leave out --units normalized"]
+            f"neighbourhoods leave out {arg('units', 'normalized')}"]
 
 
 def _unlabelled(pipeline):

@@ -12,7 +12,7 @@ from . import __version__
 from .classes import UNLABELED, class_table
 from .cloud import PointCloud, kept_points
 from .compile import COMMON, announce_compilation, load_kernels, warm_up
-from .errors import LidarSigError, LidarSigWarning, a_kind, counted
+from .errors import LidarSigError, LidarSigWarning, a_kind, arg, counted
 from .io.open3d import from_open3d, is_open3d
 from .neighbors import WEIGHT_KERNELS, WEIGHTS, NeighborIndex, unique_points
 from .plugins import get_descriptor, get_strategy
@@ -143,7 +143,7 @@ class Pipeline:
         kept = kept_points(cloud.labels, cloud.withheld, self.noise_codes())
         if kept is not None and not kept.any():
             raise LidarSigError(f"every point ({len(cloud):,}) is withheld or of a noise class "
-                                f"({_codes(self.classes.noise)}); keep_noise=True (--keep-noise) uses them",
+                                f"({_codes(self.classes.noise)}); {arg('keep_noise', True)} uses them",
                                 path=cloud.path)
         return kept
 
@@ -163,7 +163,7 @@ class Pipeline:
                 where += f" besides {counted(n_excluded, 'withheld or noise point')}"
             raise LidarSigError(f"holds {where}, fewer than the largest scale needs ({what}); use a "
                                 "larger cloud or smaller scales"
-                                + (" (keep_noise=True, --keep-noise, uses every point)" if n_excluded else ""),
+                                + (f" ({arg('keep_noise', True)} uses every point)" if n_excluded else ""),
                                 path=cloud.path)
 
     def _warm_up(self):

@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .classes import ClassTable
-from .errors import LidarSigError
+from .errors import LidarSigError, arg
 from .saliency import LN3, geometric_entropy
 
 #: Density transfer (see :func:`transfer`): per-pixel point share of the log knee, and the share
@@ -289,7 +289,7 @@ class Signature:
                                 "make both with the same image size")
         if self.classes != other.classes:
             raise LidarSigError(f"signatures use different class tables ({self.classes.name!r} and "
-                                f"{other.classes.name!r}); make both with the same --classes")
+                                f"{other.classes.name!r}); make both with the same {arg('classes')}")
         if len(self.egeom_counts) != len(other.egeom_counts):
             raise LidarSigError("signatures have different Egeom histogram bins")
         differ = method_differences(self.metadata, other.metadata)

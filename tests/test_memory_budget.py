@@ -112,6 +112,47 @@ def test_a_non_las_output_over_the_budget_is_refused_in_one_line(tmp_path, name)
     assert "Traceback" not in proc.stderr and list(tmp_path.iterdir()) == []
 
 
+def test_python_runs_a_file_over_the_budget_in_tiles_and_writes_the_commands_file(tmp_path, single):
+    # the notebook's line decides as the command does: the same file, from tiles kept on disk
+    cli = tmp_path / "cli.laz"
+    assert lidar_sig_cli("saliency", EPOCH1, "-o", cli, "--memory", SMALL, "-q").returncode == 0
+    work = tmp_path / "work"
+    result = ls.Pipeline(progress=False).run(EPOCH1, execution=ls.Execution(memory=SMALL, work_dir=work))
+    assert result.tiled and "in tiles" in repr(result) and len(repr(result)) <= 300
+    assert work.is_dir()  # the per-point values wait there, not in memory
+    result.write(tmp_path / "py.laz")
+    got_cli, _ = saliency_of(cli)
+    got_py, _ = saliency_of(tmp_path / "py.laz")
+    assert np.array_equal(got_cli, got_py, equal_nan=True)
+    for key in ("counts", "egeom_counts", "class_totals"):
+        assert np.array_equal(getattr(result.signature, key), getattr(single.signature, key)), key
+    assert np.allclose(result.saliency.values, single.saliency.values, rtol=0, atol=1e-12, equal_nan=True)
+    result.write(tmp_path / "s.h5")  # the signature and the tiling, no per-point datasets
+    assert ls.load_signature(tmp_path / "s.h5").n_points == single.signature.n_points
+    with pytest.raises(LidarSigError, match="points=True"):
+        result.write(tmp_path / "p.h5", points=True)
+    with pytest.raises(LidarSigError, match="LAS/LAZ only.*memory"):
+        result.write(tmp_path / "out.ply")
+    result.close()
+    assert not work.exists()
+    with pytest.raises(LidarSigError, match="closed"):
+        result.write(tmp_path / "again.laz")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["cli.laz", "py.laz", "s.h5"]
+
+
+def test_a_result_in_tiles_removes_its_temporary_work_folder_when_collected(tmp_path, monkeypatch):
+    import gc
+    import tempfile
+
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    result = ls.Pipeline(progress=False).run(EPOCH1, execution=ls.Execution(memory=SMALL))
+    work = result.work
+    assert work.parent == tmp_path and work.is_dir()
+    del result
+    gc.collect()
+    assert not work.exists()
+
+
 def test_the_signature_of_a_file_over_the_budget_is_the_one_block_signature(tmp_path, single):
     out = tmp_path / "s.h5"
     proc = lidar_sig_cli("signature", EPOCH1, "-o", out, "--memory", SMALL)

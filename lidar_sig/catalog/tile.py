@@ -124,6 +124,7 @@ def _through_tiles(path, pipeline, work):
     quiet = copy.copy(pipeline)
     quiet.progress = False
     sub = work / "blocks" / result_path(work, path).stem
+    sub.parent.mkdir(exist_ok=True)  # inside the catalogue's work folder, which exists
     run = run_set(quiet, [path], work=sub, backend=InProcess(), progress_enabled=False)
     if not run.complete:
         raise LidarSigError("could not be computed in tiles: " + "; ".join(run.missing), path=path)

@@ -34,7 +34,9 @@ class _Group(click.Group):
             ctx.exit(2)
         except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM as Interrupted
             signum = exc.signum if isinstance(exc, Interrupted) else signal.SIGINT
-            click.echo(f"lidar-sig: interrupted ({signal.Signals(signum).name}); {_outputs_left(written)}", err=True)
+            kept = f"; its work is kept in {', '.join(written.work)} for --resume" if written.work else ""
+            click.echo(f"lidar-sig: interrupted ({signal.Signals(signum).name}); {_outputs_left(written)}{kept}",
+                       err=True)
             ctx.exit(128 + signum)
 
 

@@ -14,7 +14,8 @@ import lazy_loader
 from ..errors import LidarSigError, as_path
 from ..progress import step
 from .atomic import atomic_output, check_output, check_outputs, output_group
-from .formats import CLOUD_EXTENSIONS, HDF5_EXTENSIONS, LAS_EXTENSIONS, OPEN3D_EXTENSIONS, TEXT_EXTENSIONS
+from .formats import (CLOUD_EXTENSIONS, HDF5_EXTENSIONS, LAS_EXTENSIONS, OPEN3D_EXTENSIONS, POINTS, SIGNATURE,
+                      TEXT_EXTENSIONS, format_of)
 
 # name -> the module of this package that defines it, loaded on first use
 _EXPORTS = {
@@ -56,39 +57,27 @@ def read(path, *, columns=None):
         raise LidarSigError("is a folder, not a point-cloud file", path=path)
     if not os.access(path, os.R_OK):
         raise LidarSigError("cannot be read (permission denied)", path=path)
-    ext = path.suffix.lower()
-    if ext in CLOUD_EXTENSIONS:
-        reader = _reader(ext, columns)  # its module loaded before the step, whose time is the reading
+    fmt = format_of(path)
+    if fmt is not None and POINTS in fmt.holds:
+        reader = fmt.load("reader")  # its module loaded before the step, whose time is the reading
+        options = {"columns": columns} if "columns" in fmt.options else {}
         with step(f"reading {path.name}", bytes=path.stat().st_size) as s:
-            cloud = reader(path)
+            cloud = reader(path, **options)
             s.note(points=len(cloud))
         return cloud
-    if ext in HDF5_EXTENSIONS:
+    if fmt is not None and SIGNATURE in fmt.holds:
         raise LidarSigError("is a signature archive, not a point cloud; use it with `lidar-sig compare` "
                             "or lidar_sig.load_signature", path=path)
+    ext = path.suffix.lower()
     raise LidarSigError(f"unknown point-cloud format {ext or '(no extension)'!r}; "
                         f"use one of {', '.join(CLOUD_EXTENSIONS)}", path=path)
-
-
-def _reader(ext, columns):
-    """The function reading a point cloud of extension ``ext`` (one of CLOUD_EXTENSIONS)."""
-    if ext in LAS_EXTENSIONS:
-        from .las import read_las
-
-        return read_las
-    if ext in OPEN3D_EXTENSIONS:
-        from .open3d import read_open3d
-
-        return read_open3d
-    from .text import read_text
-
-    return lambda p: read_text(p, columns=columns)
 
 
 def check_cloud_output(path, cloud):
     """Refuse, before any work, a cloud that the format of ``path`` cannot hold (see
     :func:`lidar_sig.io.las.check_las_output`)."""
-    if Path(path).suffix.lower() in LAS_EXTENSIONS:
+    fmt = format_of(path)
+    if fmt is not None and fmt.streamed:  # LAS/LAZ: its scale must hold the coordinates
         from .las import check_las_output
 
         check_las_output(cloud, path)
@@ -96,22 +85,14 @@ def check_cloud_output(path, cloud):
 
 def write_cloud(path, cloud, saliency, *, scale_kind=None, scale_values=None, overwrite=False):
     """Write the cloud with per-point saliency to ``path``, in the format of its extension."""
-    ext = Path(path).suffix.lower()
-    if ext in LAS_EXTENSIONS:
-        from .las import write_las
-
-        return write_las(path, cloud, saliency, scale_kind=scale_kind, scale_values=scale_values,
-                         overwrite=overwrite)
+    fmt = format_of(path)
+    if fmt is None or POINTS not in fmt.holds:
+        ext = Path(path).suffix.lower()
+        raise LidarSigError(f"cannot write point clouds as {ext or '(no extension)'!r}; use one of "
+                            f"{', '.join(CLOUD_EXTENSIONS)}", path=path)
+    if fmt.streamed:  # LAS/LAZ: the saliency's extra dimensions
+        return fmt.load("writer")(path, cloud, saliency, scale_kind=scale_kind, scale_values=scale_values,
+                                  overwrite=overwrite)
     from .fields import saliency_fields
 
-    fields = saliency_fields(saliency, scale_kind, scale_values)
-    if ext in OPEN3D_EXTENSIONS:
-        from .open3d import write_open3d
-
-        return write_open3d(path, cloud, fields, overwrite=overwrite)
-    if ext in TEXT_EXTENSIONS:
-        from .text import write_text
-
-        return write_text(path, cloud, fields, overwrite=overwrite)
-    raise LidarSigError(f"cannot write point clouds as {ext or '(no extension)'!r}; use one of "
-                        f"{', '.join(CLOUD_EXTENSIONS)}", path=path)
+    return fmt.load("writer")(path, cloud, saliency_fields(saliency, scale_kind, scale_values), overwrite=overwrite)

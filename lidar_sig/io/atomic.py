@@ -38,6 +38,8 @@ _PENDING = contextvars.ContextVar("lidar_sig_pending_outputs", default=None)
 _RECEIVED = contextvars.ContextVar("lidar_sig_received_signals", default=None)
 # Outputs renamed into place inside the innermost recording_outputs block (None outside one)
 _WRITTEN = contextvars.ContextVar("lidar_sig_written_outputs", default=None)
+# Work folders of runs in tiles kept on disk inside the innermost recording_outputs block
+_WORK = contextvars.ContextVar("lidar_sig_work_folders", default=None)
 _REASONS = {
     errno.ENOSPC: "no space left on the device; free some space or write elsewhere",
     errno.EDQUOT: "the disk quota is exceeded; free some space or write elsewhere",
@@ -178,13 +180,36 @@ def _commit(items):
 @contextlib.contextmanager
 def recording_outputs():
     """Yield a list that gets each output renamed into place inside the block, in order: what
-    a run interrupted after some outputs can say it wrote (whole)."""
-    written = []
+    a run interrupted after some outputs can say it wrote (whole); and, as its attribute
+    ``work``, the work folders of runs in tiles on disk at that moment (:func:`keeping_work`),
+    which an interrupted run keeps for a resumed one."""
+    written = _Written()
     token = _WRITTEN.set(written)
+    work_token = _WORK.set(written.work)
     try:
         yield written
     finally:
         _WRITTEN.reset(token)
+        _WORK.reset(work_token)
+
+
+class _Written(list):
+    def __init__(self):
+        super().__init__()
+        self.work = []
+
+
+def keeping_work(folder, kept=True):
+    """Note that the work folder ``folder`` of a run in tiles is on disk (``kept``) or removed,
+    for the message of a run interrupted meanwhile (:func:`recording_outputs`)."""
+    work = _WORK.get()
+    if work is None:
+        return
+    folder = str(folder)
+    if kept and folder not in work:
+        work.append(folder)
+    elif not kept and folder in work:
+        work.remove(folder)
 
 
 @contextlib.contextmanager

@@ -5,7 +5,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from ..errors import LidarSigError
+from ..errors import LidarSigError, arg
 
 HTML_EXTENSIONS = (".html", ".htm")
 
@@ -34,7 +34,7 @@ def check_plots_folder(folder, names, *, overwrite=False):
     if not overwrite:
         taken = [n for n in names if (folder / n).exists()]
         if taken:
-            raise LidarSigError(f"already holds {', '.join(taken)}; pass --overwrite to replace them "
+            raise LidarSigError(f"already holds {', '.join(taken)}; pass {arg('overwrite', True)} to replace them "
                                 "or give another folder", path=folder)
 
 

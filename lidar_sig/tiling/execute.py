@@ -11,7 +11,7 @@ import concurrent.futures as cf
 import multiprocessing
 import os
 
-from ..errors import LidarSigError
+from ..errors import LidarSigError, arg, whole_number
 
 
 def _init_worker(threads):
@@ -59,7 +59,7 @@ class LocalProcesses:
                 yield futures[fut], fut.result(), None
             except cf.process.BrokenProcessPool as exc:
                 raise LidarSigError(f"a worker process died ({exc}); too little memory? use a smaller "
-                                    "--tile-size or fewer --workers, then --resume") from None
+                                    f"{arg('tile_size')} or fewer {arg('workers')}, then {arg('resume', True)}") from None
             except Exception as exc:
                 yield futures[fut], None, exc
 
@@ -74,7 +74,7 @@ class DaskCluster:
         try:
             from distributed import Client
         except ImportError:
-            raise LidarSigError("--scheduler needs dask.distributed: pip install 'lidar_sig[dask]'") from None
+            raise LidarSigError(f"{arg('scheduler')} needs dask.distributed: pip install 'lidar_sig[dask]'") from None
         try:
             self.client = Client(address, timeout="20s")
         except (OSError, TimeoutError, ValueError) as exc:
@@ -96,7 +96,7 @@ class DaskCluster:
                 yield item, None, fut.exception()
             elif fut.status == "cancelled":  # the scheduler or the worker holding it was lost
                 raise LidarSigError("the Dask cluster lost the run's tasks (scheduler or workers gone); "
-                                    "check the cluster, then run the same command with --resume")
+                                    f"check the cluster, then run the same job with {arg('resume', True)}")
             else:
                 yield item, fut.result(), None
             fut.release()
@@ -106,12 +106,14 @@ class DaskCluster:
 
 
 def executor(workers=None, scheduler=None):
-    """The backend for ``--workers N`` (default: all cores) or ``--scheduler ADDRESS``."""
+    """The backend for ``workers`` local processes (None: all cores; 1: this process) or a
+    dask.distributed ``scheduler`` (:class:`lidar_sig.Execution` checks both)."""
     if scheduler:
         if workers:
-            raise LidarSigError("give --workers or --scheduler, not both (the cluster has its own workers)")
+            raise LidarSigError(f"give {arg('workers')} or {arg('scheduler')}, not both (the cluster has its own "
+                                "workers)")
         return DaskCluster(scheduler)
+    if workers is not None:
+        workers = whole_number(workers, arg("workers"), low=1)
     n = workers or os.cpu_count() or 1
-    if n < 1:
-        raise LidarSigError(f"--workers must be at least 1, got {workers}")
     return InProcess() if n == 1 else LocalProcesses(n)

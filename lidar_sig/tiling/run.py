@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from ..classes import UNLABELED
-from ..errors import LidarSigError, as_path, counted
+from ..errors import LidarSigError, arg, as_path, counted
 from ..neighbors import AREA_CAP
 from ..progress import progress, step
 from .core import SetContext, Tiling, check_tile_size, check_tileable, context_of, tile_name
@@ -89,7 +89,7 @@ def run_set(pipeline, inputs, *, work, tile_size=None, backend=None, resume=Fals
         n_tiles = math.prod(max(1, math.ceil(e / tile_size)) for e in extent)
         if n_tiles > max(4, n_points / MIN_TILE_POINTS):  # halos would outweigh the tiles' own points
             raise LidarSigError(f"tiles of {tile_size:g} m would hold about {n_points / n_tiles:,.0f} points "
-                                f"each ({n_tiles:,} tiles); give a --tile-size of at least "
+                                f"each ({n_tiles:,} tiles); give a {arg('tile_size')} of at least "
                                 f"{tile_side_for(MIN_TILE_POINTS, n_points / area):.3g} m, or none for the "
                                 "default")
     work = prepare_work(work, resume, keep=[*files, *outputs])
@@ -139,7 +139,7 @@ def run_set(pipeline, inputs, *, work, tile_size=None, backend=None, resume=Fals
         raise LidarSigError(f"the set holds {counted(n_points, 'point')}"
                             + (f" besides {counted(left_out, 'withheld or noise point')}" if left_out else "")
                             + f", fewer than the largest scale needs ({need}); use a larger set or smaller scales"
-                            + (" (--keep-noise uses every point)" if left_out else ""))
+                            + (f" ({arg('keep_noise', True)} uses every point)" if left_out else ""))
     ctx = context_of(lo, hi, factors, pipeline, n_points)
     if sized:  # the headers' mean density can hide a denser part: no tile may hold more than the budget
         tile_size = min(tile_size, tile_side_for(tile_points(memory), densest(records, cells, factors)))

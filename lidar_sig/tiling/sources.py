@@ -27,7 +27,7 @@ import numpy as np
 
 from ..bounds import bounds
 from ..cloud import MAX_COORDINATE, check_magnitude, kept_points
-from ..errors import LidarSigError, counted, reason
+from ..errors import LidarSigError, arg, counted, reason
 from ..io import LAS_EXTENSIONS
 
 #: Bits of a point identifier that hold its index in its file (files up to 10^12 points).
@@ -245,7 +245,7 @@ def stage_part(work, source, part, start, stop, cells, noise_codes=None):
     except OSError as exc:  # the work folder's disk (full, read-only), not the input, failed
         if exc.filename is not None and str(exc.filename).startswith(str(out)):
             raise LidarSigError(f"cannot stage {source.name} ({exc.strerror}); free space or give another "
-                                "--work-dir", path=out.parent.parent) from None
+                                f"{arg('work_dir')}", path=out.parent.parent) from None
         raise LidarSigError(f"cannot be read ({reason(exc)})", path=source.path) from None
     except Exception as exc:  # laspy and lazrs raise many kinds on damaged input
         raise LidarSigError(f"cannot be read as LAS/LAZ after {counted(start + n, 'point')} ({reason(exc)}); check "

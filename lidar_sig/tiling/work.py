@@ -4,11 +4,14 @@ it besides the staged files and the tiles' results (the area-weight cap, which g
 tiles' second-neighbour distances kept beside it)."""
 from __future__ import annotations
 
+import contextlib
+import errno
 import json
 import shutil
 from pathlib import Path
 
-from ..errors import LidarSigError
+from ..errors import LidarSigError, arg
+from ..io.atomic import keeping_work
 
 #: File that marks a folder as a work folder of ours (only such a folder is ever removed).
 WORK_MARK = "LIDAR_SIG_WORK"
@@ -18,36 +21,66 @@ AREA_CAP_FILE = "area_cap.json"
 
 def prepare_work(work, resume, keep=()):
     """The work folder, made (or emptied, without ``resume``); refuses a folder that holds
-    anything but an earlier run's work, or that is or holds one of the paths ``keep`` (inputs and
-    outputs: the folder is removed after a complete run)."""
-    work = Path(work).resolve()
+    anything but an earlier run's work, that is or holds one of the paths ``keep`` (inputs and
+    outputs: the folder is removed after a complete run), whose parent does not exist (a run
+    never makes folders above its own), or that cannot be written (a read-only or immutable
+    place, a path under a file, /proc): each a LidarSigError naming the folder and the fix."""
+    given = Path(work)
+    work = given.resolve()
     for p in keep:
         p = Path(p).resolve()
         if p == work or work in p.parents:
             raise LidarSigError(f"would hold {p}, but the work folder is removed after the run; give "
-                                "--work-dir a folder of its own", path=work)
+                                f"{arg('work_dir')} a folder of its own", path=given)
     if work.exists() and not work.is_dir():
-        raise LidarSigError("is a file, not a folder; give --work-dir a new or empty folder", path=work)
-    if work.exists() and any(work.iterdir()) and not (work / WORK_MARK).is_file():
-        raise LidarSigError("is not empty and not a lidar_sig work folder; give a new or empty folder as "
-                            "--work-dir", path=work)
-    if work.exists() and not resume:
-        shutil.rmtree(work)
-    work.mkdir(parents=True, exist_ok=True)
-    (work / WORK_MARK).write_text("scratch files of a tiled lidar_sig run; safe to delete\n")
+        raise LidarSigError(f"is a file, not a folder; give {arg('work_dir')} a new or empty folder", path=given)
+    if not work.parent.is_dir():
+        raise LidarSigError(f"cannot be the work folder: its parent folder does not exist; create it first, or "
+                            f"give {arg('work_dir')} another folder", path=given)
+    with _work_errors(given):
+        if work.exists() and any(work.iterdir()) and not (work / WORK_MARK).is_file():
+            raise LidarSigError(f"is not empty and not a lidar_sig work folder; give {arg('work_dir')} a new or "
+                                "empty folder", path=given)
+        if work.exists() and not resume:
+            shutil.rmtree(work)
+        made = not work.exists()
+        try:
+            work.mkdir(exist_ok=True)
+            (work / WORK_MARK).write_text("scratch files of a tiled lidar_sig run; safe to delete\n")
+        except OSError:
+            if made:
+                with contextlib.suppress(OSError):
+                    shutil.rmtree(work)
+            raise
+    keeping_work(work)
     return work
+
+
+@contextlib.contextmanager
+def _work_errors(work):
+    """A file-system error on the work folder as a LidarSigError naming it and the fix."""
+    try:
+        yield
+    except OSError as exc:
+        why = {errno.EROFS: "it is on a read-only file system", errno.EACCES: "permission denied",
+               errno.EPERM: "the folder does not allow writing (immutable?)", errno.ENOTDIR: "a part of it is a file",
+               errno.ENOSPC: "no space left on the device"}.get(exc.errno, exc.strerror or str(exc))
+        raise LidarSigError(f"cannot be used as the work folder ({why}); give {arg('work_dir')} a folder you can "
+                            "write to", path=work) from None
 
 
 def remove_work(work):
     """Remove a work folder of ours (after a complete run)."""
     if (Path(work) / WORK_MARK).is_file():
         shutil.rmtree(work, ignore_errors=True)
+    keeping_work(Path(work).resolve(), kept=False)
 
 
 def discard_work(work):
     """Remove a temporary work folder made for one run (all of it: it was made new and holds
     nothing else)."""
     shutil.rmtree(work, ignore_errors=True)
+    keeping_work(Path(work).resolve(), kept=False)
 
 
 def saved_area_cap(work, key):
