@@ -10,6 +10,7 @@ from __future__ import annotations
 import concurrent.futures as cf
 import multiprocessing
 import os
+import sys
 
 from ..errors import LidarSigError, arg, whole_number
 
@@ -58,13 +59,26 @@ class LocalProcesses:
             try:
                 yield futures[fut], fut.result(), None
             except cf.process.BrokenProcessPool as exc:
-                raise LidarSigError(f"a worker process died ({exc}); too little memory? use a smaller "
-                                    f"{arg('tile_size')} or fewer {arg('workers')}, then {arg('resume', True)}") from None
+                raise LidarSigError(_died(exc)) from None
             except Exception as exc:
                 yield futures[fut], None, exc
 
     def close(self):
         self.pool.shutdown(cancel_futures=True)
+
+
+def _died(exc):
+    """Why a worker process died, for the user: too little memory, or a script whose top-level
+    code starts the job again in every worker (a worker imports the main script)."""
+    why = (f"a worker process died ({exc}); too little memory? use a smaller {arg('tile_size')} or fewer "
+           f"{arg('workers')}, then {arg('resume', True)}")
+    main = sys.modules.get("__main__")
+    script = getattr(main, "__file__", None)
+    if script and getattr(getattr(main, "__spec__", None), "name", None) is None:
+        why += (f"; or, if {script} runs the job in its top-level code, put that code under "
+                "`if __name__ == \"__main__\":` (each worker process imports the script), or use one process "
+                f"({arg('workers', 1)})")
+    return why
 
 
 class DaskCluster:
