@@ -1,6 +1,7 @@
 """Class tables: semantic codes -> class name and colour, for augmented signatures (SPEC 5)."""
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -61,10 +62,10 @@ class ClassTable:
         """(C, 3) float array of colours in [0, 1], ``other`` last."""
         return np.array(list(self.colors) + [OTHER_COLOR], dtype=np.float64) / 255.0
 
-    def __len__(self):
+    def __len__(self) -> int:
         return len(self.names) + 1
 
-    def index(self, labels):
+    def index(self, labels: np.ndarray) -> np.ndarray:
         """Class index per point (0..C-1); codes outside the table -> the last, ``other``.
 
         A sorted look-up of the table's codes, so memory does not grow with the largest code.
@@ -142,7 +143,7 @@ def recorded_table(name, names, codes, colors, noise=None):
     return table
 
 
-def class_table(name):
+def class_table(name: str | ClassTable) -> ClassTable:
     """A class table: built-in by name (asprs, paper, isprs-vaihingen), a TOML or JSON file of
     the user's (see :func:`load_class_table`), or the table itself."""
     if isinstance(name, ClassTable):
@@ -155,7 +156,7 @@ def class_table(name):
     raise LidarSigError(f"unknown class table {name!r}; use one of {', '.join(BUILTIN)} or a .toml/.json file")
 
 
-def load_class_table(path):
+def load_class_table(path: str | os.PathLike[str]) -> ClassTable:
     """A user class table from TOML or JSON: a ``name``, optionally ``noise`` (the codes of
     noise points, left out of a run unless ``keep_noise``; e.g. ``[7, 18]`` for ASPRS codes;
     none by default) and a list ``class`` of tables with ``name``, ``codes`` (one code or a

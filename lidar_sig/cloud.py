@@ -102,10 +102,10 @@ class PointCloud:
                                     f"{xyz.shape[0]} points", path=self.path)
             self.withheld = flags.astype(bool) if flags.any() else None
 
-    def __len__(self):
+    def __len__(self) -> int:
         return self.xyz.shape[0]
 
-    def subset(self, keep):
+    def subset(self, keep: Any) -> PointCloud:
         """The points ``keep`` (a boolean mask or indices) as a new PointCloud: coordinates,
         labels, withheld flags, CRS, units and path (not the source's record, which describes
         every point of the file)."""
@@ -113,7 +113,7 @@ class PointCloud:
                           crs=self.crs, units=self.units,
                           withheld=None if self.withheld is None else self.withheld[keep])
 
-    def metric_xyz(self):
+    def metric_xyz(self) -> np.ndarray:
         """(N, 3) coordinates in metres, centred on the bounding-box centre: what the neighbour
         search and the kernels see (small numbers, so UTM-sized offsets cost no precision)."""
         lo, hi = bounds(self.xyz)

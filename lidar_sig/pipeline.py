@@ -5,6 +5,7 @@ import os
 import time
 import warnings
 from functools import partial
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -21,6 +22,11 @@ from .result import Result
 from .saliency import Saliency
 from .scales import Scales, knn, radii
 from .signature import Frame, Signature
+
+if TYPE_CHECKING:
+    from .classes import ClassTable
+    from .plugins import Descriptor, Strategy
+    from .tiling.execution import Execution
 
 
 #: Share of neighbourhoods cut at max_neighbors above which a run warns.
@@ -76,9 +82,10 @@ class Pipeline:
     'k 10, 20, 30, 40, 50, 60, 70, 80, 90, 100'
     """
 
-    def __init__(self, descriptor="c3dcm", strategy="multiscale", scales=None, *, weights="area",
-                 max_neighbors=512, min_neighbors=3, classes="asprs", frame=None, progress=None,
-                 keep_noise=False):
+    def __init__(self, descriptor: str | Descriptor = "c3dcm", strategy: str | Strategy = "multiscale",
+                 scales: Scales | None = None, *, weights: str = "area", max_neighbors: int = 512,
+                 min_neighbors: int = 3, classes: str | ClassTable = "asprs", frame: Frame | None = None,
+                 progress: bool | None = None, keep_noise: bool = False) -> None:
         self.descriptor = get_descriptor(descriptor)
         self.strategy = get_strategy(strategy)
         self.scales = scales if scales is not None else self.strategy.default_scales
@@ -102,13 +109,13 @@ class Pipeline:
         self.frame = frame or Frame()
         self.progress = progress
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         noise = ", keeps noise" if self.keep_noise else ""
         return (f"<Pipeline {self.descriptor.name} {self.strategy.name}, {self.scales.describe()}, {self.weights} "
                 f"weights, classes {self.classes.name}{noise}>")
 
     @classmethod
-    def from_method(cls, method, **kwargs):
+    def from_method(cls, method: dict[str, Any], **kwargs: Any) -> Pipeline:
         """The pipeline that made a signature, from its recorded method (:meth:`method`, as
         archives keep it); ``kwargs`` as for the constructor (classes, frame, progress)."""
         try:
@@ -122,7 +129,7 @@ class Pipeline:
             raise LidarSigError(f"the recorded method is incomplete or damaged ({exc}); make the "
                                 "signature again") from None
 
-    def method(self):
+    def method(self) -> dict[str, Any]:
         """What makes two signatures comparable (besides frame and class table): descriptor and
         its parameters, strategy, scales, neighbour weights, neighbourhood limits and whether
         withheld and noise points are kept."""
@@ -147,7 +154,7 @@ class Pipeline:
                                 path=cloud.path)
         return kept
 
-    def min_points(self):
+    def min_points(self) -> int:
         """Fewest distinct locations a cloud needs for this method: the largest k, or
         ``min_neighbors`` for radius scales."""
         return max(self.scales.values) if self.scales.kind == "knn" else self.min_neighbors
@@ -183,7 +190,7 @@ class Pipeline:
         key = (type(self.descriptor), type(self.strategy), self.scales.kind, self.weights)
         return warm_up(key, tiny_run, self.kernels())
 
-    def kernels(self):
+    def kernels(self) -> tuple[tuple[str, tuple[str, ...]], ...]:
         """The compiled kernels a run of this method calls, as (module, function names) pairs:
         those of every run, of the scales' search, of the weights, and those the descriptor and
         the strategy declare (a plugin's too)."""
@@ -204,7 +211,7 @@ class Pipeline:
         combined, pick = self.strategy.combine(per_scale)
         return self.descriptor.refine(batch, combined, pick), pick
 
-    def saliency(self, cloud):
+    def saliency(self, cloud: PointCloud) -> tuple[Saliency, dict[str, Any]]:
         """Per-point Saliency of ``cloud`` and run statistics (undefined, capped, duplicate and
         excluded counts, scales in metres). Withheld and noise points (see ``keep_noise``) are
         left out of the run and get an undefined saliency."""
@@ -285,7 +292,7 @@ class Pipeline:
                  **self.method()}
         return values, chosen, stats
 
-    def run(self, cloud, *, labels=None, columns=None, execution=None):
+    def run(self, cloud: Any, *, labels: Any = None, columns: Any = None, execution: Execution | None = None) -> Result:
         """Saliency and signature of ``cloud``: a PointCloud, a path (``columns`` names the
         columns of a text file), an (N, 3) array of coordinates in metres (with optional
         ``labels``, one class code per point) or an Open3D point cloud.
@@ -324,7 +331,7 @@ def _signature_of(sal, classes, codes, frame, kept, metadata, progress):
                                        egeom=sal.egeom, metadata=metadata, kept=kept)
 
 
-def pipeline_or_default(pipeline):
+def pipeline_or_default(pipeline: Pipeline | None) -> Pipeline:
     """``pipeline``, or ``Pipeline()`` for None; a LidarSigError naming anything else (the
     functions that take an optional pipeline check it where it is given)."""
     if pipeline is None:

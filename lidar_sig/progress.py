@@ -22,6 +22,7 @@ import logging
 import sys
 import threading
 import time
+from collections.abc import Iterator
 
 log = logging.getLogger("lidar_sig")
 
@@ -44,7 +45,7 @@ def shown(enabled=None):
 
 
 @contextlib.contextmanager
-def settings(*, enabled=None, verbose=False):
+def settings(*, enabled: bool | None = None, verbose: bool = False) -> Iterator[None]:
     """Within the block, progress is shown as ``enabled`` says (None: on a terminal only) and,
     with ``verbose``, each step's parameters and timing are printed on stderr."""
     token = _enabled.set(enabled)

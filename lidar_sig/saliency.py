@@ -76,7 +76,7 @@ class Saliency:
                 f"Cp {mean[2]:.3f}" + (", with the optimal scale" if self.optimal_scale is not None else "") + ">")
 
     @classmethod
-    def from_values(cls, values, optimal_scale=None):
+    def from_values(cls, values: np.ndarray, optimal_scale: np.ndarray | None = None) -> Saliency:
         values = np.asarray(values, dtype=np.float64)
         return cls(values, geometric_entropy(values), geometric_class(values), optimal_scale)
 

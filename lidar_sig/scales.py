@@ -31,7 +31,7 @@ class Scales:
     """
 
     kind: str
-    values: tuple
+    values: tuple[float, ...]
     units: str | None = None
 
     def __post_init__(self):
@@ -62,7 +62,7 @@ class Scales:
             raise LidarSigError(f"scales must be distinct, got {self.values}")
         object.__setattr__(self, "values", vals)
 
-    def __len__(self):
+    def __len__(self) -> int:
         return len(self.values)
 
     @property
@@ -73,7 +73,7 @@ class Scales:
         rows it leaves to a scan are counted by a kernel loaded when first needed)."""
         return (("lidar_sig.grid", ("count_within",)),) if self.kind == "radius" else ()
 
-    def resolve(self, xyz):
+    def resolve(self, xyz: np.ndarray) -> np.ndarray:
         """Scales for coordinates ``xyz`` in metres (:meth:`PointCloud.metric_xyz`): radii in
         metres as float64, k as int64.
 
@@ -88,7 +88,7 @@ class Scales:
             factor = float((hi - lo).max()) / 2.0
         return np.asarray(self.values, dtype=np.float64) * factor
 
-    def describe(self):
+    def describe(self) -> str:
         """Short human-readable text, e.g. ``radii 0.009, 0.01, 0.011 (normalized)``."""
         if self.kind == "knn":
             return "k " + ", ".join(str(v) for v in self.values)
@@ -96,13 +96,13 @@ class Scales:
         return "radii " + ", ".join(f"{v:g}" for v in self.values) + unit
 
 
-def radii(*values, units="metric"):
+def radii(*values: float, units: str = "metric") -> Scales:
     """Spherical scales, in metres or ``units="normalized"`` (the paper's Multiscale setting is
     ``radii(0.009, 0.010, 0.011, units="normalized")``)."""
     return Scales("radius", tuple(values), units)
 
 
-def knn(*values):
+def knn(*values: int) -> Scales:
     """k-nearest scales (x_i included); the package's Multiscale default is ``knn(20, 30, 40)``,
     the paper's Optimal-scale setting ``knn(*range(10, 101, 10))``."""
     return Scales("knn", tuple(values))

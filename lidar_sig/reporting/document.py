@@ -17,19 +17,19 @@ class Report:
 
     title: str
     body: str
-    figures: dict = field(default_factory=dict)
+    figures: dict[str, bytes] = field(default_factory=dict)
 
     def __repr__(self):
         return f"<Report {self.title!r}, {len(self.figures)} figures, {len(self.body) / 1e6:.1f} MB of HTML>"
 
-    def html(self):
+    def html(self) -> str:
         """The whole page, as text."""
         return page.document(self.title, self.body)
 
     def _repr_html_(self):  # a notebook shows the report in place
         return self.body
 
-    def save(self, path, *, overwrite=False):
+    def save(self, path: str | Path, *, overwrite: bool = False) -> None:
         """Write the page to ``path`` (.html), atomically; refuses an existing file unless
         ``overwrite``."""
         from ..io.atomic import atomic_output
@@ -38,7 +38,7 @@ class Report:
         with step(f"writing {Path(path).name}"), atomic_output(path, overwrite=overwrite) as tmp:
             tmp.write_text(self.html(), encoding="utf-8")
 
-    def save_plots(self, folder, *, overwrite=False):
+    def save_plots(self, folder: str | Path, *, overwrite: bool = False) -> list[Path]:
         """Write every figure as a PNG file in ``folder`` (made if missing, its parent must
         exist); refuses existing files unless ``overwrite``. Returns the paths written."""
         from ..io.png import write_png
