@@ -7,6 +7,7 @@ import click
 
 from ..errors import LidarSigError, counted
 from ..io import check_outputs, output_group
+from ..progress import settings as progress_settings
 from .group import cli
 from .options import overwrite_option
 
@@ -36,12 +37,13 @@ def outliers(catalogue, output, report, reach, top, as_json, overwrite, quiet):
     check_outputs([p for p in (output, report) if p], overwrite=overwrite)  # before any work
     if report:
         check_report_path(report, overwrite=overwrite)
-    found = Catalog(catalogue).outliers(reach=reach)
-    with output_group():  # all outputs or none
-        if output:
-            found.write_geopackage(output, overwrite=overwrite)
-        if report:
-            found.report().save(report, overwrite=overwrite)
+    with progress_settings(enabled=False if quiet else None):
+        found = Catalog(catalogue).outliers(reach=reach)
+        with output_group():  # all outputs or none
+            if output:
+                found.write_geopackage(output, overwrite=overwrite)
+            if report:
+                found.report().save(report, overwrite=overwrite)
     if as_json:
         click.echo(json.dumps(found.to_dict()))
         return

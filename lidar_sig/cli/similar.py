@@ -3,6 +3,7 @@ import json
 
 import click
 
+from ..progress import settings as progress_settings
 from .group import cli
 from .options import Choice, columns_option, metric_keys
 
@@ -27,7 +28,8 @@ def similar(query, catalogue, top, metric, shortlist, as_json, columns, quiet):
     from ..catalog import Catalog
     from ..metrics import METRIC_KEYS, METRIC_NAMES
 
-    found = Catalog(catalogue).similar(query, top=top, metric=metric, shortlist=shortlist, columns=columns)
+    with progress_settings(enabled=False if quiet else None):
+        found = Catalog(catalogue).similar(query, top=top, metric=metric, shortlist=shortlist, columns=columns)
     if as_json:
         click.echo(json.dumps(found.to_dict()))
         return
