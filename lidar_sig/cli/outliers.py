@@ -57,10 +57,12 @@ def outliers(catalogue, output, report, reach, top, as_json, overwrite, quiet):
     for r in found.results[:top]:
         near = "-" if r["z_neighbours"] is None else f"{r['z_neighbours']:.2f}"
         classes = ", ".join(f"{c['class']} {c['difference']:+.1f} pts" for c in r["classes"])
-        click.echo(f"{r['rank']:>4}  {r['score']:>6.2f}  {near:>9}  {r['z_survey']:>8.2f}  {r['name']}"
+        rank = f"{r['rank']}{'*' if r['outlier'] else ' '}"
+        click.echo(f"{rank:>5} {r['score']:>6.2f}  {near:>9}  {r['z_survey']:>8.2f}  {r['name']}"
                    + (f"  ({classes})" if classes else ""))
     if len(found.results) > top:
         click.echo(f"  ... {len(found.results) - top:,} more (--top, --json)")
+    click.echo(found.verdict() + (", marked *" if found.standing_out else ""))
     for path in (output, report):
         if path:
             click.echo(f"wrote {path}")

@@ -34,7 +34,7 @@ def similar(query, catalogue, top, metric, shortlist, as_json, columns, quiet):
         click.echo(json.dumps(found.to_dict()))
         return
     q, s = found.query, found.shortlist
-    kind = {"tile": "a tile of the catalogue", "cloud": "a cloud, computed with the catalogue's method",
+    kind = {"tile": "a tile of the catalogue, left out of the list", "cloud": "a cloud, computed with the catalogue's method",
             "archive": "an archive made with the catalogue's method"}[q["kind"]]
     click.echo(f"query {q['name']} ({kind}); ranked by {metric}; full metrics for {s['screened_by']}"
                + ("" if s["certain"] else " (the top may miss a tile outside the shortlist)"))
