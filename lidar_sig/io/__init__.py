@@ -85,17 +85,20 @@ def check_cloud_output(path, cloud):
         check_las_output(cloud, path)
 
 
-def write_cloud(path, cloud, saliency, *, scale_kind=None, scale_values=None, overwrite=False):
-    """Write the cloud with per-point saliency to ``path``, in the format of its extension."""
+def write_cloud(path, cloud, saliency, *, scale_kind=None, scale_values=None, overwrite=False, extra=None):
+    """Write the cloud with per-point saliency to ``path``, in the format of its extension;
+    ``extra`` {name: (values, description)} adds per-point fields after the saliency's (e.g.
+    :func:`lidar_sig.io.fields.change_fields`; the description goes where the format keeps one)."""
     ext = Path(path).suffix.lower()
     if ext in LAS_EXTENSIONS:
         from .las import write_las
 
         return write_las(path, cloud, saliency, scale_kind=scale_kind, scale_values=scale_values,
-                         overwrite=overwrite)
+                         overwrite=overwrite, extra=extra)
     from .fields import saliency_fields
 
     fields = saliency_fields(saliency, scale_kind, scale_values)
+    fields.update({name: values for name, (values, _) in (extra or {}).items()})
     if ext in OPEN3D_EXTENSIONS:
         from .open3d import write_open3d
 

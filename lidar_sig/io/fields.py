@@ -15,6 +15,12 @@ from ..errors import LidarSigError
 PREFIX = "lidar_sig_"
 #: First word of the header comment (PLY, PCD, text) that lists our outputs.
 MARKER = "lidar_sig"
+#: The per-point change of a change map's later epoch (``changes --points``): each point gets its
+#: cell's score (``{score}`` the ranking metric), level of detection and significance; the LAS
+#: descriptions (at most 32 bytes), which also mark them as ours.
+CHANGE_DESCRIPTIONS = {"ChangeScore": "cell change score ({score})",
+                       "ChangeLoD": "cell level of detection of score",
+                       "ChangeSignificant": "1 cell changed significantly"}
 
 
 def saliency_fields(saliency, scale_kind=None, scale_values=None):
@@ -32,6 +38,16 @@ def saliency_fields(saliency, scale_kind=None, scale_values=None):
             value = chosen + 1
         fields["OptimalScale"] = value.astype(np.uint16)
     return fields
+
+
+def change_fields(score, lod, significant, score_name):
+    """{name: (values, description)} of the per-point change (:data:`CHANGE_DESCRIPTIONS`):
+    ChangeScore and ChangeLoD float32 (NaN where the point's cell was not compared),
+    ChangeSignificant uint16 (1 where the cell changed significantly, else 0; uint16 because
+    QGIS drops 1-byte extra dimensions)."""
+    values = {"ChangeScore": np.asarray(score, np.float32), "ChangeLoD": np.asarray(lod, np.float32),
+              "ChangeSignificant": np.asarray(significant, np.uint16)}
+    return {name: (values[name], text.format(score=score_name)) for name, text in CHANGE_DESCRIPTIONS.items()}
 
 
 def output_names(fields, existing, previous=(), *, path=None):

@@ -7,7 +7,7 @@ from __future__ import annotations
 import laspy
 import numpy as np
 
-from ..fields import PREFIX, output_names, saliency_fields
+from ..fields import CHANGE_DESCRIPTIONS, PREFIX, output_names, saliency_fields
 
 # name -> (LAS extra-bytes type, description of at most 32 bytes). 2-byte integers because
 # QGIS drops 1-byte extra dimensions. The descriptions also mark a dimension as ours.
@@ -32,6 +32,8 @@ def is_ours(name, description):
     base = name[len(PREFIX):] if name.startswith(PREFIX) else name
     if base == "OptimalScale":
         return description in OPTIMAL_DESCRIPTIONS.values()
+    if base in CHANGE_DESCRIPTIONS:  # the per-point change: its description up to the metric's name
+        return description.startswith(CHANGE_DESCRIPTIONS[base].split("{")[0])
     return base in SALIENCY_DIMS and description == SALIENCY_DIMS[base][1]
 
 
@@ -40,20 +42,26 @@ def lidar_sig_dims(las):
     return tuple(d.name for d in las.point_format.extra_dimensions if is_ours(d.name, d.description))
 
 
-def add_saliency_dims(las, saliency, scale_kind=None, scale_values=None, *, path=None):
-    """Set the saliency extra dimensions of ``las`` (those of an earlier run are replaced);
-    returns the notes on what the caller should know (outputs renamed beside a user's own)."""
+def add_saliency_dims(las, saliency, scale_kind=None, scale_values=None, *, path=None, extra=None):
+    """Set the saliency extra dimensions of ``las`` and the ``extra`` ones ({name: (values,
+    description)}, e.g. :func:`lidar_sig.io.fields.change_fields`; those of an earlier run are
+    replaced); returns the notes on what the caller should know (outputs renamed beside a user's
+    own)."""
     notes = []
     previous = lidar_sig_dims(las)
     if previous:  # a re-run replaces instead of duplicating
         las.remove_extra_dims(previous)
     fields = saliency_fields(saliency, scale_kind, scale_values)
+    fields.update({name: values for name, (values, _) in (extra or {}).items()})
     names, note = output_names(fields, las.point_format.dimension_names, previous, path=path)
     if note:
         notes.append(note)
     params = []
     for name, values in fields.items():
-        kind, desc = SALIENCY_DIMS[name]
+        if name in SALIENCY_DIMS:
+            kind, desc = SALIENCY_DIMS[name]
+        else:
+            kind, desc = values.dtype.str[1:], extra[name][1]
         if name == "OptimalScale":
             desc = OPTIMAL_DESCRIPTIONS[scale_kind]
         params.append(laspy.ExtraBytesParams(name=names[name], type=np.dtype(kind), description=desc,

@@ -18,18 +18,19 @@ from .copc import without_copc
 from .dims import add_saliency_dims, extend_ranges, set_extra_bytes_ranges
 
 
-def write_las(path, cloud, saliency, *, scale_kind=None, scale_values=None, overwrite=False):
+def write_las(path, cloud, saliency, *, scale_kind=None, scale_values=None, overwrite=False, extra=None):
     """Write the cloud with saliency extra dimensions (SPEC 8) to ``path`` (.las or .laz), LAS 1.4.
 
     Cl, Cs, Cp, Egeom as float32 (NaN where undefined), GeomClass as uint16 (0 where undefined);
     with an Optimal-scale result also OptimalScale (uint16): the chosen k for k-nearest scales,
     the 1-based radius index for spherical ones, 0 where undefined. NaN and 0 are declared as the
-    dimensions' no-data values; their min and max are those of the defined values. What the
-    caller should know (an upgraded version, a dropped COPC index, renamed outputs) is issued as
+    dimensions' no-data values; their min and max are those of the defined values. ``extra``
+    ({name: (values, description)}) adds dimensions of their values' types. What the caller
+    should know (an upgraded version, a dropped COPC index, renamed outputs) is issued as
     a :class:`LidarSigWarning` once the file is written.
     """
     check_las_output(cloud, path)
-    las, notes = with_saliency(cloud, saliency, scale_kind, scale_values)
+    las, notes = with_saliency(cloud, saliency, scale_kind, scale_values, extra=extra)
     with _las_writer(path, las.header, overwrite) as writer:
         writer.write_points(las.points)
         if las.evlrs:
@@ -40,11 +41,11 @@ def write_las(path, cloud, saliency, *, scale_kind=None, scale_values=None, over
         warnings.warn(text, LidarSigWarning, stacklevel=4)  # the caller of Result.write
 
 
-def with_saliency(cloud, saliency, scale_kind=None, scale_values=None):
+def with_saliency(cloud, saliency, scale_kind=None, scale_values=None, *, extra=None):
     """The LAS 1.4 LasData written for ``cloud`` (see :func:`lidar_sig.io.las.build.to_lasdata`)
-    with the saliency extra dimensions set, and the notes on what changed."""
+    with the saliency extra dimensions (and ``extra`` ones) set, and the notes on what changed."""
     las, notes = to_lasdata(cloud)
-    notes += add_saliency_dims(las, saliency, scale_kind, scale_values, path=cloud.path)
+    notes += add_saliency_dims(las, saliency, scale_kind, scale_values, path=cloud.path, extra=extra)
     return las, notes
 
 
