@@ -142,14 +142,32 @@ def test_the_cells_geopackage_has_an_index_a_style_and_the_command_s_cells(outpu
                 na, nb = (sum(v[k] for v in classes.values()) for k in (0, 1))
                 assert change == pytest.approx(100 * (classes[top_class][1] / nb - classes[top_class][0] / na))
         else:
-            assert score is None and significant is None and rank is None
-            expected = ("appeared" if points_a == 0 else "vanished" if points_b == 0 else "too few points")
-            assert coverage == expected and points_a + points_b > 0
+            assert score is None and significant is None and rank is None and points_a + points_b > 0
+            if coverage == "appeared":
+                assert points_a == 0 and points_b >= info["min_points"]
+            elif coverage == "vanished":
+                assert points_b == 0 and points_a >= info["min_points"]
+            else:
+                assert coverage == "too few points"
     assert seen == set(compared)  # every compared cell, once
     # the envelope in the index is the cell: 8 m squares on multiples of 8 m
     x0, x1, y0, y1 = index[0][1:]
     assert x1 - x0 == 8.0 and y1 - y0 == 8.0 and x0 % 8 == 0 and y0 % 8 == 0
     assert "coverage: String" in ogrinfo("-so", gpkg, "cells") and "Feature Count: 81" in ogrinfo("-so", gpkg, "cells")
+
+
+def test_a_cell_appears_or_vanishes_where_one_epoch_alone_holds_enough_points_to_compare():
+    from lidar_sig.change_map.layers import coverage
+
+    fields = [("points_a", int), ("points_b", int), ("defined_a", int), ("defined_b", int), ("valid", bool)]
+    table = np.array([(500, 400, 500, 400, True),   # compared
+                      (0, 400, 0, 390, False),      # only B, enough: appeared
+                      (0, 12, 0, 12, False),        # only B, a sliver along an edge: too few points
+                      (450, 0, 449, 0, False),      # only A, enough: vanished
+                      (30, 40, 30, 40, False),      # both, too few
+                      (0, 0, 0, 0, False)], dtype=fields)
+    assert coverage(table, 100).tolist() == ["compared", "appeared", "too few points", "vanished", "too few points",
+                                             ""]
 
 
 def test_the_outliers_geopackage_has_an_index_a_style_and_marks_the_tiles_that_stand_out(tmp_path):

@@ -115,7 +115,8 @@ def similar(catalog, query, *, top=10, metric=None, shortlist=None, columns=None
     if not certain and metric == "distance":
         bound = combine(screen, spread, screen_keys)[order[size]] * len(screen_keys) / len(keys)
         certain = bool(bound >= rows[top - 1][0])
-    how = (("every other tile" if q.index is not None else "every tile") if size >= n else
+    every = "every other tile" if q.index is not None else "every tile"
+    how = (every if size >= n else
            f"the {size} tiles nearest by {metric if metric in SCREENING else 'the screening distance'} "
            f"({', '.join(screen_keys)})")
     info = {"size": size, "tiles": n, "query_left_out": q.index is not None, "rule": f"max({SHORTLIST_FACTOR} x top, {SHORTLIST_MIN})"

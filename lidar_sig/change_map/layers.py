@@ -12,20 +12,23 @@ from ..metrics import METRIC_KEYS, METRIC_NAMES
 COVERAGE = ("compared", "appeared", "vanished", "too few points")
 #: What each coverage means, for the legend.
 COVERAGE_MEANS = {"compared": "compared", "appeared": "appeared: only the later epoch has points",
-                  "vanished": "vanished: only the earlier epoch has points",
+                  "vanished": "vanished: only the earlier epoch has points",  # enough to compare, both
                   "too few points": "too few points to compare"}
 #: Classes listed per cell as changed most, at most, and the least change listed (points of share).
 CLASSES_LISTED = 3
 CLASS_CHANGE_MIN = 1.0
 
 
-def coverage(table):
-    """(cells,) text: each cell's coverage, from the table's ``valid``, ``points_a`` and
-    ``points_b``: "compared", "appeared" (no point of A), "vanished" (no point of B), "too few
-    points" (both hold points, not enough to compare) or "" (neither holds a point)."""
+def coverage(table, min_points):
+    """(cells,) text: each cell's coverage, from the table's ``valid``, ``points_a``,
+    ``points_b``, ``defined_a`` and ``defined_b``: "compared"; "appeared" (no point of A, and B
+    holds ``min_points`` points with defined saliency, enough to have been compared); "vanished"
+    (the same with A and B swapped); "too few points" (any other cell with points: a sliver along
+    an edge that a shift between the epochs empties is no change); "" (neither holds a point)."""
     # Where the table holds a coverage field of its own (issue 33), read it here instead.
     a, b = table["points_a"] > 0, table["points_b"] > 0
-    return np.select([table["valid"], ~a & b, a & ~b, a & b], list(COVERAGE), default="")
+    full_a, full_b = table["defined_a"] >= min_points, table["defined_b"] >= min_points
+    return np.select([table["valid"], ~a & full_b, ~b & full_a, a | b], list(COVERAGE), default="")
 
 
 def class_changes(names, counts_a, counts_b):
@@ -40,12 +43,12 @@ def class_changes(names, counts_a, counts_b):
 
 
 def cell_features(cm):
-    """[(ring (5, 2), fields)] of every cell either epoch covers: row, col, coverage, points of
-    each epoch, rank (most changed first, compared cells), score, level of detection, z,
+    """[(ring (5, 2), fields)] of every cell either epoch covers: row, col, coverage
+    (:func:`coverage`), points of each epoch, rank (most changed first, compared cells), score, level of detection, z,
     significant (1/0; NULL where not compared), the metrics in which it changed significantly,
     every metric, and the classes that changed most (share of B minus share of A, points)."""
     t = cm.table
-    state = coverage(t)
+    state = coverage(t, cm.min_points)
     ranks = np.zeros(len(t), np.int64)
     ranks[cm.ranked()] = np.arange(1, int(t["valid"].sum()) + 1)
     names = cm.class_table.class_names

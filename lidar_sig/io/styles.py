@@ -38,7 +38,8 @@ def raster_qml(band, stops, *, interpolated=True):
             "<rasterTransparency/><minMaxOrigin><limits>None</limits><extent>WholeRaster</extent>"
             "<statAccuracy>Exact</statAccuracy></minMaxOrigin>"
             f'<rastershader><colorrampshader colorRampType="{kind}" classificationMode="1" clip="0" '
-            f'minimumValue={quoteattr(repr(lo))} maximumValue={quoteattr(repr(hi))}>{items}</colorrampshader>'
+            f'minimumValue={quoteattr(repr(lo))} maximumValue={quoteattr(repr(hi))}>{items}'
+            '<rampLegendSettings useContinuousLegend="0"/></colorrampshader>'
             "</rastershader></rasterrenderer>"
             '<brightnesscontrast brightness="0" contrast="0"/><huesaturation saturation="0" grayscaleMode="0"/>'
             '<rasterresampler maxOversampling="2"/></pipe><blendMode>0</blendMode></qgis>\n')
