@@ -4,7 +4,7 @@ Debian's Python (``/usr/bin/python3``, where python3-qgis lives) and QT_QPA_PLAT
 
     /usr/bin/python3 tests/qgis_driver.py TASK ARGS.json
 
-TASK is one of ``algorithms``, ``changes``, ``cancel``, ``errors``, ``compare`` and ``open``; ARGS
+TASK is one of ``algorithms``, ``changes``, ``cancel``, ``errors``, ``compare``, ``jobs`` and ``open``; ARGS
 the JSON of its arguments (paths). The last line printed is ``RESULT <json>``: what QGIS saw.
 """
 import json
@@ -222,6 +222,37 @@ def compare(args):
                                                        for f in layer.getFeatures()]}
 
 
+def jobs(args):
+    """processing.run of saliency, signature, catalog, similar and outliers, one after the
+    other, as a user runs them on a folder of tiles."""
+    from qgis.core import QgsVectorLayer
+
+    import processing
+
+    out = Path(args["out"])
+    runs = {
+        "saliency": ("lidarsig:saliency", {"INPUT": args["cloud"], "OUTPUT": str(out / "cloud_sal.laz"),
+                                           "STRATEGY": 1}),
+        "signature": ("lidarsig:signature", {"INPUT": args["cloud"], "OUTPUT": str(out / "cloud.h5"),
+                                             "PNG": str(out / "cloud.png")}),
+        "catalog": ("lidarsig:catalog", {"INPUT": args["folder"], "OUTPUT": str(out / "survey.h5"), "WORKERS": 1}),
+        "similar": ("lidarsig:similar", {"QUERY": args["cloud"], "CATALOGUE": str(out / "survey.h5"), "TOP": 2,
+                                         "OUTPUT": "TEMPORARY_OUTPUT"}),
+        "outliers": ("lidarsig:outliers", {"CATALOGUE": str(out / "survey.h5"), "OUTPUT": str(out / "tiles.gpkg"),
+                                           "REPORT": str(out / "qc.html")}),
+    }
+    found = {}
+    for name, (algorithm, parameters) in runs.items():
+        feedback = recording_feedback()
+        results = processing.run(algorithm, parameters, feedback=feedback)
+        found[name] = {"results": {k: v for k, v in results.items() if isinstance(v, (str, int, float, type(None)))},
+                       "stages": feedback.stages, "log": feedback.log}
+    table = QgsVectorLayer(found["similar"]["results"]["OUTPUT"], "similar", "ogr")
+    found["similar"]["rows"] = [[f["rank"], f["name"], f["distance"]] for f in table.getFeatures()]
+    found["files"] = sorted(os.listdir(out))
+    return found
+
+
 def open_alone(args):
     """Files opened by themselves, as a user drags them into QGIS."""
     from qgis.core import QgsRasterLayer, QgsVectorLayer
@@ -235,7 +266,7 @@ def open_alone(args):
 
 
 TASKS = {"algorithms": algorithms, "changes": changes, "cancel": cancel, "errors": errors, "compare": compare,
-         "open": open_alone}
+         "jobs": jobs, "open": open_alone}
 
 
 def main(argv):

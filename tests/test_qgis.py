@@ -251,6 +251,25 @@ def test_compare_in_qgis_gives_the_metrics_as_a_table_on_the_project_s_scale(qgi
         assert row["on_scale"] == info["scale"][row["key"]]["says"]
 
 
+def test_the_other_jobs_run_in_qgis_as_their_commands_do(qgis, tmp_path):
+    import laspy
+
+    out = tmp_path / "out"
+    out.mkdir()
+    found = qgis("jobs", cloud=SAMPLES / "epoch1.laz", folder=SAMPLES, out=out)
+    assert {"cloud_sal.laz", "cloud.h5", "cloud.png", "survey.h5", "tiles.gpkg", "qc.html"} <= set(found["files"])
+    assert "OptimalScale" in laspy.read(out / "cloud_sal.laz").point_format.extra_dimension_names  # strategy optimal
+    assert "saliency (c3dcm optimal)" in found["saliency"]["stages"] and "tiles" in found["catalog"]["stages"]
+    assert any(kind == "info" and "3 tiles (3 added)" in line for kind, line in found["catalog"]["log"])
+    # similar: the query's own tile left out, the two others best first, as the command lists them
+    done = run("similar", SAMPLES / "epoch1.laz", out / "survey.h5", "--top", "2", "--json")
+    expected = [[r["rank"], r["name"], pytest.approx(r["distance"], rel=1e-12)]
+                for r in json.loads(done.stdout)["results"]]
+    assert found["similar"]["rows"] == expected and "epoch1.laz" not in [r[1] for r in expected]
+    assert found["outliers"]["results"]["STANDING_OUT"] == 1
+    assert found["outliers"]["results"]["VERDICT"].startswith("1 tile stands out")
+
+
 def test_qgis_opens_the_change_map_and_the_geopackages_in_their_styles_by_themselves(qgis, tmp_path):
     cat = tmp_path / "samples.h5"
     assert run("catalog", SAMPLES, "-o", cat, "--workers", "1", "-q").returncode == 0
