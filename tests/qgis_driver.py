@@ -186,15 +186,18 @@ def cancel(args):
 
 
 def errors(args):
-    """The one-line errors a user meets as QgsProcessingExceptions: a bad input, and no
-    lidar-sig to run."""
+    """The one-line errors a user meets as QgsProcessingExceptions: a bad input, no lidar-sig to
+    run, a destination that is a table in a database rather than a file."""
     from qgis.core import QgsProcessingException
 
     import processing
 
     out = {}
+    in_a_table = dict(changes_parameters(args), EPOCH_A=args["b"],
+                      CELLS=f"ogr:dbname='{Path(args['cells']).with_name('db.gpkg')}' table=\"cells\" (geom)")
     for name, parameters, path in (("bad input", changes_parameters(args), os.environ["PATH"]),
-                                   ("no command", changes_parameters(args), "/nonexistent")):
+                                   ("no command", changes_parameters(args), "/nonexistent"),
+                                   ("a table", in_a_table, os.environ["PATH"])):
         saved = os.environ["PATH"]
         os.environ["PATH"] = path
         try:

@@ -235,6 +235,8 @@ def test_a_bad_input_and_a_missing_command_are_processing_exceptions_naming_the_
     found = qgis("errors", a=bad, b=SAMPLES / "epoch1.laz", map=tmp_path / "map.tif", cells=tmp_path / "cells.gpkg")
     assert found["bad input"].startswith(f"{bad}: ") and "\n" not in found["bad input"]
     assert found["no command"].startswith("lidar-sig was not found on PATH; install it (pip install lidar-sig) or set")
+    assert found["a table"].startswith("ogr:dbname=") and "choose Save to File... and give a .gpkg file" in \
+        found["a table"]
     assert found["files"] == ["broken.laz"]
 
 

@@ -126,7 +126,7 @@ def tiles_style():
              fill=(255, 237, 160), fill_alpha=150, pattern="solid"),
         Rule(f"below the survey's median (under {low:g})", f'"score" < {low!r}', edge, fill=(255, 255, 255),
              fill_alpha=120, pattern="solid"),
-    ], label_expression=f'if("outlier" = 1, \'#\' || "rank", NULL)')
+    ], label_expression='if("outlier" = 1, \'#\' || "rank", NULL)')
 
 
 def robust_z(values):

@@ -2,6 +2,7 @@
 parameters into the command's arguments, runs it (:mod:`.command`), and hands its outputs to
 QGIS: layers added to the project in their own styles, tables of the numbers it printed as JSON."""
 import json
+import re
 import shlex
 from pathlib import Path
 
@@ -23,6 +24,9 @@ CLOUDS_OR_ARCHIVES = ("Point clouds and signature archives (*.laz *.las *.ply *.
 CLOUD_OUTPUTS = "LAZ files (*.laz);;LAS files (*.las);;PLY files (*.ply);;CSV files (*.csv)"
 ARCHIVES = "Signature archives (*.h5 *.hdf5)"
 HTML = "HTML files (*.html)"
+#: A destination that is no file: a provider's URI ("ogr:dbname=...", "postgres:...", "memory:"; a
+#: Windows drive is one letter).
+NOT_A_FILE = re.compile(r"^[A-Za-z]{2,}:|dbname=")
 #: The metrics' keys in the command's order, for the tables.
 METRIC_KEYS = ("bhattacharyya", "ssim", "emd_info", "emd_img", "fv", "kl", "l1")
 
@@ -129,6 +133,15 @@ class LidarSigAlgorithm(QgsProcessingAlgorithm):
     def add_report(self):
         self.addParameter(QgsProcessingParameterFileDestination("REPORT", "Report (HTML)", HTML, optional=True,
                                                                 createByDefault=False))
+
+    def layer_file(self, parameters, name, context):
+        """A layer destination's file: the command writes files, so a database table or a layer
+        inside a GeoPackage (QGIS's "ogr:dbname=... table=...") is refused, saying so."""
+        destination = self.parameterAsOutputLayer(parameters, name, context)
+        if NOT_A_FILE.search(destination):
+            raise QgsProcessingException(f"{destination}: lidar-sig writes files; choose Save to File... and give a "
+                                         f"{'.tif' if name == 'OUTPUT' and self.job == 'changes' else '.gpkg'} file")
+        return destination
 
     def path(self, parameters, name, context):
         """A file parameter's path, or None where it is empty."""
@@ -316,8 +329,8 @@ class ChangesAlgorithm(LidarSigAlgorithm):
 
     def arguments(self, parameters, context):
         args = ["changes", self.path(parameters, "EPOCH_A", context), self.path(parameters, "EPOCH_B", context),
-                "-o", self.parameterAsOutputLayer(parameters, "OUTPUT", context),
-                "--cells", self.parameterAsOutputLayer(parameters, "CELLS", context),
+                "-o", self.layer_file(parameters, "OUTPUT", context),
+                "--cells", self.layer_file(parameters, "CELLS", context),
                 "--json", "--top", "0", "--overwrite",
                 "--confidence", repr(self.parameterAsDouble(parameters, "CONFIDENCE", context))]
         cell = self.parameterAsDouble(parameters, "CELL", context)
@@ -420,7 +433,7 @@ class OutliersAlgorithm(LidarSigAlgorithm):
 
     def arguments(self, parameters, context):
         args = ["outliers", self.path(parameters, "CATALOGUE", context), "-o",
-                self.parameterAsOutputLayer(parameters, "OUTPUT", context), "--json", "--overwrite"]
+                self.layer_file(parameters, "OUTPUT", context), "--json", "--overwrite"]
         reach = self.parameterAsDouble(parameters, "REACH", context)
         args += ["--reach", repr(reach)] if reach > 0 else []
         report = self.parameterAsFileOutput(parameters, "REPORT", context)
