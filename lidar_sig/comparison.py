@@ -92,10 +92,11 @@ class Comparison(dict):
 
     def to_dict(self):
         """Everything as plain JSON-able values: the metrics at the top level (as before),
-        ``a`` and ``b`` with each side's facts, ``method``, ``render`` and ``warnings``."""
+        ``a`` and ``b`` with each side's facts, ``method``, ``render``, ``warnings`` and each
+        metric placed on the project's reference values (``scale``, :meth:`Metric.scale`)."""
         out = dict(self.metrics)
         out.update(a=self.a.summary(), b=self.b.summary(), method=self.method, render=self.render,
-                   warnings=list(self.warnings))
+                   warnings=list(self.warnings), scale=metric_scales(self.metrics))
         return out
 
     def report(self):
@@ -135,6 +136,13 @@ def compare(a: Any, b: Any, *, pipeline: Any = None, render: str | None = None, 
     """
     return compare_sources(a, b, pipeline, render=render, columns=columns, execution=execution,
                            color_bins=color_bins)
+
+
+def metric_scales(values):
+    """{metric key: :meth:`lidar_sig.metrics.Metric.scale`} of the metrics that have a value."""
+    from .metrics import METRICS
+
+    return {m.key: m.scale(values[m.key]) for m in METRICS if values.get(m.key) is not None}
 
 
 def report(a, b=None, pipeline=None, *, render=None, columns=None):

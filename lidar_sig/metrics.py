@@ -17,13 +17,26 @@ from .signature import to_uint8
 
 #: Additive (Jeffreys) smoothing of class counts before the KL divergence.
 KL_ALPHA = 0.5
+#: The cases a value is placed against (docs/comparison.md, the ordering benchmark), nearest first.
+REFERENCE_CASES = {
+    "rotated": "the same land rotated",
+    "resampled": "the same land resampled to 80% or 60% of its points",
+    "adjacent": "the adjacent tile of the same survey",
+    "another_place": "a tile of another city",
+}
+#: Values within this of a metric's ``same`` value read as "the same land" (rotated copies give
+#: the same value to four decimals).
+SAME_WITHIN = 5e-5
 
 
 @dataclass(frozen=True)
 class Metric:
     """What a metric of :func:`compare` is, for tables and reports: its key, the paper's name,
     its range, the value of two identical signatures, whether a larger value means more
-    different, a short definition and what it reacts to, in a user's words."""
+    different, a short definition and what it reacts to, in a user's words, and ``references``:
+    the lowest and highest value the project measured between a tile and the same land
+    resampled, the adjacent tile and another city ({case: (low, high)}, the 7 references of
+    docs/comparison.md's ordering benchmark with the defaults; a rotated copy gives ``same``)."""
 
     key: str
     name: str
@@ -32,25 +45,70 @@ class Metric:
     larger_differs: bool
     short: str
     reacts: str
+    references: dict = None
+
+    def _oriented(self, value):
+        return float(value) if self.larger_differs else self.same - float(value)
+
+    def place(self, value):
+        """The reference case ``value`` is most like (a key of :data:`REFERENCE_CASES`) and a
+        phrase saying so. The cases split at the geometric mean of the highest value of one
+        case and the lowest of the next (their ranges may overlap); a value within
+        :data:`SAME_WITHIN` of ``same`` is "rotated", one above every other city's "beyond"."""
+        v = self._oriented(value)
+        if abs(v) < SAME_WITHIN:
+            return "rotated", f"as the same land, rotated ({self.same:g})"
+        cases = list(self.references)
+        ranges = [sorted(self._oriented(x) for x in self.references[c]) for c in cases]
+        for k, case in enumerate(cases[:-1]):
+            if v < (ranges[k][1] * ranges[k + 1][0]) ** 0.5:
+                return case, f"like {REFERENCE_CASES[case]} ({self.shown_range(case)})"
+        if v > ranges[-1][1]:
+            return "beyond", f"beyond {REFERENCE_CASES[cases[-1]]} ({self.shown_range(cases[-1])})"
+        return cases[-1], f"like {REFERENCE_CASES[cases[-1]]} ({self.shown_range(cases[-1])})"
+
+    def shown_range(self, case):
+        """The range of a reference case as text, e.g. ``0.2187-0.5872``."""
+        low, high = self.references[case]
+        return f"{low:.4f}-{high:.4f}"
+
+    def scale(self, value):
+        """``value`` placed on the project's reference values, as plain values for JSON."""
+        case, says = self.place(value)
+        return {"name": self.name, "like": case, "says": says, "rotated": self.same,
+                **{c: list(r) for c, r in self.references.items()}}
 
 
+def _references(resampled, adjacent, another_place):
+    return {"resampled": resampled, "adjacent": adjacent, "another_place": another_place}
+
+
+# The references: docs/comparison.md, "Defaults, figure by figure" (7 reference tiles, IGN, AHN3,
+# ISPRS; 80% and 60% samples pooled as "resampled"); tests/test_gis_answers.py reads them there.
 METRICS = (
     Metric("bhattacharyya", "d_BD-Img", "0 to 1", 0.0, True,
            "Bhattacharyya distance of Sas colour histograms",
-           "which semantic classes cover how much of the signature (the colours of Sas), not where"),
+           "which semantic classes cover how much of the signature (the colours of Sas), not where",
+           _references((0.0381, 0.1967), (0.2187, 0.5872), (0.6450, 0.7772))),
     Metric("ssim", "s_SSIM", "-1 to 1", 1.0, False, "structural similarity of Sg images",
-           "the shape of the geometric signature Sg: where in the triangle the points lie, locally"),
+           "the shape of the geometric signature Sg: where in the triangle the points lie, locally",
+           _references((0.9192, 0.9765), (0.8998, 0.9656), (0.6825, 0.8607))),
     Metric("emd_info", "d_EMD-Info", "0 to ln 3 (1.10) nats", 0.0, True, "EMD of Egeom histograms (nats)",
-           "how mixed the local geometry is (Egeom): e.g. more vegetation or clutter raises it"),
+           "how mixed the local geometry is (Egeom): e.g. more vegetation or clutter raises it",
+           _references((0.0052, 0.0424), (0.0131, 0.1154), (0.0401, 0.3044))),
     Metric("emd_img", "d_EMD-Img", "0 to 1.73", 0.0, True, "EMD of Sas colour histograms (RGB in [0, 1])",
-           "the colours of Sas like d_BD-Img, but a change to a similar colour counts less"),
+           "the colours of Sas like d_BD-Img, but a change to a similar colour counts less",
+           _references((0.0080, 0.0341), (0.0500, 0.1611), (0.1751, 0.3291))),
     Metric("fv", "delta_FV", "0 to 2", 0.0, True, "distance of Fisher vectors of saliency positions",
            "shifts of the points' distribution in the triangle (line-, surface- or point-type), "
-           "at the scale of an eighth of its side"),
+           "at the scale of an eighth of its side",
+           _references((0.0175, 0.2054), (0.0928, 0.5503), (0.3935, 0.7881))),
     Metric("kl", "delta_KL", "0 to infinity", 0.0, True, "symmetric KL divergence of class distributions",
-           "changes in class shares, strongly where a class is rare in one cloud"),
+           "changes in class shares, strongly where a class is rare in one cloud",
+           _references((0.0000, 0.0002), (0.0150, 0.5972), (1.7644, 7.0806))),
     Metric("l1", "L1", "0 to 2", 0.0, True, "L1 distance of class distributions",
-           "changes in class shares: twice the share of points that would have to change class"),
+           "changes in class shares: twice the share of points that would have to change class",
+           _references((0.0006, 0.0114), (0.1057, 0.6154), (0.6531, 1.1463))),
 )
 #: Keys of the metrics (of :func:`compare`'s dict), in the order of METRICS: the order of every
 #: table of metrics and of the change map's GeoTIFF bands.

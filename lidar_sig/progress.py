@@ -1,53 +1,95 @@
-"""Progress of long steps for people, on a terminal only; timings for ``--verbose``.
+"""Progress of long steps, for people on a terminal and for programs reading stderr; timings for
+``--verbose``.
 
 Two tools serve every command and the library alike:
 
 - :func:`step`, a context manager around a step that may take more than a second (reading,
-  neighbour search and descriptor, signature, metrics, rendering, writing). On a terminal it
-  shows the step's name and elapsed time once the step has lasted ``STEP_DELAY`` seconds, and a
-  bar where the step iterates (:meth:`Step.track`); when it ends it logs its name, parameters
-  and duration to the ``lidar_sig`` logger at INFO level (``--verbose`` prints them).
-- :func:`progress`, a bar around a loop (used where a loop is not a step of its own).
+  neighbour search and descriptor, signature, metrics, rendering, writing). It shows the step's
+  progress (below), and where the step iterates (:meth:`Step.track`) how far it is; when it ends
+  it logs its name, parameters and duration to the ``lidar_sig`` logger at INFO level
+  (``--verbose`` prints them).
+- :func:`progress`, the same around a loop that is not a step of its own (tiles, subsamples).
 
-Whether anything is shown: an explicit ``enabled`` wins; else the setting of the enclosing
-:func:`settings` block (the command line's ``--quiet``); else only when stderr is a terminal.
-The bars are tqdm's, imported when one is first made or a line said (not when the command
-line starts).
+Progress takes one of two forms (docs/scripting.md):
+
+- **bars** (tqdm's, on stderr): a step's name and elapsed time once it has lasted
+  ``STEP_DELAY`` seconds, a bar where it iterates; they vanish when done.
+- **lines**, for a program that reads stderr (a GIS, a workflow manager): one line per stage
+  and whole percent, ``lidar-sig: progress: <stage>: <N>%``, from 0% when the stage starts to
+  100% when it ends (not said when it fails); a stage without a count of items says 0% and
+  100% only. The stage is free text without ": ".
+
+Which form, if any: an explicit ``enabled`` wins (False: none; True: lines if the environment
+variable ``LIDAR_SIG_PROGRESS`` says ``lines``, else bars); else the setting of the enclosing
+:func:`settings` block (the command line's ``--quiet`` is False); else ``LIDAR_SIG_PROGRESS``:
+``auto`` (the default: bars when stderr is a terminal, lines otherwise), ``lines``, ``bars`` or
+``none``. tqdm is imported when a bar is first made or a line said above one (not when the
+command line starts).
 """
 from __future__ import annotations
 
 import contextlib
 import contextvars
 import logging
+import os
 import sys
 import threading
 import time
 from collections.abc import Iterator
 
+from .errors import LidarSigError
+
 log = logging.getLogger("lidar_sig")
 
-#: Seconds a step runs before its line appears (quick steps stay silent).
+#: Seconds a step runs before its line appears on a terminal (quick steps stay silent there).
 STEP_DELAY = 0.5
 #: Seconds between refreshes of a step's elapsed time.
 REFRESH = 0.5
+#: The environment variable that chooses the form of progress, and its values.
+VARIABLE = "LIDAR_SIG_PROGRESS"
+SETTINGS = ("auto", "lines", "bars", "none")
+#: What starts every progress line; the stage and the percent follow (``<stage>: <N>%``).
+LINE_PREFIX = "lidar-sig: progress: "
 
 _enabled = contextvars.ContextVar("lidar_sig_progress", default=None)
 
 
-def shown(enabled=None):
-    """Whether to show progress: ``enabled`` if given, else the :func:`settings` in force,
-    else whether stderr is a terminal."""
+def environment_setting():
+    """``LIDAR_SIG_PROGRESS`` (auto, lines, bars or none; auto when unset or empty); a
+    LidarSigError for any other value."""
+    raw = os.environ.get(VARIABLE, "")
+    value = raw.strip().lower() or "auto"
+    if value not in SETTINGS:
+        raise LidarSigError(f"the environment variable {VARIABLE}={raw!r} is not a progress setting; set it to "
+                            f"{', '.join(SETTINGS[:-1])} or {SETTINGS[-1]}, or unset it")
+    return value
+
+
+def form(enabled=None):
+    """How progress shows: ``"bars"``, ``"lines"`` or None (not at all); see the module
+    docstring for the order in which ``enabled``, :func:`settings` and ``LIDAR_SIG_PROGRESS``
+    decide."""
     if enabled is None:
         enabled = _enabled.get()
+    if enabled is False:
+        return None
+    setting = environment_setting()
     if enabled is None:
-        enabled = sys.stderr.isatty()
-    return bool(enabled)
+        if setting == "auto":
+            return "bars" if sys.stderr.isatty() else "lines"
+        return None if setting == "none" else setting
+    return "lines" if setting == "lines" else "bars"  # asked for explicitly
+
+
+def shown(enabled=None):
+    """Whether progress shows at all (:func:`form` is not None)."""
+    return form(enabled) is not None
 
 
 @contextlib.contextmanager
 def settings(*, enabled: bool | None = None, verbose: bool = False) -> Iterator[None]:
-    """Within the block, progress is shown as ``enabled`` says (None: on a terminal only) and,
-    with ``verbose``, each step's parameters and timing are printed on stderr."""
+    """Within the block, progress is shown as ``enabled`` says (None: as ``LIDAR_SIG_PROGRESS``
+    says) and, with ``verbose``, each step's parameters and timing are printed on stderr."""
     token = _enabled.set(enabled)
     handler = None
     if verbose:
@@ -82,12 +124,69 @@ def say(line):
     tqdm.write(line, file=sys.stderr)
 
 
+def stage_name(text):
+    """``text`` as a stage of a progress line: one line, without ": " (which separates the
+    stage from the percent)."""
+    return " ".join(str(text).replace(": ", " - ").split())
+
+
+class Lines:
+    """Progress of one stage as plain lines on stderr, ``lidar-sig: progress: <stage>: <N>%``,
+    one per whole percent reached (0% when made); iterate it like a bar, or call
+    :meth:`update` and :meth:`close`."""
+
+    def __init__(self, iterable=None, *, stage, total=None):
+        self.iterable = iterable
+        self.stage = stage_name(stage)
+        self.total = total
+        self.done = 0
+        self.said = None
+        self._say(0)
+
+    def _say(self, percent):
+        if percent != self.said:
+            self.said = percent
+            sys.stderr.write(f"{LINE_PREFIX}{self.stage}: {percent}%\n")
+            sys.stderr.flush()
+
+    def reset(self, total=None):
+        """Count again from 0 of ``total`` items."""
+        self.total, self.done = total, 0
+
+    def update(self, n=1):
+        self.done += n
+        if self.total:
+            self._say(min(100, int(100 * self.done / self.total)))
+
+    def close(self, failed=False):
+        """The stage ended: 100% unless it ``failed``."""
+        if not failed:
+            self._say(100)
+
+    def set_postfix_str(self, text):
+        """Bars show a rate after the count; a line does not."""
+
+    def __iter__(self):
+        try:
+            for item in self.iterable:
+                yield item
+                self.update()
+        except BaseException:
+            self.close(failed=True)
+            raise
+        self.close()
+
+
 def progress(iterable, *, total=None, desc="", enabled=None, unit="it"):
-    """Wrap ``iterable`` in a bar on stderr; see the module docstring for when it shows."""
+    """Wrap ``iterable`` in a bar or lines on stderr, or in nothing (see the module docstring)."""
+    how = form(enabled)
+    if how == "lines":
+        if total is None and hasattr(iterable, "__len__"):
+            total = len(iterable)
+        return Lines(iterable, stage=desc or "working", total=total)
     from tqdm import tqdm
 
-    return tqdm(iterable, total=total, desc=desc, disable=not shown(enabled), unit=unit,
-                leave=False, file=sys.stderr)
+    return tqdm(iterable, total=total, desc=desc, disable=how is None, unit=unit, leave=False, file=sys.stderr)
 
 
 class Step:
@@ -98,8 +197,12 @@ class Step:
         self.params = dict(params)
         self.start = time.perf_counter()
         self._bar = None
+        self._lines = None
         self._done = threading.Event()
-        if shown(enabled):
+        how = form(enabled)
+        if how == "lines":
+            self._lines = Lines(stage=name)
+        elif how == "bars":
             from tqdm import tqdm
 
             self._bar = tqdm(total=None, desc=name, bar_format="{desc}: {elapsed}", leave=False,
@@ -118,22 +221,27 @@ class Step:
         self.params.update(params)
 
     def track(self, iterable, *, total=None, unit="it"):
-        """Iterate with a bar in place of the step's line (total from ``len`` if not given)."""
-        if self._bar is None:
+        """Iterate with a bar in place of the step's line, or its lines by percent (total from
+        ``len`` if not given)."""
+        shown = self._bar if self._bar is not None else self._lines
+        if shown is None:
             yield from iterable
             return
         total = len(iterable) if total is None else total
-        self._bar.bar_format = None
-        self._bar.unit = unit
-        self._bar.reset(total=total)
+        if self._bar is not None:
+            self._bar.bar_format = None
+            self._bar.unit = unit
+        shown.reset(total=total)
         for item in iterable:
             yield item
-            self._bar.update()
+            shown.update()
 
-    def close(self):
+    def close(self, failed=False):
         self._done.set()
         if self._bar is not None:
             self._bar.close()
+        if self._lines is not None:
+            self._lines.close(failed=failed)
         seconds = time.perf_counter() - self.start
         if log.isEnabledFor(logging.INFO):
             facts = ", ".join(f"{k.replace('_', ' ')} {_show(v)}" for k, v in self.params.items())
@@ -151,8 +259,10 @@ def step(name, *, enabled=None, **params):
     s = Step(name, enabled, params)
     try:
         yield s
-    finally:
-        s.close()
+    except BaseException:
+        s.close(failed=True)
+        raise
+    s.close()
 
 
 def _show(value):

@@ -1,4 +1,5 @@
 """Shared fixtures: the real survey data beside the project, and small synthetic clouds."""
+import os
 from pathlib import Path
 
 import numpy as np
@@ -9,6 +10,10 @@ DATA = ROOT.parent / "shared" / "data"
 IGN = DATA / "ign_lidarhd_montpellier"
 IGN_FILES = sorted(IGN.glob("*.laz"))
 SAMPLES = ROOT / "data_samples"
+
+# Many tests compare stderr exactly: no progress lines in them, in this process or in the commands
+# it starts (they inherit the variable). tests/test_progress.py checks the lines with it unset.
+os.environ["LIDAR_SIG_PROGRESS"] = "none"
 
 
 def need_data(path):

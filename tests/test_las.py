@@ -12,6 +12,7 @@ import lidar_sig as ls
 from command_line import run
 from conftest import DATA, IGN, IGN_FILES, NOISY, airborne_like, need_data, noisy_las
 from lidar_sig.errors import LidarSigWarning
+from lidar_sig.io.fields import saliency_fields
 from lidar_sig.io.las import SALIENCY_DIMS, write_las
 
 OURS = set(SALIENCY_DIMS)
@@ -109,7 +110,7 @@ def test_las12_input_is_written_as_las14_with_every_value_kept(path, tmp_path):
     sal = _saliency(len(cloud))
     out_path = tmp_path / "out.laz"
     with pytest.warns(LidarSigWarning, match="LAS 1.2 input written as LAS 1.4"):
-        write_las(out_path, cloud, sal)
+        write_las(out_path, cloud, saliency_fields(sal))
     out = laspy.read(out_path)
     assert str(out.header.version) == "1.4"
     assert out.header.point_format.id == {0: 6, 1: 6}[src.header.point_format.id]
@@ -163,7 +164,7 @@ def test_legacy_point_formats_map_to_las14_with_values_kept(fmt, tmp_path):
     src = laspy.read(src_path)
     assert np.unique(np.asarray(src.classification)).size == 32 and np.asarray(src.withheld).any()
     with pytest.warns(LidarSigWarning):
-        write_las(out_path, ls.read(src_path), _saliency(len(xyz)))
+        write_las(out_path, ls.read(src_path), saliency_fields(_saliency(len(xyz))))
     out = laspy.read(out_path)
     assert out.header.point_format.id == {0: 6, 1: 6, 2: 7, 3: 7, 4: 9, 5: 10}[fmt]
     for name in src.point_format.dimension_names:
@@ -196,7 +197,7 @@ def test_extra_bytes_records_hold_the_data_range_and_no_data(ext, tmp_path):
     sal = _saliency(len(cloud), undefined=0.2)
     sal.values[0] = np.nan  # the first point undefined too
     sal = ls.Saliency.from_values(sal.values)
-    write_las(tmp_path / f"o{ext}", cloud, sal)
+    write_las(tmp_path / f"o{ext}", cloud, saliency_fields(sal))
     out = laspy.read(tmp_path / f"o{ext}")
     records = {r.format_name(): r for r in out.header.vlrs.get("ExtraBytesVlr")[0].extra_bytes_structs}
     for name in ("Cl", "Cs", "Cp", "Egeom"):
@@ -238,7 +239,7 @@ def test_header_names_lidar_sig_and_today(tmp_path):
     path = need_data(IGN / "test_data_77060_627760_LA93_IGN69.laz")
     cloud = ls.read(path)
     assert cloud.source.header.generating_software.startswith("PDAL")
-    write_las(tmp_path / "o.laz", cloud, _saliency(len(cloud)))
+    write_las(tmp_path / "o.laz", cloud, saliency_fields(_saliency(len(cloud))))
     out = laspy.read(tmp_path / "o.laz")
     assert out.header.generating_software == f"lidar_sig {ls.__version__}"
     assert out.header.creation_date == datetime.date.today()

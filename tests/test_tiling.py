@@ -12,6 +12,7 @@ import pytest
 import lidar_sig as ls
 from lidar_sig.classes import class_table
 from lidar_sig.errors import LidarSigError, LidarSigWarning
+from lidar_sig.io.fields import saliency_fields
 from lidar_sig.signature import Signature
 from lidar_sig.tiling.core import saliency_in_tiles
 from lidar_sig.tiling.execute import executor
@@ -200,7 +201,7 @@ def test_output_streamed_in_chunks_is_the_same_file_as_written_whole(tmp_path, n
     pipe = ls.Pipeline(strategy="optimal", progress=False)
     sal, _ = pipe.saliency(cloud)
     with pytest.warns(LidarSigWarning):  # LAS 1.2 upgraded, COPC index dropped: said either way
-        write_las(tmp_path / "whole.laz", cloud, sal, scale_kind="knn", scale_values=pipe.scales.values)
+        write_las(tmp_path / "whole.laz", cloud, saliency_fields(sal, "knn", pipe.scales.values))
     with pytest.warns(LidarSigWarning):
         write_las_chunks(tmp_path / "chunks.laz", src,
                          lambda a, b: ls.Saliency.from_values(sal.values[a:b], sal.optimal_scale[a:b]),

@@ -7,17 +7,22 @@ Growing: a tile already in the catalogue with the same path and SHA-256 is not c
 changed file is; tiles of the catalogue not among the inputs stay. A catalogue holds one method:
 method options that differ from its own are refused, and without any the catalogue's method is
 used. ``resume`` reuses the tiles an interrupted or failed run finished in the work folder.
+
+Copies: tiles that are identical files (the same SHA-256), or other files holding the same
+points (a tile and its COPC copy: the same count, bounds, class totals and signature), are kept,
+and said in a note: each would be the other's nearest tile and bend every statistic.
 """
 from __future__ import annotations
 
 import copy
 import time
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import LidarSigError, a_kind, as_path, reason
+from ..errors import LidarSigError, LidarSigWarning, a_kind, as_path, reason
 from ..progress import progress, step
 from .distances import spreads
 from .features import COLOR_BINS, RENDER, Features, sg_image
@@ -32,7 +37,8 @@ _TILE_FIELDS = ("path", "sha256", "crs", "factors", "n_points", "n_undefined", "
 class CatalogRun:
     """What making or growing a catalogue did: the tiles ``added``, ``updated`` (changed files),
     ``unchanged`` and ``resumed`` (paths), those that ``failed`` (path -> reason), the tiles
-    the catalogue holds and their CRSs (WKT, None for none), where it ran and how long it took."""
+    the catalogue holds and their CRSs (WKT, None for none), the ``duplicates`` among them
+    ([(kind, [names])], :func:`duplicates`), where it ran and how long it took."""
 
     output: str
     added: list = field(default_factory=list)
@@ -46,6 +52,7 @@ class CatalogRun:
     seconds: float = 0.0
     execution: str = ""
     grown: bool = False
+    duplicates: list = field(default_factory=list)
 
     @property
     def complete(self):
@@ -128,6 +135,10 @@ def build_catalog(inputs, output, pipeline=None, *, backend=None, work=None, res
         tiles = _merge(old, [_load(work, p) for p in sorted(finished)], output)
         if tiles:
             _write(output, pipeline, tiles, overwrite=old is not None or overwrite, progress_enabled=progress_enabled)
+            run.duplicates = [(kind, [tiles[i]["name"] for i in group]) for kind, group in duplicates(
+                *(np.array([t[k] for t in tiles]) for k in ("sha256", "n_points", "bounds", "class_totals", "fv")))]
+            for kind, group in run.duplicates:
+                warnings.warn(duplicate_note(kind, group), LidarSigWarning, stacklevel=2)
     if output.exists():
         header, columns = read_catalog(output)
         run.n_tiles = len(columns["name"])
@@ -137,6 +148,32 @@ def build_catalog(inputs, output, pipeline=None, *, backend=None, work=None, res
         remove_work(work)
     run.seconds = time.perf_counter() - start
     return run
+
+
+def duplicates(sha256, n_points, bounds, class_totals, fv):
+    """Groups of tiles that copy one another, per tile (arrays of N rows): [(kind, [rows])], kind
+    ``"identical files"`` (the same SHA-256) or ``"the same points"`` (other files with the same
+    point count, bounds, class totals and Fisher vector: the same points stored otherwise, e.g. as
+    COPC, whose saliency and so signature do not depend on the order of the points)."""
+    groups, by_file, by_points = [], {}, {}
+    for i, h in enumerate(sha256):
+        by_file.setdefault(str(h), []).append(i)
+    for group in by_file.values():
+        if len(group) > 1:
+            groups.append(("identical files", group))
+        key = (int(n_points[group[0]]), np.asarray(bounds[group[0]], np.float64).tobytes(),
+               np.asarray(class_totals[group[0]]).tobytes(), np.asarray(fv[group[0]]).tobytes())
+        by_points.setdefault(key, []).append(group[0])  # one file stands for its identical copies
+    groups += [("the same points", group) for group in by_points.values() if len(group) > 1]
+    return sorted(groups, key=lambda g: g[1])
+
+
+def duplicate_note(kind, names):
+    """The note about tiles ``names`` that copy one another (:func:`duplicates`)."""
+    what = ("are identical files (the same SHA-256)" if kind == "identical files" else
+            "hold the same points in different files (a copy, e.g. COPC)")
+    return (f"tiles {', '.join(names[:-1])} and {names[-1]} {what}: each is the other's nearest tile, which bends "
+            "similar and outliers; keep one (make the catalogue anew with --overwrite from the tiles without the copy)")
 
 
 def _growing_pipeline(header, pipeline, method_given, output):

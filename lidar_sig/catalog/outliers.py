@@ -14,6 +14,8 @@ that make the difference.
   a tile without neighbours).
 - **The classes that make the difference**: the class shares that differ most from the median
   shares of the tile's neighbours (of the survey without neighbours), in percentage points.
+- A tile **stands out** when its score reaches :data:`OUTLIER_SCORE` (3.5), the usual mark of an
+  outlier for the modified z-score (Iglewicz and Hoaglin); a survey may have none.
 """
 from __future__ import annotations
 
@@ -30,13 +32,20 @@ REACH_SHARE = 0.25
 #: Classes listed as making the difference, at most, and the least difference listed (points).
 CLASSES_LISTED = 3
 CLASS_DIFFERENCE_MIN = 1.0
+#: The score from which a tile stands out: 3.5, the mark of an outlier that Iglewicz and Hoaglin
+#: give for the modified z-score (docs/catalog.md).
+OUTLIER_SCORE = 3.5
+#: The scores drawn apart by the GeoPackage's style, below OUTLIER_SCORE: the survey's median
+#: (0) and a tile worth a look (2).
+STYLE_SCORES = (0.0, 2.0)
 
 
 @dataclass(repr=False)
 class Outliers:
     """The answer of :func:`outliers`: ``results`` (a dict per tile, highest score first), the
     matrix of screening distances ``distances`` (catalogue order), each tile's spatial
-    ``neighbours`` (rows), the ``reach`` in metres, and the catalogue they come from."""
+    ``neighbours`` (rows), the ``reach`` in metres, the catalogue they come from, and the
+    ``threshold`` from which a tile stands out (:data:`OUTLIER_SCORE`)."""
 
     catalog: object
     results: list
@@ -45,6 +54,21 @@ class Outliers:
     reach: float
     metrics: tuple
     notes: list = field(default_factory=list)
+    threshold: float = OUTLIER_SCORE
+
+    @property
+    def standing_out(self):
+        """The results whose score reaches :data:`OUTLIER_SCORE`, highest first."""
+        return [r for r in self.results if r["outlier"]]
+
+    def verdict(self):
+        """One line: how many tiles stand out, or that none does."""
+        found = self.standing_out
+        if not found:
+            return f"no tile stands out: no score reaches {self.threshold:g}, the mark of an outlier"
+        many = len(found) > 1
+        return (f"{len(found)} tile{'s stand' if many else ' stands'} out (score {self.threshold:g} or more, the mark "
+                f"of an outlier): {', '.join(r['name'] for r in found[:3])}{', ...' if len(found) > 3 else ''}")
 
     def __repr__(self):
         top = ", ".join(f"{r['name']} {r['score']:.2f}" for r in self.results[:3])
@@ -54,6 +78,7 @@ class Outliers:
         """The JSON shape of ``lidar-sig outliers --json``."""
         return {"results": [{k: v for k, v in r.items() if k != "row"} for r in self.results], "reach_m": self.reach, "metrics": list(self.metrics),
                 "distance": "screening distance: mean of " + ", ".join(self.metrics) + ", each over its spread",
+                "threshold": self.threshold, "standing_out": len(self.standing_out), "verdict": self.verdict(),
                 "notes": list(self.notes)}
 
     def names(self):
@@ -66,8 +91,10 @@ class Outliers:
         return classical_mds(self.distances)
 
     def write_geopackage(self, path, *, overwrite=False):
-        """The tiles' footprints with every score and metric as a GeoPackage (one layer per CRS)."""
-        from ..io.geopackage import write_geopackage
+        """The tiles' footprints with every score and metric as a GeoPackage (one layer per CRS),
+        with a spatial index and a default style: the tiles that stand out filled red and
+        labelled with their rank, the others shaded by score."""
+        from ..io.geopackage import tile_layers, write_geopackage
 
         cat = self.catalog
         layers = {}
@@ -75,15 +102,35 @@ class Outliers:
             i = r["row"]
             crs = cat.crs_of(i)
             fields = {k: v for k, v in r.items() if k not in ("row", "classes")}
+            fields["outlier"] = int(r["outlier"])
             fields["classes"] = "; ".join(f"{c['class']} {c['difference']:+.1f}" for c in r["classes"])
             layers.setdefault(crs, []).append((cat.columns["hull"][i], fields))
-        write_geopackage(path, layers, overwrite=overwrite)
+        write_geopackage(path, tile_layers(layers, style=tiles_style()), overwrite=overwrite)
 
     def report(self, *, top=None):
         """The HTML report (:func:`lidar_sig.reporting.outliers_report`)."""
         from ..reporting import outliers_report
 
         return outliers_report(self, top=top)
+
+
+def tiles_style():
+    """The QGIS style of the tiles' layer (QML): red where a tile stands out (labelled with its
+    rank), orange from 2, pale above the survey's median, white below it."""
+    from ..io.styles import Rule, polygon_qml
+
+    low, look = STYLE_SCORES
+    edge = (90, 90, 90)
+    return polygon_qml([
+        Rule(f"stands out (score {OUTLIER_SCORE:g} or more)", f'"score" >= {OUTLIER_SCORE!r}', (150, 0, 20), 0.6,
+             fill=(227, 26, 28), fill_alpha=170, pattern="solid"),
+        Rule(f"worth a look ({look:g} to {OUTLIER_SCORE:g})", f'"score" >= {look!r} AND "score" < {OUTLIER_SCORE!r}',
+             edge, fill=(253, 141, 60), fill_alpha=150, pattern="solid"),
+        Rule(f"above the survey's median ({low:g} to {look:g})", f'"score" >= {low!r} AND "score" < {look!r}', edge,
+             fill=(255, 237, 160), fill_alpha=150, pattern="solid"),
+        Rule(f"below the survey's median (under {low:g})", f'"score" < {low!r}', edge, fill=(255, 255, 255),
+             fill_alpha=120, pattern="solid"),
+    ], label_expression='if("outlier" = 1, \'#\' || "rank", NULL)')
 
 
 def robust_z(values):
@@ -145,12 +192,17 @@ def outliers(catalog, *, reach=None):
                         "score": float(score[i]), "z_neighbours": _num(z_near[i]), "z_survey": float(z_all[i]),
                         "d_neighbours": _num(d_near[i]), "d_survey": float(d_all[i]),
                         "neighbours": [c["name"][j] for j in near[i]], **per_metric,
+                        "outlier": bool(score[i] >= OUTLIER_SCORE),
                         "points": int(c["n_points"][i]), "density": float(c["density"][i]),
                         "classes": _differences(catalog.classes.class_names, shares[i], np.median(shares[ref], axis=0)),
                         "row": int(i)})
     notes = []
     if len(np.unique(crs_groups)) > 1:
         notes.append(f"the tiles are in {len(np.unique(crs_groups))} CRSs: neighbours are found within each CRS")
+    from .build import duplicate_note, duplicates
+
+    for kind, group in duplicates(c["sha256"], c["n_points"], c["bounds"], c["class_totals"], catalog.features.fv):
+        notes.append(duplicate_note(kind, [c["name"][i] for i in group]))
     alone = sum(1 for nb in near if not len(nb))
     if alone:
         notes.append(f"{alone} tile{'s have' if alone > 1 else ' has'} no neighbour within {reach:.4g} m: "

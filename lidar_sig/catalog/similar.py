@@ -14,6 +14,9 @@ distance is the same mean over the five screening metrics, so a tile's distance 
 first tile left out of the shortlist has 5/7 of its screening distance at or above the
 ``top``-th distance found, no tile outside could enter the top: the answer says it is
 ``certain``. Ranking by one screening metric is always certain.
+
+A query that is a tile of the catalogue is left out of the answer: the answer is the tiles most
+like it among the others (a copy of the tile, e.g. its COPC version, comes first at distance 0).
 """
 from __future__ import annotations
 
@@ -68,16 +71,24 @@ def similar(catalog, query, *, top=10, metric=None, shortlist=None, columns=None
     an archive file, a PointCloud or a Signature; ``columns`` of a text cloud), best first,
     ranked by ``metric`` (default "distance", the combined distance; or one metric's key).
     ``shortlist`` sets how many tiles get the full metrics (default :func:`shortlist_size`;
-    ``len(catalog)`` for all)."""
+    ``len(catalog)`` for all). A query that is a tile of the catalogue is left out of the
+    answer (it would come first, at distance 0): the answer is the other tiles."""
     keys = catalog.keys
     metric = metric or "distance"
     if metric not in ("distance",) + keys:
         raise LidarSigError(f"unknown metric {metric!r}; use distance or one of {', '.join(keys)}")
-    n = len(catalog)
-    top = min(whole_number(top, "top (how many tiles to list)", low=1), n)
-    what = f"shortlist (--shortlist: the tiles given every metric, at least the {top} listed, --top)"
-    size = shortlist_size(top, n) if shortlist is None else min(n, whole_number(shortlist, what, low=top))
+    top = whole_number(top, "top (how many tiles to list)", low=1)
+    if shortlist is not None:
+        shortlist = whole_number(shortlist, f"shortlist (--shortlist: the tiles given every metric, at least the "
+                                            f"{top} listed, --top)", low=top)
     q = catalog.query(query, columns=columns)
+    others = np.flatnonzero(np.arange(len(catalog)) != (-1 if q.index is None else q.index))
+    n = len(others)
+    if n == 0:
+        raise LidarSigError(f"the catalogue holds no tile but the query {q.name}: nothing to compare it with",
+                            path=catalog.path)
+    top = min(top, n)
+    size = shortlist_size(top, n) if shortlist is None else min(n, shortlist)
     spread = catalog.spread
     screen = {k: v[0] for k, v in screening(q.features, catalog.features, catalog.labelled).items()}
     screen_keys = tuple(screen)
@@ -85,7 +96,7 @@ def similar(catalog, query, *, top=10, metric=None, shortlist=None, columns=None
         rough = as_distance(metric, screen[metric])
     else:
         rough = combine(screen, spread, screen_keys)
-    order = np.argsort(rough, kind="stable")
+    order = others[np.argsort(rough[others], kind="stable")]
     chosen = order[:size]
     totals = catalog.total_rasters(chosen.tolist())
     mask = catalog.frame.mask()
@@ -108,10 +119,11 @@ def similar(catalog, query, *, top=10, metric=None, shortlist=None, columns=None
     if not certain and metric == "distance":
         bound = combine(screen, spread, screen_keys)[order[size]] * len(screen_keys) / len(keys)
         certain = bool(bound >= rows[top - 1][0])
-    how = ("every tile" if size >= n else
+    every = "every other tile" if q.index is not None else "every tile"
+    how = (every if size >= n else
            f"the {size} tiles nearest by {metric if metric in SCREENING else 'the screening distance'} "
            f"({', '.join(screen_keys)})")
-    info = {"size": size, "tiles": n, "rule": f"max({SHORTLIST_FACTOR} x top, {SHORTLIST_MIN})"
+    info = {"size": size, "tiles": n, "query_left_out": q.index is not None, "rule": f"max({SHORTLIST_FACTOR} x top, {SHORTLIST_MIN})"
             if shortlist is None else "given", "screened_by": how, "certain": certain,
             "image_metrics": list(IMAGE)}
     return Similar({"name": q.name, "kind": q.kind, "tile": q.index is not None}, metric, results, info,

@@ -1,6 +1,7 @@
 """The change map as a result: the per-cell table and the grid, each metric's level of
 detection, the cells ranked (significant ones first), rasters of any field, plain values for
-JSON, and the files it is saved as (GeoTIFF, PNG, HTML)."""
+JSON, and the files it is saved as (GeoTIFF with its QGIS style, GeoPackage of the cells, the
+later epoch's points with their cell's change, PNG, HTML)."""
 from __future__ import annotations
 
 import math
@@ -275,17 +276,41 @@ class ChangeMap:
         return rasters, [prefix + _band_description(n, self.score, self.confidence) for n in names]
 
     def save(self, path, *, overwrite=False):
-        """Write by extension: ``.tif``/``.tiff`` a GeoTIFF of the score, its level of
-        detection, significance and every metric (needs rasterio: ``pip install
-        lidar-sig[geo]``), ``.png`` the map, ``.html`` the report."""
+        """Write by extension: ``.tif``/``.tiff`` a Cloud-Optimized GeoTIFF of the score, its
+        level of detection, significance and every metric (needs rasterio: ``pip install
+        lidar-sig[geo]``) with its QGIS style beside it (``.qml``: the score as a colour ramp),
+        ``.gpkg`` the cells as a GeoPackage layer (:func:`~lidar_sig.change_map.layers.cell_features`),
+        a point-cloud extension (``.laz``, ``.las``, ``.ply``, ``.csv``, ...) the later epoch's
+        points with their saliency and their cell's change (ChangeScore, ChangeLoD,
+        ChangeSignificant), ``.png`` the map, ``.html`` the report."""
+        from ..io import CLOUD_EXTENSIONS, output_group
+
         ext = as_path(path, "saving a change map").suffix.lower()
         if ext in (".tif", ".tiff"):
             from ..io.geotiff import write_geotiff
+            from ..io.styles import style_path, write_style
+            from .layers import score_style
 
             rasters, descriptions = self.bands()
-            with step(f"writing {Path(path).name}", bands=len(rasters)):
+            with step(f"writing {Path(path).name}", bands=len(rasters)), output_group():
                 write_geotiff(path, rasters, descriptions, self.grid.transform, self.crs, overwrite=overwrite,
                               tags=self.metadata_tags())
+                write_style(style_path(path), score_style(self), overwrite=overwrite)
+        elif ext == ".gpkg":
+            from ..io.geopackage import write_geopackage
+            from .layers import cells_layer
+
+            with step(f"writing {Path(path).name}", cells=int(self.table["valid"].sum())):
+                write_geopackage(path, [cells_layer(self)], overwrite=overwrite)
+        elif ext in CLOUD_EXTENSIONS:
+            from ..io import write_cloud
+            from .layers import point_change
+
+            e = self.b
+            with step(f"writing {Path(path).name}", points=len(e.cloud)):
+                write_cloud(path, e.cloud, e.saliency, scale_kind=e.metadata.get("scale_kind"),
+                            scale_values=e.metadata.get("scale_values"), overwrite=overwrite,
+                            extra=point_change(self))
         elif ext == ".png":
             from ..io.png import write_png
             from ..reporting import change_map_image
@@ -295,8 +320,8 @@ class ChangeMap:
         elif ext in (".html", ".htm"):
             self.report().save(path, overwrite=overwrite)
         else:
-            raise LidarSigError(f"cannot write a change map as {ext or '(no extension)'!r}; use .tif, .png "
-                                "or .html", path=path)
+            raise LidarSigError(f"cannot write a change map as {ext or '(no extension)'!r}; use .tif, .gpkg, "
+                                ".png, .html or a point-cloud format (.laz, .las, .ply, .csv, ...)", path=path)
 
     def report(self):
         """The HTML report: the map over a top view of both epochs and the signatures of the top

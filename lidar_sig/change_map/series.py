@@ -83,11 +83,28 @@ class ChangeSeries:
 
     def save(self, path, *, overwrite=False):
         """Write by extension: ``.tif``/``.tiff`` every interval's bands (as a change map's,
-        described "interval k (Ek -> Ek+1): ...") then "when"; ``.png`` the map of "when";
-        ``.html`` the report with each interval's map."""
+        described "interval k (Ek -> Ek+1): ...") then "when", with its QGIS style beside it
+        (``.qml``: "when" in one colour per interval); ``.gpkg`` the cells of each interval, a
+        layer each (``cells_1``, ``cells_2``, ...); ``.png`` the map of "when"; ``.html`` the
+        report with each interval's map."""
+        from ..io import CLOUD_EXTENSIONS, output_group
+
         ext = as_path(path, "saving a change series").suffix.lower()
+        if ext in CLOUD_EXTENSIONS:
+            raise LidarSigError("the points with their cell's change are written for two epochs; run changes on "
+                                "the two epochs of the interval you want them for", path=path)
+        if ext == ".gpkg":
+            from ..io.geopackage import write_geopackage
+            from .layers import cells_layer
+
+            with step(f"writing {Path(path).name}", intervals=len(self.maps)):
+                write_geopackage(path, [cells_layer(m, f"cells_{k + 1}") for k, m in enumerate(self.maps)],
+                                 overwrite=overwrite)
+            return
         if ext in (".tif", ".tiff"):
             from ..io.geotiff import write_geotiff
+            from ..io.styles import style_path, write_style
+            from .layers import when_style
 
             rasters, descriptions = [], []
             for k, m in enumerate(self.maps):
@@ -101,9 +118,10 @@ class ChangeSeries:
             tags = {k: v for k, v in self.maps[0].metadata_tags().items() if not k.startswith(("epoch", "compared",
                                                                                                "significant"))}
             tags.update({f"epoch_{k + 1}": e.name for k, e in enumerate(self.epochs)})
-            with step(f"writing {Path(path).name}", bands=len(rasters)):
+            with step(f"writing {Path(path).name}", bands=len(rasters)), output_group():
                 write_geotiff(path, rasters, descriptions, self.grid.transform, self.maps[0].crs,
                               overwrite=overwrite, tags=tags)
+                write_style(style_path(path), when_style(self, len(rasters)), overwrite=overwrite)
         elif ext == ".png":
             from ..io.png import write_png
             from ..reporting import when_map_image
@@ -113,8 +131,8 @@ class ChangeSeries:
         elif ext in (".html", ".htm"):
             self.report().save(path, overwrite=overwrite)
         else:
-            raise LidarSigError(f"cannot write a change series as {ext or '(no extension)'!r}; use .tif, .png "
-                                "or .html", path=path)
+            raise LidarSigError(f"cannot write a change series as {ext or '(no extension)'!r}; use .tif, .gpkg, "
+                                ".png or .html", path=path)
 
     def report(self):
         """The HTML report: each interval's map and most changed cells, and the map of "when"."""

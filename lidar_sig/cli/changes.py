@@ -18,8 +18,14 @@ def _confidence():
 @cli.command("changes")
 @click.argument("epochs", nargs=-1, required=True, metavar="A B [C ...]")
 @click.option("-o", "--output", default=None, metavar="FILE.tif",
-              help="GeoTIFF: the score, its level of detection, significant (0/1) and every metric per cell "
-                   "(needs rasterio: pip install lidar-sig[geo]).")
+              help="Cloud-Optimized GeoTIFF: the score, its level of detection, significant (0/1) and every metric "
+                   "per cell, with its QGIS style beside it (FILE.qml) (needs rasterio: pip install lidar-sig[geo]).")
+@click.option("--cells", default=None, metavar="FILE.gpkg",
+              help="GeoPackage of the cells either epoch covers: coverage, score, level of detection, significance, "
+                   "the classes that changed most; with a spatial index and its QGIS style.")
+@click.option("--points", default=None, metavar="FILE.laz",
+              help="The later epoch's points with their saliency and their cell's change (ChangeScore, ChangeLoD, "
+                   "ChangeSignificant), in any point-cloud format (two epochs).")
 @click.option("--cell", default="auto", show_default=True, metavar="METRES|auto",
               help="Cell side in metres, or auto: chosen from the epochs' densities.")
 @click.option("--min-points", default="auto", show_default=True, metavar="N|auto",
@@ -43,8 +49,8 @@ def _confidence():
 @overwrite_option
 @columns_option
 @pipeline_options
-def changes_command(epochs, output, cell, min_points, score, confidence, class_map, top, png, report, as_json, render,
-                    overwrite, columns, pipeline, method_given, quiet):
+def changes_command(epochs, output, cells, points, cell, min_points, score, confidence, class_map, top, png, report,
+                    as_json, render, overwrite, columns, pipeline, method_given, quiet):
     """Map where epochs differ: per-cell signature metrics in a grid of the CRS, each with its
     level of detection, so that the cells that changed significantly stand out.
 
@@ -57,14 +63,17 @@ def changes_command(epochs, output, cell, min_points, score, confidence, class_m
         raise LidarSigError("give at least two epochs (A B), in time order")
     cell = _auto_or(cell, "the cell size (--cell)", _metres)
     min_points = _auto_or(min_points, "the fewest points (--min-points)", _whole)
-    _check_outputs(output, png, report, overwrite)
+    if points and len(epochs) > 2:
+        raise LidarSigError("the points with their cell's change are written for two epochs; run changes on the two "
+                            "epochs of the interval you want them for", path=points)
+    _check_outputs(output, png, report, overwrite, cells, points)
     from ..change_map import ChangeSeries, changes
     from ..metrics import METRIC_NAMES
 
     result = changes(*epochs, cell=cell, pipeline=pipeline, min_points=min_points, score=score,
                      render=render or "smooth", columns=columns, confidence=confidence,
                      class_map=list(class_map) or None)
-    written = _write(result, output, png, report, overwrite)
+    written = _write(result, (output, cells, points, png, report), overwrite)
     if as_json:
         click.echo(json.dumps(result.to_dict(top)))
         return
@@ -140,30 +149,38 @@ def _auto_or(text, what, parse):
     return parse(text, what)
 
 
-def _check_outputs(output, png, report, overwrite):
+def _check_outputs(output, png, report, overwrite, cells=None, points=None):
     """Refuse every output that cannot be written before anything is computed."""
-    from ..io import check_outputs
+    from ..io import CLOUD_EXTENSIONS, check_outputs
     from ..io.geotiff import check_geotiff_output
+    from ..io.styles import style_path
     from ..reporting import check_report_path
 
-    paths = [p for p in (output, png, report) if p]
+    paths = [p for p in (output, output and style_path(output), cells, points, png, report) if p]
     check_outputs(paths, overwrite=overwrite)
     if output:
         check_geotiff_output(output, overwrite=overwrite)
+    if cells and not cells.lower().endswith(".gpkg"):
+        raise LidarSigError("the cells are written as a GeoPackage: give a .gpkg file", path=cells)
+    if points and not points.lower().endswith(CLOUD_EXTENSIONS):
+        raise LidarSigError(f"the points are written as a point cloud: give one of {', '.join(CLOUD_EXTENSIONS)}",
+                            path=points)
     if png and not png.lower().endswith(".png"):
         raise LidarSigError("the map is written as .png", path=png)
     if report:
         check_report_path(report, overwrite=overwrite)
 
 
-def _write(result, output, png, report, overwrite):
+def _write(result, paths, overwrite):
     """Write the outputs together (all or none); lines saying what was written."""
     from ..io import output_group
+    from ..io.styles import style_path
 
     lines = []
     with output_group():
-        for path in (output, png, report):
+        for path in paths:
             if path:
                 result.save(path, overwrite=overwrite)
-                lines.append(f"wrote {path}")
+                lines.append(f"wrote {path}" + (f" (style {style_path(path)})" if path.lower().endswith((".tif", ".tiff"))
+                                                 else ""))
     return lines

@@ -10,7 +10,7 @@ import click
 
 from ..errors import Interrupted, LidarSigError, LidarSigWarning, speaking
 from ..io.atomic import recording_outputs
-from ..progress import say
+from ..progress import environment_setting, say
 
 
 def show_note(message, category, filename, lineno, file=None, line=None, _shown=warnings.showwarning):
@@ -26,6 +26,7 @@ class _Group(click.Group):
         written = []
         try:
             with warnings.catch_warnings(), recording_outputs() as written, speaking("cli"):
+                environment_setting()  # a bad LIDAR_SIG_PROGRESS is refused before any work
                 warnings.simplefilter("always", LidarSigWarning)
                 warnings.showwarning = show_note
                 return super().invoke(ctx)

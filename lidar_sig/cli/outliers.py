@@ -7,6 +7,7 @@ import click
 
 from ..errors import LidarSigError, counted
 from ..io import check_outputs, output_group
+from ..progress import settings as progress_settings
 from .group import cli
 from .options import overwrite_option
 
@@ -36,12 +37,13 @@ def outliers(catalogue, output, report, reach, top, as_json, overwrite, quiet):
     check_outputs([p for p in (output, report) if p], overwrite=overwrite)  # before any work
     if report:
         check_report_path(report, overwrite=overwrite)
-    found = Catalog(catalogue).outliers(reach=reach)
-    with output_group():  # all outputs or none
-        if output:
-            found.write_geopackage(output, overwrite=overwrite)
-        if report:
-            found.report().save(report, overwrite=overwrite)
+    with progress_settings(enabled=False if quiet else None):
+        found = Catalog(catalogue).outliers(reach=reach)
+        with output_group():  # all outputs or none
+            if output:
+                found.write_geopackage(output, overwrite=overwrite)
+            if report:
+                found.report().save(report, overwrite=overwrite)
     if as_json:
         click.echo(json.dumps(found.to_dict()))
         return
@@ -55,10 +57,12 @@ def outliers(catalogue, output, report, reach, top, as_json, overwrite, quiet):
     for r in found.results[:top]:
         near = "-" if r["z_neighbours"] is None else f"{r['z_neighbours']:.2f}"
         classes = ", ".join(f"{c['class']} {c['difference']:+.1f} pts" for c in r["classes"])
-        click.echo(f"{r['rank']:>4}  {r['score']:>6.2f}  {near:>9}  {r['z_survey']:>8.2f}  {r['name']}"
+        rank = f"{r['rank']}{'*' if r['outlier'] else ' '}"
+        click.echo(f"{rank:>5} {r['score']:>6.2f}  {near:>9}  {r['z_survey']:>8.2f}  {r['name']}"
                    + (f"  ({classes})" if classes else ""))
     if len(found.results) > top:
         click.echo(f"  ... {len(found.results) - top:,} more (--top, --json)")
+    click.echo(found.verdict() + (", marked *" if found.standing_out else ""))
     for path in (output, report):
         if path:
             click.echo(f"wrote {path}")

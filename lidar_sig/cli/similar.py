@@ -3,6 +3,7 @@ import json
 
 import click
 
+from ..progress import settings as progress_settings
 from .group import cli
 from .options import Choice, columns_option, metric_keys
 
@@ -27,12 +28,13 @@ def similar(query, catalogue, top, metric, shortlist, as_json, columns, quiet):
     from ..catalog import Catalog
     from ..metrics import METRIC_KEYS, METRIC_NAMES
 
-    found = Catalog(catalogue).similar(query, top=top, metric=metric, shortlist=shortlist, columns=columns)
+    with progress_settings(enabled=False if quiet else None):
+        found = Catalog(catalogue).similar(query, top=top, metric=metric, shortlist=shortlist, columns=columns)
     if as_json:
         click.echo(json.dumps(found.to_dict()))
         return
     q, s = found.query, found.shortlist
-    kind = {"tile": "a tile of the catalogue", "cloud": "a cloud, computed with the catalogue's method",
+    kind = {"tile": "a tile of the catalogue, left out of the list", "cloud": "a cloud, computed with the catalogue's method",
             "archive": "an archive made with the catalogue's method"}[q["kind"]]
     click.echo(f"query {q['name']} ({kind}); ranked by {metric}; full metrics for {s['screened_by']}"
                + ("" if s["certain"] else " (the top may miss a tile outside the shortlist)"))

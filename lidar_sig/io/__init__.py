@@ -83,16 +83,19 @@ def check_cloud_output(path, cloud):
         check_las_output(cloud, path)
 
 
-def write_cloud(path, cloud, saliency, *, scale_kind=None, scale_values=None, overwrite=False):
-    """Write the cloud with per-point saliency to ``path``, in the format of its extension."""
+def write_cloud(path, cloud, saliency, *, scale_kind=None, scale_values=None, overwrite=False, extra=None):
+    """Write the cloud with per-point saliency to ``path``, in the format of its extension (the
+    table of :mod:`lidar_sig.io.formats`); ``extra`` (a :class:`~lidar_sig.io.fields.Fields`, e.g.
+    :func:`lidar_sig.io.fields.change_fields`) adds per-point fields after the saliency's, each
+    with its description where the format keeps one."""
     fmt = format_of(path)
     if fmt is None or POINTS not in fmt.holds:
         ext = Path(path).suffix.lower()
         raise LidarSigError(f"cannot write point clouds as {ext or '(no extension)'!r}; use one of "
                             f"{', '.join(CLOUD_EXTENSIONS)}", path=path)
-    if fmt.streamed:  # LAS/LAZ: the saliency's extra dimensions
-        return fmt.load("writer")(path, cloud, saliency, scale_kind=scale_kind, scale_values=scale_values,
-                                  overwrite=overwrite)
     from .fields import saliency_fields
 
-    return fmt.load("writer")(path, cloud, saliency_fields(saliency, scale_kind, scale_values), overwrite=overwrite)
+    fields = saliency_fields(saliency, scale_kind, scale_values)
+    if extra:
+        fields.update(extra)
+    return fmt.load("writer")(path, cloud, fields, overwrite=overwrite)

@@ -2,8 +2,9 @@
 written under beside a user's own attributes, and the header comment that lists them.
 
 LAS/LAZ keeps them as extra dimensions (:mod:`lidar_sig.io.las`), PLY, PCD and text as
-attributes or columns (:mod:`lidar_sig.io.table`); every writer takes its fields from
-:func:`saliency_fields` and its names from :func:`output_names`.
+attributes or columns (:mod:`lidar_sig.io.table`); every writer takes :class:`Fields` (from
+:func:`saliency_fields`, and :func:`change_fields` for a change map's points) and its names from
+:func:`output_names`.
 """
 from __future__ import annotations
 
@@ -15,15 +16,41 @@ from ..errors import LidarSigError
 PREFIX = "lidar_sig_"
 #: First word of the header comment (PLY, PCD, text) that lists our outputs.
 MARKER = "lidar_sig"
+#: The per-point change of a change map's later epoch (``changes --points``): each point gets its
+#: cell's score (``{score}`` the ranking metric), level of detection and significance; the LAS
+#: descriptions (at most 32 bytes), which also mark them as ours.
+CHANGE_DESCRIPTIONS = {"ChangeScore": "cell change score ({score})",
+                       "ChangeLoD": "cell level of detection of score",
+                       "ChangeSignificant": "1 cell changed significantly"}
+#: Descriptions of the saliency's outputs (at most 32 bytes, as LAS extra dimensions keep them;
+#: they also mark a dimension as ours); OptimalScale's says what its value is, per kind of scales.
+SALIENCY_DESCRIPTIONS = {"Cl": "line-type saliency Cl [0,1]", "Cs": "surface-type saliency Cs [0,1]",
+                         "Cp": "point-type saliency Cp [0,1]", "Egeom": "geometric entropy [nats]",
+                         "GeomClass": "1 line 2 surface 3 point 0 none"}
+OPTIMAL_DESCRIPTIONS = {"knn": "k of minimum-entropy scale", "radius": "index of min-entropy radius"}
+
+
+class Fields(dict):
+    """Per-point outputs: name -> (N,) values (their dtype is the type they are written in), and
+    ``descriptions``, name -> a description of at most 32 bytes (where a format keeps one).
+    ``update`` takes another Fields' descriptions with its values."""
+
+    def __init__(self, values=(), descriptions=None):
+        super().__init__(values)
+        self.descriptions = dict(descriptions or {})
+
+    def update(self, other=(), **kwargs):
+        super().update(other, **kwargs)
+        self.descriptions.update(getattr(other, "descriptions", {}))
 
 
 def saliency_fields(saliency, scale_kind=None, scale_values=None):
     """Per-point outputs by their LAS names: Cl, Cs, Cp, Egeom (float32), GeomClass (uint16) and,
     for Optimal-scale, OptimalScale (uint16: the chosen k, or the 1-based radius index; 0 where
-    undefined). Every writer uses these."""
-    fields = {"Cl": saliency.cl.astype(np.float32), "Cs": saliency.cs.astype(np.float32),
-              "Cp": saliency.cp.astype(np.float32), "Egeom": saliency.egeom.astype(np.float32),
-              "GeomClass": saliency.geom_class.astype(np.uint16)}
+    undefined), with their descriptions. Every writer uses these."""
+    fields = Fields({"Cl": saliency.cl.astype(np.float32), "Cs": saliency.cs.astype(np.float32),
+                     "Cp": saliency.cp.astype(np.float32), "Egeom": saliency.egeom.astype(np.float32),
+                     "GeomClass": saliency.geom_class.astype(np.uint16)}, SALIENCY_DESCRIPTIONS)
     if saliency.optimal_scale is not None:
         chosen = saliency.optimal_scale
         if scale_kind == "knn":
@@ -31,7 +58,18 @@ def saliency_fields(saliency, scale_kind=None, scale_values=None):
         else:
             value = chosen + 1
         fields["OptimalScale"] = value.astype(np.uint16)
+        fields.descriptions["OptimalScale"] = OPTIMAL_DESCRIPTIONS["knn" if scale_kind == "knn" else "radius"]
     return fields
+
+
+def change_fields(score, lod, significant, score_name):
+    """The per-point change (:data:`CHANGE_DESCRIPTIONS`) as :class:`Fields`: ChangeScore and
+    ChangeLoD float32 (NaN where the point's cell was not compared), ChangeSignificant uint16 (1
+    where the cell changed significantly, else 0; uint16 because QGIS drops 1-byte extra
+    dimensions)."""
+    return Fields({"ChangeScore": np.asarray(score, np.float32), "ChangeLoD": np.asarray(lod, np.float32),
+                   "ChangeSignificant": np.asarray(significant, np.uint16)},
+                  {name: text.format(score=score_name) for name, text in CHANGE_DESCRIPTIONS.items()})
 
 
 def output_names(fields, existing, previous=(), *, path=None):

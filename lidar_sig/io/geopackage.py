@@ -5,16 +5,27 @@ A GeoPackage is an SQLite database with ``application_id`` 'GPKG' and ``user_ver
 the tables ``gpkg_spatial_ref_sys`` (CRSs), ``gpkg_contents`` (the layers) and
 ``gpkg_geometry_columns``, and one table per layer whose geometry column holds GeoPackageBinary
 blobs: the "GP" header (version, flags, SRS id, envelope) followed by the geometry as
-well-known binary (WKB). Written atomically (:mod:`lidar_sig.io.atomic`).
+well-known binary (WKB). Each layer gets:
+
+- a **spatial index**: the R*Tree of the ``gpkg_rtree_index`` extension (a virtual table
+  ``rtree_<layer>_geom`` of the features' envelopes, registered in ``gpkg_extensions``, with the
+  triggers the specification defines, which keep it up to date when a GIS edits the layer), so
+  that QGIS and GDAL read only the features in view;
+- its **default style**, when given: a row of the ``layer_styles`` table, the QGIS convention
+  (QGIS draws the layer with it when it opens the layer; :mod:`lidar_sig.io.styles`).
+
+Written atomically (:mod:`lidar_sig.io.atomic`).
 """
 from __future__ import annotations
 
 import sqlite3
 import struct
+import warnings
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import LidarSigError
+from ..errors import LidarSigError, LidarSigWarning
 from .atomic import atomic_output
 
 APPLICATION_ID = 0x47504B47  # "GPKG"
@@ -36,7 +47,55 @@ CREATE TABLE gpkg_geometry_columns (table_name TEXT NOT NULL, column_name TEXT N
   CONSTRAINT pk_geom_cols PRIMARY KEY (table_name, column_name), CONSTRAINT uk_gc_table_name UNIQUE (table_name),
   CONSTRAINT fk_gc_tn FOREIGN KEY (table_name) REFERENCES gpkg_contents(table_name),
   CONSTRAINT fk_gc_srs FOREIGN KEY (srs_id) REFERENCES gpkg_spatial_ref_sys (srs_id));
+CREATE TABLE gpkg_extensions (table_name TEXT, column_name TEXT, extension_name TEXT NOT NULL,
+  definition TEXT NOT NULL, scope TEXT NOT NULL, CONSTRAINT ge_tce UNIQUE (table_name, column_name, extension_name));
 """
+#: The R*Tree extension's definition and the triggers that keep an index up to date (GeoPackage
+#: 1.2, annex F.3); ``{t}`` the layer, ``{i}`` its index. ST_IsEmpty, ST_MinX, ... are functions
+#: the GIS that edits the layer provides (GDAL does): the index is filled here before they are made.
+RTREE = "http://www.geopackage.org/spec120/#extension_rtree"
+_RTREE_TRIGGERS = """
+CREATE TRIGGER "{i}_insert" AFTER INSERT ON "{t}" WHEN (new."geom" NOT NULL AND NOT ST_IsEmpty(NEW."geom"))
+  BEGIN INSERT OR REPLACE INTO "{i}" VALUES (NEW."fid", ST_MinX(NEW."geom"), ST_MaxX(NEW."geom"),
+  ST_MinY(NEW."geom"), ST_MaxY(NEW."geom")); END;
+CREATE TRIGGER "{i}_update1" AFTER UPDATE OF "geom" ON "{t}" WHEN OLD."fid" = NEW."fid" AND
+  (NEW."geom" NOTNULL AND NOT ST_IsEmpty(NEW."geom")) BEGIN INSERT OR REPLACE INTO "{i}" VALUES (NEW."fid",
+  ST_MinX(NEW."geom"), ST_MaxX(NEW."geom"), ST_MinY(NEW."geom"), ST_MaxY(NEW."geom")); END;
+CREATE TRIGGER "{i}_update2" AFTER UPDATE OF "geom" ON "{t}" WHEN OLD."fid" = NEW."fid" AND
+  (NEW."geom" ISNULL OR ST_IsEmpty(NEW."geom")) BEGIN DELETE FROM "{i}" WHERE id = OLD."fid"; END;
+CREATE TRIGGER "{i}_update3" AFTER UPDATE ON "{t}" WHEN OLD."fid" != NEW."fid" AND
+  (NEW."geom" NOTNULL AND NOT ST_IsEmpty(NEW."geom")) BEGIN DELETE FROM "{i}" WHERE id = OLD."fid";
+  INSERT OR REPLACE INTO "{i}" VALUES (NEW."fid", ST_MinX(NEW."geom"), ST_MaxX(NEW."geom"), ST_MinY(NEW."geom"),
+  ST_MaxY(NEW."geom")); END;
+CREATE TRIGGER "{i}_update4" AFTER UPDATE ON "{t}" WHEN OLD."fid" != NEW."fid" AND
+  (NEW."geom" ISNULL OR ST_IsEmpty(NEW."geom")) BEGIN DELETE FROM "{i}" WHERE id IN (OLD."fid", NEW."fid"); END;
+CREATE TRIGGER "{i}_delete" AFTER DELETE ON "{t}" WHEN old."geom" NOT NULL
+  BEGIN DELETE FROM "{i}" WHERE id = OLD."fid"; END;
+"""
+#: The table of QGIS styles in a GeoPackage, as QGIS makes it.
+_LAYER_STYLES = """
+CREATE TABLE layer_styles (id INTEGER PRIMARY KEY AUTOINCREMENT NOT NULL, f_table_catalog TEXT(256),
+  f_table_schema TEXT(256), f_table_name TEXT(256), f_geometry_column TEXT(256), styleName TEXT(30), styleQML TEXT,
+  styleSLD TEXT, useAsDefault BOOLEAN, description TEXT, owner TEXT(30), ui TEXT(30),
+  update_time DATETIME DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ','now')));
+"""
+
+
+@dataclass
+class Layer:
+    """One layer of polygons: its table ``name``, ``crs`` (WKT or None), ``features`` [(ring (K,
+    2), {field: value})] (every feature with the same fields; values numbers, text, lists written
+    as text, or None), a ``description``, SQL ``types`` of fields whose values cannot say ({field:
+    "INTEGER" | "REAL" | "TEXT"}, e.g. a field that is NULL everywhere), and its default QGIS
+    ``style`` (QML text, :mod:`lidar_sig.io.styles`) named ``style_name``, or None."""
+
+    name: str
+    crs: object
+    features: list
+    description: str = ""
+    types: dict = field(default_factory=dict)
+    style: str = None
+    style_name: str = "default"
 
 
 def polygon_blob(ring, srs_id):
@@ -95,12 +154,13 @@ def _value(v):
 
 
 def write_geopackage(path, layers, *, overwrite=False):
-    """Write ``layers`` to the GeoPackage ``path``: {CRS (WKT or None): [(ring (K, 2), {field:
-    value}), ...]}, one layer per CRS, named "tiles" (with one CRS) or "tiles_<EPSG code>". Every
-    feature of a layer has the same fields; values are numbers, text or lists (written as
-    text)."""
+    """Write ``layers`` to the GeoPackage ``path``: a list of :class:`Layer`, or {CRS (WKT or
+    None): [(ring (K, 2), {field: value}), ...]}, one layer per CRS, named "tiles" (with one CRS)
+    or "tiles_<EPSG code>" (:func:`tile_layers`)."""
     if not str(path).lower().endswith(".gpkg"):
         raise LidarSigError("a GeoPackage is written as .gpkg", path=path)
+    if isinstance(layers, dict):
+        layers = tile_layers(layers)
     with atomic_output(path, overwrite=overwrite) as tmp:
         con = sqlite3.connect(tmp)
         try:
@@ -112,22 +172,37 @@ def write_geopackage(path, layers, *, overwrite=False):
                 ("Undefined cartesian SRS", UNDEFINED_CARTESIAN, "NONE", -1, "undefined", "undefined cartesian"),
                 ("Undefined geographic SRS", UNDEFINED_GEOGRAPHIC, "NONE", 0, "undefined", "undefined geographic")])
             used = []
-            for crs, features in layers.items():
-                srs_id, name, org, code, definition = srs_record(crs, used)
+            for layer in layers:
+                srs_id, name, org, code, definition = srs_record(layer.crs, used)
                 used.append(srs_id)
                 if srs_id not in (UNDEFINED_CARTESIAN, 4326):
                     con.execute("INSERT OR IGNORE INTO gpkg_spatial_ref_sys VALUES (?, ?, ?, ?, ?, ?)",
                                 (name, srs_id, org, code, definition, name))
-                table = "tiles" if len(layers) == 1 else f"tiles_{srs_id if srs_id >= 0 else 'no_crs'}"
-                _write_layer(con, table, srs_id, features)
+                _write_layer(con, layer, srs_id)
+            styled = [layer for layer in layers if layer.style]
+            if styled:
+                _write_styles(con, styled)
             con.commit()
         finally:
             con.close()
 
 
-def _write_layer(con, table, srs_id, features):
-    fields = list(features[0][1]) if features else []
-    types = {f: _sql_type([attrs.get(f) for _, attrs in features]) for f in fields}
+def tile_layers(by_crs, *, description="tile footprints (convex hulls) with their scores", style=None):
+    """{CRS: features} as :class:`Layer` s, one per CRS: "tiles" when there is one CRS, else
+    "tiles_<EPSG code>" ("tiles_<id>" for a CRS without one, "tiles_no_crs" without a CRS)."""
+    layers, used = [], []
+    for crs, features in by_crs.items():
+        srs_id = srs_record(crs, used)[0]
+        used.append(srs_id)
+        name = "tiles" if len(by_crs) == 1 else f"tiles_{srs_id if srs_id >= 0 else 'no_crs'}"
+        layers.append(Layer(name, crs, features, description, style=style))
+    return layers
+
+
+def _write_layer(con, layer, srs_id):
+    table, features = layer.name, layer.features
+    fields = list(features[0][1]) if features else list(layer.types)
+    types = {f: layer.types.get(f) or _sql_type([attrs.get(f) for _, attrs in features]) for f in fields}
     columns = "".join(f', "{f}" {types[f]}' for f in fields)
     con.execute(f'CREATE TABLE "{table}" (fid INTEGER PRIMARY KEY AUTOINCREMENT NOT NULL, geom POLYGON{columns})')
     marks = ", ".join("?" * (len(fields) + 1))
@@ -140,6 +215,36 @@ def _write_layer(con, table, srs_id, features):
     (x0, y0), (x1, y1) = allxy.min(axis=0), allxy.max(axis=0)
     con.execute("INSERT INTO gpkg_contents (table_name, data_type, identifier, description, min_x, min_y, max_x, "
                 "max_y, srs_id) VALUES (?, 'features', ?, ?, ?, ?, ?, ?, ?)",
-                (table, table, "tile footprints (convex hulls) with their scores", float(x0), float(y0), float(x1),
-                 float(y1), srs_id))
+                (table, table, layer.description, float(x0), float(y0), float(x1), float(y1), srs_id))
     con.execute("INSERT INTO gpkg_geometry_columns VALUES (?, 'geom', 'POLYGON', ?, 0, 0)", (table, srs_id))
+    _spatial_index(con, table, rings)
+
+
+def _spatial_index(con, table, rings):
+    """The R*Tree of the features' envelopes (fid = row order + 1), then its triggers."""
+    index = f"rtree_{table}_geom"
+    try:
+        con.execute(f'CREATE VIRTUAL TABLE "{index}" USING rtree(id, minx, maxx, miny, maxy)')
+    except sqlite3.OperationalError:  # an SQLite built without R*Tree: the layer stays readable
+        warnings.warn(f"this Python's SQLite has no R*Tree module: {table} is written without a spatial index "
+                      "(GIS read it whole)", LidarSigWarning, stacklevel=4)
+        return
+    fids = [row[0] for row in con.execute(f'SELECT fid FROM "{table}" ORDER BY fid')]
+    con.executemany(f'INSERT INTO "{index}" VALUES (?, ?, ?, ?, ?)',
+                    [(fid, float(r[:, 0].min()), float(r[:, 0].max()), float(r[:, 1].min()), float(r[:, 1].max()))
+                     for fid, r in zip(fids, rings)])
+    con.executescript(_RTREE_TRIGGERS.format(t=table, i=index))
+    con.execute("INSERT INTO gpkg_extensions VALUES (?, 'geom', 'gpkg_rtree_index', ?, 'write-only')", (table, RTREE))
+
+
+def _write_styles(con, layers):
+    """The ``layer_styles`` table (an attributes table of the GeoPackage) with each layer's
+    default style."""
+    con.executescript(_LAYER_STYLES)
+    con.execute("INSERT INTO gpkg_contents (table_name, data_type, identifier, description) VALUES "
+                "('layer_styles', 'attributes', 'layer_styles', 'QGIS styles of the layers')")
+    con.executemany("INSERT INTO layer_styles (f_table_catalog, f_table_schema, f_table_name, f_geometry_column, "
+                    "styleName, styleQML, styleSLD, useAsDefault, description, owner, ui) "
+                    "VALUES ('', '', ?, 'geom', ?, ?, '', 1, ?, '', '')",
+                    [(layer.name, layer.style_name, layer.style, f"default style of {layer.name} (lidar_sig)")
+                     for layer in layers])

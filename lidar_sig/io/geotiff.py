@@ -1,9 +1,13 @@
-"""GeoTIFF output of rasters in a CRS (the change map's bands), through rasterio.
+"""GeoTIFF output of rasters in a CRS (the change map's bands), through rasterio, as a
+Cloud-Optimized GeoTIFF.
 
 rasterio is an optional extra (``pip install lidar-sig[geo]``): it brings GDAL, which a user who
-never writes a GeoTIFF should not have to install. Bands are float32, deflate-compressed, tiled
-(256 x 256) when the raster is large enough for tiles to help, with one no-data value and a
-description per band (QGIS shows it as the band's name).
+never writes a GeoTIFF should not have to install. Bands are float32, deflate-compressed, with
+one no-data value and a description per band (QGIS shows it as the band's name). The file is a
+Cloud-Optimized GeoTIFF (GDAL's COG driver): tiles of 256 x 256 px, the main image's directory
+first, and internal overviews (nearest neighbour, so that every pixel of an overview is a value
+of a cell) halving the raster until it fits in one tile: a map of one tile or less has none.
+A viewer then reads any part at any zoom without reading the whole file, also over HTTP.
 """
 from __future__ import annotations
 
@@ -16,7 +20,7 @@ from .atomic import atomic_output, check_output
 
 #: No-data value of every band (float32): -9999, which tools without NaN support also read.
 NODATA = -9999.0
-#: Tile side in pixels; rasters smaller than one tile are written in strips.
+#: Tile side in pixels of the COG, and the size of its smallest overview.
 TILE = 256
 GEOTIFF_EXTENSIONS = (".tif", ".tiff")
 
@@ -40,7 +44,8 @@ def check_geotiff_output(path, *, overwrite=False):
 
 
 def write_geotiff(path, bands, descriptions, transform, crs, *, overwrite=False, tags=None):
-    """Write (rows, cols) float rasters as one GeoTIFF, NaN written as :data:`NODATA`.
+    """Write (rows, cols) float rasters as one Cloud-Optimized GeoTIFF, NaN written as
+    :data:`NODATA`.
 
     ``transform`` is (a, b, c, d, e, f) in rasterio's order; ``crs`` WKT or any text pyproj
     reads, or None (no CRS written); ``tags`` a dict of text metadata of the dataset (GDAL
@@ -48,22 +53,26 @@ def write_geotiff(path, bands, descriptions, transform, crs, *, overwrite=False,
     """
     rasterio = rasterio_module()
     from affine import Affine
+    from rasterio.io import MemoryFile
+    from rasterio.shutil import copy
 
     data = np.stack([np.where(np.isnan(b), NODATA, b) for b in bands]).astype(np.float32)
     count, rows, cols = data.shape
     profile = {"driver": "GTiff", "width": cols, "height": rows, "count": count, "dtype": "float32",
-               "nodata": NODATA, "transform": Affine(*transform), "compress": "deflate", "predictor": 3}
-    if rows >= TILE and cols >= TILE:
-        profile.update(tiled=True, blockxsize=TILE, blockysize=TILE)
+               "nodata": NODATA, "transform": Affine(*transform)}
     if crs is not None:
         profile["crs"] = rasterio.crs.CRS.from_user_input(crs)
     with atomic_output(path, overwrite=overwrite) as tmp:
         try:
-            with rasterio.open(tmp, "w", **profile) as dst:
-                dst.write(data)
+            # the bands, descriptions and tags in memory, then copied as a COG: GDAL lays out a
+            # COG (directories first, then overviews, then the image) only when it copies
+            with MemoryFile() as memory, memory.open(**profile) as src:
+                src.write(data)
                 if tags:
-                    dst.update_tags(**{str(k): str(v) for k, v in tags.items()})
+                    src.update_tags(**{str(k): str(v) for k, v in tags.items()})
                 for k, text in enumerate(descriptions, 1):
-                    dst.set_band_description(k, text)
+                    src.set_band_description(k, text)
+                copy(src, tmp, driver="COG", COMPRESS="DEFLATE", PREDICTOR="YES", BLOCKSIZE=str(TILE),
+                     OVERVIEWS="AUTO", OVERVIEW_RESAMPLING="NEAREST")
         except rasterio.errors.RasterioIOError as exc:
             raise LidarSigError(f"could not be written: {str(exc).splitlines()[0]}", path=path) from None

@@ -1,5 +1,6 @@
-"""The HTML report of a catalogue's outliers, what a quality-control reviewer opens: the table of
-the tiles by score with the classes that make the difference, a map of the footprints coloured
+"""The HTML report of a catalogue's outliers, what a quality-control reviewer opens: which tiles
+stand out (a score of 3.5 or more) or that none does, the table of the tiles by score with the
+classes that make the difference, a map of the footprints coloured
 by score, the signatures (Sas) of the top outliers beside their neighbours', the tiles placed by
 likeness (classical MDS of the distances), and the method and catalogue."""
 from __future__ import annotations
@@ -70,7 +71,10 @@ def outliers_report(outliers, *, top=None):
                f"within {o.reach:.3g} m) and to the survey as a whole: the <b>score</b> is the mean of the "
                "robust z-scores of its median distance to its neighbours and to every tile. The distance is the "
                "screening distance, the mean of " + ", ".join(page.esc(METRIC_NAMES[k]) for k in o.metrics)
-               + ", each divided by its spread over the catalogue.</p>")
+               + ", each divided by its spread over the catalogue. A tile <b>stands out</b> when its score "
+               f"reaches {o.threshold:g}, the usual mark of an outlier for robust z-scores.</p>"
+               f'<p class="{"warnings" if o.standing_out else "ok"}"><b>{page.esc(o.verdict()[:1].upper() + o.verdict()[1:])}.'
+               "</b></p>")
     if o.notes:
         summary += '<div class="warnings"><ul>' + "".join(f"<li>{page.esc(n)}</li>" for n in o.notes) + "</ul></div>"
     rows = []
@@ -78,7 +82,8 @@ def outliers_report(outliers, *, top=None):
         classes = "<br>".join(f"{page.esc(c['class'])} {c['share']:.1f}% (neighbours {c['neighbours']:.1f}%)"
                               for c in r["classes"]) or "&ndash;"
         z_near = "&ndash;" if r["z_neighbours"] is None else f"{r['z_neighbours']:.2f}"
-        rows.append([str(r["rank"]), f"<code>{page.esc(r['name'])}</code>", f"{r['score']:.2f}", z_near,
+        score = f"<b>{r['score']:.2f}</b> (stands out)" if r["outlier"] else f"{r['score']:.2f}"
+        rows.append([str(r["rank"]), f"<code>{page.esc(r['name'])}</code>", score, z_near,
                      f"{r['z_survey']:.2f}", str(len(r["neighbours"])), f"{r['points']:,}", f"{r['density']:.1f}",
                      classes])
     table = page.table(("rank", "tile", "score", "z neighbours", "z survey", "neighbours", "points",
@@ -106,9 +111,11 @@ def outliers_report(outliers, *, top=None):
         summary,
         page.section("Tiles by score", table, more, anchor="outliers"),
         page.section("Map", maps, anchor="map"),
-        page.section("Top outliers beside their neighbours",
-                     "<p>Sas of each top outlier (left) and of its nearest neighbours in signature: each point "
-                     "placed in the triangle by its saliency, coloured by its class.</p>", class_legend(signatures),
+        page.section("Top outliers beside their neighbours" if o.standing_out else
+                     "Highest scores beside their neighbours (no tile stands out)",
+                     "<p>Sas of each of the highest-scoring tiles (left) and of its nearest neighbours in signature: "
+                     "each point placed in the triangle by its saliency, coloured by its class.</p>",
+                     class_legend(signatures),
                      *beside, anchor="signatures"),
         page.section("Tiles by likeness",
                      page.image(pngs["likeness.png"], "tiles placed by likeness (classical MDS)",

@@ -54,19 +54,28 @@ def warnings_list(warnings):
     return f'<div class="warnings"><ul>{items}</ul></div>'
 
 
+#: How the metrics table's scale column was measured.
+SCALE_CAPTION = ("<p class=\"muted\">On the scale: what the value is most like among the values the project "
+                 "measured with the default method between each of 7 reference tiles (IGN LiDAR HD, AHN3, ISPRS) "
+                 "and itself rotated, a random 80% or 60% of its points, its adjacent tile and a tile of another "
+                 "city (docs/comparison.md); the range is that case's lowest to highest value.</p>")
+
+
 def metrics_table(values):
-    """The metrics' values with their ranges and what each reacts to (:data:`lidar_sig.metrics.METRICS`)."""
+    """The metrics' values with their ranges, what each reacts to and where each stands among the
+    values the project measured (:data:`lidar_sig.metrics.METRICS`, :meth:`Metric.place`)."""
     from ..metrics import METRICS
 
     rows = []
     for m in METRICS:
         v = values.get(m.key)
         shown = "n/a (needs class labels in both clouds)" if v is None else f"{v:.4f}"
+        scale = "&ndash;" if v is None else page.esc(m.place(v)[1])
         direction = "larger" if m.larger_differs else "smaller"
-        rows.append((f"<b>{page.esc(m.name)}</b>", shown, page.esc(m.range), f"{m.same:g}",
+        rows.append((f"<b>{page.esc(m.name)}</b>", shown, scale, page.esc(m.range), f"{m.same:g}",
                      direction, page.esc(m.reacts)))
-    return page.table(("metric", "value", "range", "identical clouds", "more different when", "reacts to"),
-                      rows, numeric=(1, 3), cls="metrics")
+    return page.table(("metric", "value", "on the project's scale", "range", "identical clouds",
+                       "more different when", "reacts to"), rows, numeric=(1, 4), cls="metrics") + SCALE_CAPTION
 
 
 def signatures_intro(render):

@@ -7,20 +7,13 @@ from __future__ import annotations
 import laspy
 import numpy as np
 
-from ..fields import PREFIX, output_names, saliency_fields
+from ..fields import CHANGE_DESCRIPTIONS, OPTIMAL_DESCRIPTIONS, PREFIX, SALIENCY_DESCRIPTIONS, output_names
 
-# name -> (LAS extra-bytes type, description of at most 32 bytes). 2-byte integers because
-# QGIS drops 1-byte extra dimensions. The descriptions also mark a dimension as ours.
-SALIENCY_DIMS = {
-    "Cl": ("f4", "line-type saliency Cl [0,1]"),
-    "Cs": ("f4", "surface-type saliency Cs [0,1]"),
-    "Cp": ("f4", "point-type saliency Cp [0,1]"),
-    "Egeom": ("f4", "geometric entropy [nats]"),
-    "GeomClass": ("u2", "1 line 2 surface 3 point 0 none"),
-    "OptimalScale": ("u2", ""),  # description set per run: k, or radius index
-}
-#: Description of OptimalScale per kind of scales.
-OPTIMAL_DESCRIPTIONS = {"knn": "k of minimum-entropy scale", "radius": "index of min-entropy radius"}
+# name -> (LAS extra-bytes type, description of at most 32 bytes): the saliency's dimensions.
+# 2-byte integers because QGIS drops 1-byte extra dimensions. The descriptions also mark a
+# dimension as ours (OptimalScale's says what its value is, per kind of scales).
+SALIENCY_DIMS = {**{name: ("u2" if name == "GeomClass" else "f4", text) for name, text in SALIENCY_DESCRIPTIONS.items()},
+                 "OptimalScale": ("u2", "")}
 # Undefined saliency: NaN in the float dimensions, 0 in the integer ones (GeomClass "none",
 # OptimalScale "no scale"); declared as the no-data value of each extra dimension.
 NO_DATA = {"f": np.nan, "u": 0}
@@ -32,6 +25,8 @@ def is_ours(name, description):
     base = name[len(PREFIX):] if name.startswith(PREFIX) else name
     if base == "OptimalScale":
         return description in OPTIMAL_DESCRIPTIONS.values()
+    if base in CHANGE_DESCRIPTIONS:  # the per-point change: its description up to the metric's name
+        return description.startswith(CHANGE_DESCRIPTIONS[base].split("{")[0])
     return base in SALIENCY_DIMS and description == SALIENCY_DIMS[base][1]
 
 
@@ -40,24 +35,23 @@ def lidar_sig_dims(las):
     return tuple(d.name for d in las.point_format.extra_dimensions if is_ours(d.name, d.description))
 
 
-def add_saliency_dims(las, saliency, scale_kind=None, scale_values=None, *, path=None):
-    """Set the saliency extra dimensions of ``las`` (those of an earlier run are replaced);
-    returns the notes on what the caller should know (outputs renamed beside a user's own)."""
+def add_fields(las, fields, *, path=None):
+    """Set the per-point ``fields`` (:class:`lidar_sig.io.fields.Fields`: each in its values'
+    type, with its description) as extra dimensions of ``las`` (those of an earlier run are
+    replaced); returns the notes on what the caller should know (outputs renamed beside a user's
+    own)."""
     notes = []
     previous = lidar_sig_dims(las)
     if previous:  # a re-run replaces instead of duplicating
         las.remove_extra_dims(previous)
-    fields = saliency_fields(saliency, scale_kind, scale_values)
     names, note = output_names(fields, las.point_format.dimension_names, previous, path=path)
     if note:
         notes.append(note)
     params = []
     for name, values in fields.items():
-        kind, desc = SALIENCY_DIMS[name]
-        if name == "OptimalScale":
-            desc = OPTIMAL_DESCRIPTIONS[scale_kind]
-        params.append(laspy.ExtraBytesParams(name=names[name], type=np.dtype(kind), description=desc,
-                                             no_data=[NO_DATA[np.dtype(kind).kind]]))
+        kind = np.asarray(values).dtype
+        params.append(laspy.ExtraBytesParams(name=names[name], type=kind, description=fields.descriptions[name],
+                                             no_data=[NO_DATA[kind.kind]]))
     las.add_extra_dims(params)
     for name, values in fields.items():
         las[names[name]] = values

@@ -15,21 +15,25 @@ from ...errors import LidarSigError, LidarSigWarning
 from ..atomic import atomic_output, stop_if_interrupted
 from .build import check_las_output, to_lasdata
 from .copc import without_copc
-from .dims import add_saliency_dims, extend_ranges, set_extra_bytes_ranges
+from ..fields import saliency_fields
+from .dims import add_fields, extend_ranges, set_extra_bytes_ranges
 
 
-def write_las(path, cloud, saliency, *, scale_kind=None, scale_values=None, overwrite=False):
-    """Write the cloud with saliency extra dimensions (SPEC 8) to ``path`` (.las or .laz), LAS 1.4.
+def write_las(path, cloud, fields, *, overwrite=False):
+    """Write the cloud with its per-point ``fields`` (:class:`lidar_sig.io.fields.Fields`) as
+    extra dimensions (SPEC 8) to ``path`` (.las or .laz), LAS 1.4, as every point-cloud writer
+    takes them.
 
-    Cl, Cs, Cp, Egeom as float32 (NaN where undefined), GeomClass as uint16 (0 where undefined);
-    with an Optimal-scale result also OptimalScale (uint16): the chosen k for k-nearest scales,
-    the 1-based radius index for spherical ones, 0 where undefined. NaN and 0 are declared as the
-    dimensions' no-data values; their min and max are those of the defined values. What the
-    caller should know (an upgraded version, a dropped COPC index, renamed outputs) is issued as
-    a :class:`LidarSigWarning` once the file is written.
+    The saliency's: Cl, Cs, Cp, Egeom as float32 (NaN where undefined), GeomClass as uint16 (0
+    where undefined); with an Optimal-scale result also OptimalScale (uint16): the chosen k for
+    k-nearest scales, the 1-based radius index for spherical ones, 0 where undefined; others
+    (the per-point change) in their values' types. NaN and 0 are declared as the dimensions'
+    no-data values; their min and max are those of the defined values. What the caller should
+    know (an upgraded version, a dropped COPC index, renamed outputs) is issued as a
+    :class:`LidarSigWarning` once the file is written.
     """
     check_las_output(cloud, path)
-    las, notes = with_saliency(cloud, saliency, scale_kind, scale_values)
+    las, notes = with_fields(cloud, fields)
     with _las_writer(path, las.header, overwrite) as writer:
         writer.write_points(las.points)
         if las.evlrs:
@@ -40,11 +44,11 @@ def write_las(path, cloud, saliency, *, scale_kind=None, scale_values=None, over
         warnings.warn(text, LidarSigWarning, stacklevel=4)  # the caller of Result.write
 
 
-def with_saliency(cloud, saliency, scale_kind=None, scale_values=None):
+def with_fields(cloud, fields):
     """The LAS 1.4 LasData written for ``cloud`` (see :func:`lidar_sig.io.las.build.to_lasdata`)
-    with the saliency extra dimensions set, and the notes on what changed."""
+    with the per-point ``fields`` as extra dimensions, and the notes on what changed."""
     las, notes = to_lasdata(cloud)
-    notes += add_saliency_dims(las, saliency, scale_kind, scale_values, path=cloud.path)
+    notes += add_fields(las, fields, path=cloud.path)
     return las, notes
 
 
@@ -66,7 +70,7 @@ def write_las_chunks(path, source, saliency_chunks, *, scale_kind=None, scale_va
                 part = laspy.LasData(header=copy.deepcopy(header), points=chunk)
                 cloud = PointCloud(np.column_stack([np.asarray(chunk.x), np.asarray(chunk.y), np.asarray(chunk.z)]),
                                    source=part, path=str(source), crs=crs, units=units)
-                las, notes = with_saliency(cloud, saliency_chunks(start, stop), scale_kind, scale_values)
+                las, notes = with_fields(cloud, saliency_fields(saliency_chunks(start, stop), scale_kind, scale_values))
                 if writer is None:
                     writer_cm = _las_writer(path, las.header, overwrite)
                     writer = writer_cm.__enter__()

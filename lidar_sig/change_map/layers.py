@@ -1,0 +1,160 @@
+"""The change map as GIS layers (docs/changes.md, Outputs): the cells as polygons with their
+coverage, score, level of detection, significance and the classes that changed most (a
+GeoPackage layer), the styles QGIS draws the map and the cells with, and the later epoch's
+points with their cell's change (extra dimensions of a point cloud)."""
+from __future__ import annotations
+
+import numpy as np
+
+from ..metrics import METRIC_KEYS, METRIC_NAMES
+
+#: Each covered cell's coverage, in the legend's order; cells neither epoch covers are left out.
+COVERAGE = ("compared", "appeared", "vanished", "too few points")
+#: What each coverage means, for the legend.
+COVERAGE_MEANS = {"compared": "compared", "appeared": "appeared: only the later epoch has points",
+                  "vanished": "vanished: only the earlier epoch has points",  # enough to compare, both
+                  "too few points": "too few points to compare"}
+#: Classes listed per cell as changed most, at most, and the least change listed (points of share).
+CLASSES_LISTED = 3
+CLASS_CHANGE_MIN = 1.0
+
+
+def coverage(table, min_points):
+    """(cells,) text: each cell's coverage, from the table's ``valid``, ``points_a``,
+    ``points_b``, ``defined_a`` and ``defined_b``: "compared"; "appeared" (no point of A, and B
+    holds ``min_points`` points with defined saliency, enough to have been compared); "vanished"
+    (the same with A and B swapped); "too few points" (any other cell with points: a sliver along
+    an edge that a shift between the epochs empties is no change); "" (neither holds a point)."""
+    # Where the table holds a coverage field of its own (issue 33), read it here instead.
+    a, b = table["points_a"] > 0, table["points_b"] > 0
+    full_a, full_b = table["defined_a"] >= min_points, table["defined_b"] >= min_points
+    return np.select([table["valid"], ~a & full_b, ~b & full_a, a | b], list(COVERAGE), default="")
+
+
+def class_changes(names, counts_a, counts_b):
+    """[(class, change in points of share, B's share minus A's)] of one cell, largest change
+    first, at most :data:`CLASSES_LISTED` of at least :data:`CLASS_CHANGE_MIN` points; [] where
+    an epoch has no point."""
+    if counts_a.sum() == 0 or counts_b.sum() == 0:
+        return []
+    change = 100.0 * (counts_b / counts_b.sum() - counts_a / counts_a.sum())
+    order = np.argsort(-np.abs(change), kind="stable")[:CLASSES_LISTED]
+    return [(names[k], float(change[k])) for k in order if abs(change[k]) >= CLASS_CHANGE_MIN]
+
+
+def cell_features(cm):
+    """[(ring (5, 2), fields)] of every cell either epoch covers: row, col, coverage
+    (:func:`coverage`), points of each epoch, rank (most changed first, compared cells), score, level of detection, z,
+    significant (1/0; NULL where not compared), the metrics in which it changed significantly,
+    every metric, and the classes that changed most (share of B minus share of A, points)."""
+    t = cm.table
+    state = coverage(t, cm.min_points)
+    ranks = np.zeros(len(t), np.int64)
+    ranks[cm.ranked()] = np.arange(1, int(t["valid"].sum()) + 1)
+    names = cm.class_table.class_names
+    features = []
+    for i in np.flatnonzero(state != ""):
+        rec = t[i]
+        x0, y0, x1, y1 = (float(rec[k]) for k in ("x_min", "y_min", "x_max", "y_max"))
+        ring = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1], [x0, y0]])
+        compared = bool(rec["valid"])
+        changed = class_changes(names, cm.classes_a[i], cm.classes_b[i])
+        fields = {"row": int(rec["row"]), "col": int(rec["col"]), "coverage": str(state[i]),
+                  "points_a": int(rec["points_a"]), "points_b": int(rec["points_b"]),
+                  "rank": int(ranks[i]) if compared else None, "score": _number(rec["score"]),
+                  "lod": _number(rec["lod"]), "z": _number(rec["z"]),
+                  "significant": int(rec["significant"]) if compared else None,
+                  "significant_metrics": ", ".join(k for k in METRIC_KEYS if k in cm.levels
+                                                   and cm.levels[k].significant[i]) if compared else None,
+                  **{k: _number(rec[k]) for k in METRIC_KEYS},
+                  "top_class": changed[0][0] if changed else None,
+                  "top_class_change": changed[0][1] if changed else None,
+                  "classes_changed": "; ".join(f"{name} {change:+.1f} pts" for name, change in changed) or None}
+        features.append((ring, fields))
+    return features
+
+
+#: SQL types of the cells' fields that may be NULL in every cell.
+CELL_TYPES = {"rank": "INTEGER", "significant": "INTEGER", "significant_metrics": "TEXT", "top_class": "TEXT",
+              "top_class_change": "REAL", "classes_changed": "TEXT", "score": "REAL", "lod": "REAL", "z": "REAL",
+              **{k: "REAL" for k in METRIC_KEYS}}
+
+
+def cells_layer(cm, name="cells"):
+    """The cells as a :class:`lidar_sig.io.geopackage.Layer` with its default style."""
+    from ..io.geopackage import Layer
+
+    ranking = f"{'1 - ' if cm.score == 'ssim' else ''}{METRIC_NAMES[cm.score]}"
+    return Layer(name, cm.crs, cell_features(cm), f"change map cells of {cm.cell:g} m: {cm.a.name} -> {cm.b.name}, "
+                 f"score {ranking}, {cm.confidence:.0%} level of detection", CELL_TYPES, cells_style())
+
+
+def cells_style():
+    """The QGIS style of the cells (QML): the cells that changed significantly outlined in dark
+    red and labelled with their rank, the other compared cells thin grey, appeared and vanished
+    cells hatched, those with too few points dashed; no fill where compared, so that the score
+    map shows through."""
+    from ..io.styles import Rule, polygon_qml
+
+    return polygon_qml([
+        Rule("changed significantly", '"significant" = 1', (128, 0, 38), 0.7),
+        Rule("compared, not significantly changed", "\"coverage\" = 'compared' AND \"significant\" = 0",
+             (110, 110, 110), 0.2),
+        Rule(COVERAGE_MEANS["appeared"], "\"coverage\" = 'appeared'", (33, 102, 172), 0.4, fill=(33, 102, 172),
+             fill_alpha=255, pattern="b_diagonal"),
+        Rule(COVERAGE_MEANS["vanished"], "\"coverage\" = 'vanished'", (217, 95, 2), 0.4, fill=(217, 95, 2),
+             fill_alpha=255, pattern="f_diagonal"),
+        Rule(COVERAGE_MEANS["too few points"], "\"coverage\" = 'too few points'", (150, 150, 150), 0.3, line="dash"),
+    ], label_expression='if("significant" = 1, "rank", NULL)')
+
+
+def score_style(cm, band=1):
+    """The QGIS style of the change map's GeoTIFF (QML): band ``band`` (the score) as a
+    single-band pseudocolour, the PNG map's colours (ColorBrewer YlOrRd) from 0 to the highest
+    score, its legend naming the ranking metric."""
+    from ..io.styles import raster_qml
+    from ..reporting.map_image import SEQUENTIAL
+
+    scores = cm.table["score"][cm.table["valid"]]
+    top = float(np.nanmax(scores)) if len(scores) and np.isfinite(scores).any() else 1.0
+    top = top if top > 0 else 1.0
+    ranking = f"{'1 - ' if cm.score == 'ssim' else ''}{METRIC_NAMES[cm.score]}"
+    values = np.linspace(0.0, top, len(SEQUENTIAL))
+    labels = [f"{v:.4g}" for v in values]
+    labels[0] = f"0: {ranking} as unchanged land"
+    labels[-1] = f"{top:.4g}: the highest score"
+    return raster_qml(band, [(v, tuple(c), label) for v, c, label in zip(values, SEQUENTIAL, labels)])
+
+
+def when_style(series, band):
+    """The QGIS style of a series' GeoTIFF (QML): band ``band`` ("when") in the PNG map's colour
+    of each interval, 0 (compared, never significant) white."""
+    from ..io.styles import raster_qml
+    from ..reporting.map_image import INTERVALS
+
+    stops = [(0.0, (255, 255, 255), "0: compared, never significantly changed")]
+    stops += [(float(k + 1), tuple(INTERVALS[k % len(INTERVALS)]), f"{k + 1}: {series.interval_name(k)}")
+              for k in range(len(series.maps))]
+    return raster_qml(band, stops, interpolated=False)
+
+
+def point_change(cm):
+    """{name: (values, description)} of the later epoch's points (B): their cell's score, level
+    of detection and significance (:func:`lidar_sig.io.fields.change_fields`); a point outside
+    the compared cells gets NaN and 0. Withheld and noise points get their cell's change too."""
+    from ..io.fields import change_fields
+
+    cells = cm.grid.cell_of(cm.b.cloud.xyz[:, :2])
+    inside = cells >= 0
+    t = cm.table
+    score, lod = np.full(len(cells), np.nan), np.full(len(cells), np.nan)
+    significant = np.zeros(len(cells), np.uint16)
+    score[inside], lod[inside] = t["score"][cells[inside]], t["lod"][cells[inside]]
+    significant[inside] = t["significant"][cells[inside]]
+    ranking = f"{'1 - ' if cm.score == 'ssim' else ''}{METRIC_NAMES[cm.score]}"
+    return change_fields(score, lod, significant, ranking)
+
+
+def _number(value):
+    value = float(value)
+    return None if np.isnan(value) else value

@@ -1,0 +1,109 @@
+"""QGIS layer styles (QML, the XML of a ``.qml`` file and of a GeoPackage's ``layer_styles``): a
+raster band drawn as a single-band pseudocolour with its legend, and polygon layers drawn by
+rules with optional labels.
+
+QGIS opens ``name.tif`` with ``name.qml`` beside it in that style, and a GeoPackage layer with
+the style its ``layer_styles`` table marks as default. Only what differs from QGIS's defaults is
+written; QGIS 3.x fills in the rest (tests/test_qgis.py opens them in QGIS).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from xml.sax.saxutils import quoteattr
+
+_HEAD = "<!DOCTYPE qgis PUBLIC 'http://mrcc.com/qgis.dtd' 'SYSTEM'>\n"
+
+
+def _colour(rgb, alpha=255):
+    return ",".join(str(int(round(c))) for c in (*rgb, alpha))
+
+
+def _hex(rgb):
+    return "#" + "".join(f"{int(round(c)):02x}" for c in rgb)
+
+
+def raster_qml(band, stops, *, interpolated=True):
+    """A single-band pseudocolour style of ``band`` (1-based): ``stops`` [(value, (r, g, b),
+    label)], ascending, each an entry of the legend; colours interpolated linearly between the
+    stops (``interpolated``) or each value its own colour (discrete classes). No-data pixels
+    stay transparent."""
+    values = [float(v) for v, _, _ in stops]
+    kind = "INTERPOLATED" if interpolated else "EXACT"
+    items = "".join(f"<item value={quoteattr(repr(v))} label={quoteattr(label)} color={quoteattr(_hex(rgb))} "
+                    'alpha="255"/>' for v, (_, rgb, label) in zip(values, stops))
+    lo, hi = min(values), max(values)
+    return (_HEAD + '<qgis styleCategories="Symbology"><pipe>'
+            f'<rasterrenderer type="singlebandpseudocolor" band="{int(band)}" opacity="1" alphaBand="-1" '
+            f'classificationMin={quoteattr(repr(lo))} classificationMax={quoteattr(repr(hi))} nodataColor="">'
+            "<rasterTransparency/><minMaxOrigin><limits>None</limits><extent>WholeRaster</extent>"
+            "<statAccuracy>Exact</statAccuracy></minMaxOrigin>"
+            f'<rastershader><colorrampshader colorRampType="{kind}" classificationMode="1" clip="0" '
+            f'minimumValue={quoteattr(repr(lo))} maximumValue={quoteattr(repr(hi))}>{items}'
+            '<rampLegendSettings useContinuousLegend="0"/></colorrampshader>'
+            "</rastershader></rasterrenderer>"
+            '<brightnesscontrast brightness="0" contrast="0"/><huesaturation saturation="0" grayscaleMode="0"/>'
+            '<rasterresampler maxOversampling="2"/></pipe><blendMode>0</blendMode></qgis>\n')
+
+
+@dataclass(frozen=True)
+class Rule:
+    """One rule of a polygon style: features matching the QGIS expression ``filter`` are drawn
+    with a fill (``fill`` RGB, ``fill_alpha`` 0-255; ``pattern`` "solid", "no" or a hatch such
+    as "b_diagonal") and an outline (``outline`` RGB, ``width`` mm, ``line`` "solid", "dash" or
+    "dot"); ``label`` is its legend entry."""
+
+    label: str
+    filter: str
+    outline: tuple
+    width: float = 0.26
+    line: str = "solid"
+    fill: tuple = (255, 255, 255)
+    fill_alpha: int = 0
+    pattern: str = "no"
+
+
+def polygon_qml(rules, *, label_expression=None):
+    """A rule-based style of a polygon layer: ``rules`` (:class:`Rule`, the legend's order;
+    a feature drawn by every rule it matches) and, with ``label_expression`` (a QGIS
+    expression, NULL for no label), a label over each polygon."""
+    entries, symbols = [], []
+    for k, r in enumerate(rules):
+        entries.append(f'<rule key="rule{k}" symbol="{k}" label={quoteattr(r.label)} filter={quoteattr(r.filter)}/>')
+        options = {"color": _colour(r.fill, r.fill_alpha), "style": r.pattern, "outline_color": _colour(r.outline),
+                   "outline_style": r.line, "outline_width": repr(float(r.width)), "outline_width_unit": "MM",
+                   "joinstyle": "miter"}
+        props = "".join(f'<Option type="QString" name="{k_}" value={quoteattr(v)}/>' for k_, v in options.items())
+        symbols.append(f'<symbol type="fill" name="{k}" alpha="1" clip_to_extent="1" force_rhr="0">'
+                       f'<layer class="SimpleFill" enabled="1" pass="0" locked="0"><Option type="Map">{props}</Option>'
+                       "</layer></symbol>")
+    labels = ""
+    if label_expression:
+        labels = ('<labeling type="simple"><settings calloutType="simple">'
+                  f'<text-style fieldName={quoteattr(label_expression)} isExpression="1" fontSize="9" '
+                  'fontSizeUnit="Point" textColor="20,20,20,255" fontWeight="75">'
+                  '<text-buffer bufferDraw="1" bufferSize="0.8" bufferSizeUnits="MM" '
+                  'bufferColor="255,255,255,255" bufferOpacity="1"/></text-style>'
+                  '<placement placement="1" polygonPlacementFlags="2"/>'
+                  '<rendering drawLabels="1" obstacle="1" displayAll="1"/></settings></labeling>')
+    return (_HEAD + f'<qgis styleCategories="Symbology|Labeling" labelsEnabled="{1 if labels else 0}">'
+            '<renderer-v2 type="RuleRenderer" symbollevels="0" enableorderby="0" forceraster="0">'
+            f'<rules key="root">{"".join(entries)}</rules><symbols>{"".join(symbols)}</symbols></renderer-v2>'
+            f"{labels}<blendMode>0</blendMode><featureBlendMode>0</featureBlendMode>"
+            "<layerGeometryType>2</layerGeometryType></qgis>\n")
+
+
+def style_path(path):
+    """Where QGIS looks for the default style of the file ``path``: beside it, named alike,
+    ending in ``.qml`` (``changes.tif`` -> ``changes.qml``)."""
+    from pathlib import Path
+
+    return Path(path).with_suffix(".qml")
+
+
+def write_style(path, qml, *, overwrite=False):
+    """Write the QML text ``qml`` to ``path`` (UTF-8), atomically."""
+    from .atomic import atomic_output
+
+    with atomic_output(path, overwrite=overwrite) as tmp:
+        with open(tmp, "w", encoding="utf-8") as fh:
+            fh.write(qml)

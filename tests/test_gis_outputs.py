@@ -1,0 +1,265 @@
+"""Outputs that open right in a GIS (issue 32): the change map as a Cloud-Optimized GeoTIFF with
+its QGIS style beside it, the cells and the catalogue's tiles as GeoPackages with a spatial
+index and a stored default style, the later epoch's points with their cell's change as extra
+dimensions that laspy describes and CloudCompare names. Checked with GDAL's own tools (Debian's
+gdal-bin and python3-gdal: validate_cloud_optimized_geotiff.py, validate_gpkg.py, ogrinfo);
+QGIS itself opens them in tests/test_qgis.py."""
+import json
+import shutil
+import sqlite3
+import subprocess
+import xml.etree.ElementTree as ET
+
+import numpy as np
+import pytest
+
+from command_line import run
+from conftest import SAMPLES
+from robustness.helpers import assert_one_line_error, leftovers
+
+ALIGNED = SAMPLES / "epoch2_aligned.laz"
+SYSTEM_PYTHON = "/usr/bin/python3"  # Debian's, where python3-gdal puts GDAL's Python tools
+
+
+def gdal_tool(module):
+    """The command running one of GDAL's Python samples (python3-gdal), or a skip saying why."""
+    if shutil.which(SYSTEM_PYTHON) is None:
+        pytest.skip(f"{SYSTEM_PYTHON} is not here to run GDAL's {module}")
+    probe = subprocess.run([SYSTEM_PYTHON, "-c", f"import osgeo_utils.samples.{module}"], capture_output=True)
+    if probe.returncode != 0:
+        pytest.skip(f"GDAL's {module}.py is not installed (Debian: apt-get install python3-gdal)")
+    return [SYSTEM_PYTHON, "-m", f"osgeo_utils.samples.{module}"]
+
+
+def ogrinfo(*args):
+    if shutil.which("ogrinfo") is None:
+        pytest.skip("ogrinfo is not installed (Debian: apt-get install gdal-bin)")
+    done = subprocess.run(["ogrinfo", "-ro", *map(str, args)], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    return done.stdout
+
+
+@pytest.fixture(scope="module")
+def outputs(tmp_path_factory):
+    """The sample pair with 8 m cells (15 significant cells), every GIS output written by the
+    command, and its JSON of every compared cell."""
+    pytest.importorskip("rasterio", reason="rasterio not installed: pip install -e '.[geo]'")
+    out = tmp_path_factory.mktemp("gis")
+    done = run("changes", SAMPLES / "epoch1.laz", ALIGNED, "--cell", "8", "-o", out / "map.tif", "--cells",
+               out / "cells.gpkg", "--points", out / "later.laz", "--json", "--top", "100000", cwd=out)
+    assert done.returncode == 0, done.stderr
+    return out, json.loads(done.stdout)
+
+
+# -- the change map's GeoTIFF ------------------------------------------------------------------
+
+def test_the_change_map_is_a_valid_cloud_optimized_geotiff(outputs):
+    out, _ = outputs
+    done = subprocess.run([*gdal_tool("validate_cloud_optimized_geotiff"), str(out / "map.tif")],
+                          capture_output=True, text=True)
+    assert done.returncode == 0 and "is a valid cloud optimized GeoTIFF" in done.stdout, done.stdout + done.stderr
+
+
+def test_a_map_larger_than_a_tile_gets_overviews_and_stays_valid(tmp_path):
+    rasterio = pytest.importorskip("rasterio", reason="rasterio not installed: pip install -e '.[geo]'")
+    from lidar_sig.io.geotiff import NODATA, write_geotiff
+
+    rng = np.random.default_rng(0)
+    bands = [rng.random((700, 600)), rng.random((700, 600))]
+    bands[0][:40, :40] = np.nan
+    write_geotiff(tmp_path / "big.tif", bands, ["a", "b"], (25.0, 0.0, 770000.0, 0.0, -25.0, 6280000.0),
+                  "EPSG:2154", tags={"cell_m": "25"})
+    with rasterio.open(tmp_path / "big.tif") as src:
+        assert src.overviews(1) == [2, 4] and src.block_shapes[0] == (256, 256)  # down to one 256 px tile
+        assert src.descriptions == ("a", "b") and src.tags()["cell_m"] == "25" and src.nodata == NODATA
+        np.testing.assert_array_equal(src.read(2), bands[1].astype(np.float32))
+        assert (src.read(1)[:40, :40] == NODATA).all()
+    done = subprocess.run([*gdal_tool("validate_cloud_optimized_geotiff"), str(tmp_path / "big.tif")],
+                          capture_output=True, text=True)
+    assert done.returncode == 0 and "is a valid cloud optimized GeoTIFF" in done.stdout, done.stdout
+    assert leftovers(tmp_path) == []
+
+
+def test_the_style_beside_the_map_draws_the_score_as_one_band_with_a_legend(outputs):
+    out, info = outputs
+    qml = ET.parse(out / "map.qml").getroot()
+    renderer = qml.find("pipe/rasterrenderer")
+    assert renderer.get("type") == "singlebandpseudocolor" and renderer.get("band") == "1"
+    items = renderer.findall("rastershader/colorrampshader/item")
+    values = [float(i.get("value")) for i in items]
+    top = max(c["score"] for c in info["top"])
+    assert values[0] == 0.0 and values[-1] == pytest.approx(top, rel=1e-9) and values == sorted(values)
+    assert items[0].get("label").endswith("delta_KL as unchanged land") and "highest score" in items[-1].get("label")
+    assert [i.get("color") for i in (items[0], items[-1])] == ["#ffffcc", "#800026"]  # YlOrRd, as the PNG map
+
+
+def test_a_style_file_in_the_way_is_refused_before_any_work(tmp_path):
+    (tmp_path / "map.qml").write_text("mine")
+    done = run("changes", SAMPLES / "epoch1.laz", ALIGNED, "-o", tmp_path / "map.tif", cwd=tmp_path)
+    assert_one_line_error(done, "map.qml", "--overwrite")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["map.qml"] and (tmp_path / "map.qml").read_text() == "mine"
+
+
+# -- GeoPackages: the cells and the catalogue's tiles --------------------------------------------
+
+def check_geopackage(path, layer, features):
+    """GDAL's validator passes; the layer has a spatial index of every feature's envelope and a
+    default style (a layer_styles row), as ogrinfo and sqlite see them."""
+    done = subprocess.run([*gdal_tool("validate_gpkg"), str(path)], capture_output=True, text=True)
+    assert done.returncode == 0 and done.stdout.strip() == "", done.stdout + done.stderr
+    assert "HasSpatialIndex (Integer) = 1" in ogrinfo(path, "-sql", f"SELECT HasSpatialIndex('{layer}', 'geom')")
+    styles = ogrinfo(path, "-sql", "SELECT f_table_name, styleName, useAsDefault FROM layer_styles")
+    assert f"f_table_name (String) = {layer}" in styles and "useAsDefault (Integer(Boolean)) = 1" in styles
+    with sqlite3.connect(path) as con:
+        assert con.execute("SELECT extension_name, scope FROM gpkg_extensions WHERE table_name = ?",
+                           (layer,)).fetchall() == [("gpkg_rtree_index", "write-only")]
+        index = con.execute(f'SELECT id, minx, maxx, miny, maxy FROM "rtree_{layer}_geom" ORDER BY id').fetchall()
+        qml = con.execute("SELECT styleQML FROM layer_styles WHERE f_table_name = ?", (layer,)).fetchone()[0]
+    assert len(index) == features
+    assert ET.fromstring(qml.split("\n", 1)[1]).find("renderer-v2").get("type") == "RuleRenderer"
+    return index
+
+
+def test_the_cells_geopackage_has_an_index_a_style_and_the_command_s_cells(outputs):
+    out, info = outputs
+    gpkg = out / "cells.gpkg"
+    with sqlite3.connect(gpkg) as con:
+        rows = con.execute('SELECT fid, row, col, coverage, points_a, points_b, score, lod, significant, "rank", '
+                           "top_class, top_class_change FROM cells").fetchall()
+    index = check_geopackage(gpkg, "cells", len(rows))
+    assert {r[0] for r in rows} == {i[0] for i in index}
+    compared = {(c["row"], c["col"]): c for c in info["top"]}
+    seen = set()
+    for fid, row, col, coverage, points_a, points_b, score, lod, significant, rank, top_class, change in rows:
+        if coverage == "compared":
+            cell = compared[(row, col)]
+            seen.add((row, col))
+            assert (score, lod, bool(significant), rank) == (pytest.approx(cell["score"]), pytest.approx(cell["lod"]),
+                                                            cell["significant"], cell["rank"])
+            assert (points_a, points_b) == (cell["points_a"], cell["points_b"])
+            classes = cell["classes"]  # {class: [points in A, points in B]}
+            if top_class is not None:  # the class whose share changed most, in points of share
+                na, nb = (sum(v[k] for v in classes.values()) for k in (0, 1))
+                assert change == pytest.approx(100 * (classes[top_class][1] / nb - classes[top_class][0] / na))
+        else:
+            assert score is None and significant is None and rank is None and points_a + points_b > 0
+            if coverage == "appeared":
+                assert points_a == 0 and points_b >= info["min_points"]
+            elif coverage == "vanished":
+                assert points_b == 0 and points_a >= info["min_points"]
+            else:
+                assert coverage == "too few points"
+    assert seen == set(compared)  # every compared cell, once
+    # the envelope in the index is the cell: 8 m squares on multiples of 8 m
+    x0, x1, y0, y1 = index[0][1:]
+    assert x1 - x0 == 8.0 and y1 - y0 == 8.0 and x0 % 8 == 0 and y0 % 8 == 0
+    assert "coverage: String" in ogrinfo("-so", gpkg, "cells") and "Feature Count: 81" in ogrinfo("-so", gpkg, "cells")
+
+
+def test_a_cell_appears_or_vanishes_where_one_epoch_alone_holds_enough_points_to_compare():
+    from lidar_sig.change_map.layers import coverage
+
+    fields = [("points_a", int), ("points_b", int), ("defined_a", int), ("defined_b", int), ("valid", bool)]
+    table = np.array([(500, 400, 500, 400, True),   # compared
+                      (0, 400, 0, 390, False),      # only B, enough: appeared
+                      (0, 12, 0, 12, False),        # only B, a sliver along an edge: too few points
+                      (450, 0, 449, 0, False),      # only A, enough: vanished
+                      (30, 40, 30, 40, False),      # both, too few
+                      (0, 0, 0, 0, False)], dtype=fields)
+    assert coverage(table, 100).tolist() == ["compared", "appeared", "too few points", "vanished", "too few points",
+                                             ""]
+
+
+def test_the_outliers_geopackage_has_an_index_a_style_and_marks_the_tiles_that_stand_out(tmp_path):
+    cat = tmp_path / "samples.h5"
+    assert run("catalog", SAMPLES, "-o", cat, "--workers", "1", "-q").returncode == 0
+    done = run("outliers", cat, "-o", tmp_path / "tiles.gpkg", "--json")
+    assert done.returncode == 0, done.stderr
+    info = json.loads(done.stdout)
+    check_geopackage(tmp_path / "tiles.gpkg", "tiles", 3)
+    with sqlite3.connect(tmp_path / "tiles.gpkg") as con:
+        marked = dict(con.execute('SELECT name, outlier FROM tiles').fetchall())
+    assert marked == {r["name"]: int(r["outlier"]) for r in info["results"]}
+    assert marked["epoch1.laz"] == 1 and sum(marked.values()) == info["standing_out"] == 1
+
+
+# -- the later epoch's points with their cell's change ------------------------------------------
+
+def test_the_points_carry_their_cell_s_change_with_descriptions_laspy_reads(outputs):
+    import laspy
+
+    from lidar_sig.change_map import Grid
+
+    out, info = outputs
+    las = laspy.read(out / "later.laz")
+    described = {d.name: d.description for d in las.point_format.extra_dimensions}
+    assert described == {"Cl": "line-type saliency Cl [0,1]", "Cs": "surface-type saliency Cs [0,1]",
+                         "Cp": "point-type saliency Cp [0,1]", "Egeom": "geometric entropy [nats]",
+                         "GeomClass": "1 line 2 surface 3 point 0 none",
+                         "ChangeScore": "cell change score (delta_KL)",
+                         "ChangeLoD": "cell level of detection of score",
+                         "ChangeSignificant": "1 cell changed significantly"}
+    source = laspy.read(ALIGNED)
+    assert len(las.points) == len(source.points) and np.array_equal(las.x, source.x)
+    a, b, c, d, e, f = info["grid"]["transform"]
+    grid = Grid(c, f + e * info["grid"]["rows"], a, info["grid"]["rows"], info["grid"]["cols"])
+    cells = grid.cell_of(np.column_stack([las.x, las.y]))
+    by_cell = {c_["row"] * grid.cols + c_["col"]: c_ for c_ in info["top"]}
+    score = np.asarray(las.ChangeScore)
+    significant = np.asarray(las.ChangeSignificant)
+    for flat in np.unique(cells):
+        here = cells == flat
+        if flat in by_cell:
+            assert np.allclose(score[here], by_cell[flat]["score"], rtol=1e-6)
+            assert (significant[here] == int(by_cell[flat]["significant"])).all()
+        else:
+            assert np.isnan(score[here]).all() and (significant[here] == 0).all()
+    assert significant.sum() == sum(int(np.sum(cells == k)) for k, c_ in by_cell.items() if c_["significant"])
+    # a second run on this output replaces the change dimensions instead of adding more
+    from lidar_sig.io.las import lidar_sig_dims
+
+    assert set(lidar_sig_dims(las)) == set(described)
+
+
+def _cloudcompare_columns(path):
+    """Open ``path`` in CloudCompare headless and save what it loaded as its own ASCII with a
+    header: {name: values}."""
+    done = subprocess.run(["xvfb-run", "-a", "CloudCompare", "-SILENT", "-O", str(path), "-C_EXPORT_FMT", "ASC",
+                           "-ADD_HEADER", "-NO_TIMESTAMP", "-SAVE_CLOUDS"], capture_output=True, text=True,
+                          timeout=300, cwd=path.parent)
+    exported = path.with_suffix(".asc")
+    assert exported.exists(), done.stdout[-2000:] + done.stderr[-2000:]
+    with open(exported) as fh:
+        names = fh.readline()[2:].split()
+    rows = np.loadtxt(exported, skiprows=1, ndmin=2)
+    return {name: rows[:, k] for k, name in enumerate(names)}
+
+
+def test_cloudcompare_names_the_change_fields(outputs, tmp_path):
+    # Debian's CloudCompare 2.11 reads no LAS/LAZ (built without its LAS plugin): the same points
+    # written as PLY, whose properties it loads as named scalar fields
+    if not (shutil.which("CloudCompare") and shutil.which("xvfb-run")):
+        pytest.skip("CloudCompare and xvfb-run are needed (Debian: apt-get install cloudcompare xvfb)")
+    import laspy
+
+    out, _ = outputs
+    done = run("changes", SAMPLES / "epoch1.laz", ALIGNED, "--cell", "8", "--points", tmp_path / "later.ply", "-q")
+    assert done.returncode == 0, done.stderr
+    columns = _cloudcompare_columns(tmp_path / "later.ply")
+    assert {"ChangeScore", "ChangeLoD", "ChangeSignificant", "Cl", "GeomClass"} <= set(columns)
+    las = laspy.read(out / "later.laz")  # the same run's LAS: the same values, point by point
+    np.testing.assert_array_equal(columns["ChangeSignificant"], np.asarray(las.ChangeSignificant))
+    # CloudCompare writes 6 significant digits
+    np.testing.assert_allclose(columns["ChangeScore"], np.asarray(las.ChangeScore), rtol=1e-5, equal_nan=True)
+
+
+# -- refusals ---------------------------------------------------------------------------------
+
+def test_wrong_cells_and_points_outputs_are_refused_before_any_work(tmp_path):
+    done = run("changes", SAMPLES / "epoch1.laz", ALIGNED, "--cells", tmp_path / "cells.shp")
+    assert_one_line_error(done, "cells.shp", ".gpkg")
+    done = run("changes", SAMPLES / "epoch1.laz", ALIGNED, "--points", tmp_path / "later.tif")
+    assert_one_line_error(done, "later.tif", ".laz")
+    done = run("changes", SAMPLES / "epoch1.laz", ALIGNED, SAMPLES / "epoch2.laz", "--points", tmp_path / "p.laz")
+    assert_one_line_error(done, "p.laz", "two epochs")
+    assert list(tmp_path.iterdir()) == []
