@@ -13,7 +13,7 @@ from __future__ import annotations
 import warnings
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from .class_schemes import class_scheme_warnings
 from .cloud import PointCloud
@@ -21,6 +21,9 @@ from .errors import LidarSigError, LidarSigWarning, a_kind, arg, counted
 from .metrics import compare as compare_signatures
 from .progress import step
 from .signature import RENDERINGS, Signature, method_differences
+
+if TYPE_CHECKING:
+    from .reporting import Report
 
 #: Share of a cloud's points with undefined saliency above which compare warns.
 UNDEFINED_WARNING = 0.05
@@ -145,7 +148,7 @@ def metric_scales(values):
     return {m.key: m.scale(values[m.key]) for m in METRICS if values.get(m.key) is not None}
 
 
-def report(a, b=None, pipeline=None, *, render=None, columns=None):
+def report(a: Any, b: Any = None, pipeline: Any = None, *, render: str | None = None, columns: Any = None) -> Report:
     """The report of one cloud, or of the comparison of two (:mod:`lidar_sig.reporting`).
 
     Parameters
@@ -185,8 +188,8 @@ def side_of(x, pipeline=None, columns=None):
     return Side(input_name(x), result.signature, result)
 
 
-def compare_sources(a, b, pipeline=None, *, render=None, columns=None, method_given=(), execution=None,
-                    color_bins=8):
+def compare_sources(a: Any, b: Any, pipeline: Any = None, *, render: str | None = None, columns: Any = None,
+                    method_given: Any = (), execution: Any = None, color_bins: int = 8) -> Comparison:
     """Compare two point clouds or signature archives, in any mix (SPEC 6).
 
     Parameters

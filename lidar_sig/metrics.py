@@ -7,7 +7,9 @@ never loads it; tests check it against the numpy, scipy and scikit-image definit
 from __future__ import annotations
 
 import functools
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -29,14 +31,18 @@ REFERENCE_CASES = {
 SAME_WITHIN = 5e-5
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, repr=False)
 class Metric:
-    """What a metric of :func:`compare` is, for tables and reports: its key, the paper's name,
-    its range, the value of two identical signatures, whether a larger value means more
-    different, a short definition and what it reacts to, in a user's words, and ``references``:
-    the lowest and highest value the project measured between a tile and the same land
-    resampled, the adjacent tile and another city ({case: (low, high)}, the 7 references of
-    docs/comparison.md's ordering benchmark with the defaults; a rotated copy gives ``same``)."""
+    """A metric of :func:`compare`: its key, the paper's name, its range, the value of two
+    identical signatures (``same``), whether a larger value means more different, a short
+    definition and what it reacts to, in a user's words; ``references``: the lowest and highest
+    value the project measured between a tile and the same land resampled, the adjacent tile
+    and another city ({case: (low, high)}, the 7 references of docs/comparison.md's ordering
+    benchmark with the defaults; a rotated copy gives ``same``); how it is computed (``of``,
+    from two :class:`Operand`), whether it ``needs_labels`` (None when a cloud has none), and
+    whether it comes ``from_vectors`` of each signature alone (colour histogram, Egeom
+    histogram, Fisher vector, class totals: a catalogue screens every pair with it) rather
+    than from images or a transport problem per pair."""
 
     key: str
     name: str
@@ -46,11 +52,28 @@ class Metric:
     short: str
     reacts: str
     references: dict = None
+    of: Callable[[Any, Any], float] = None
+    needs_labels: bool = False
+    from_vectors: bool = True
+
+    @property
+    def distance_name(self):
+        """The name of :meth:`distance`: "1 - s_SSIM" for s_SSIM, the metric's name for the others."""
+        return self.name if self.larger_differs else f"{self.same:g} - {self.name}"
+
+    def distance(self, values):
+        """``values`` of this metric as distances from identical clouds, larger meaning more
+        different (0 = the same): 1 - s_SSIM for s_SSIM, the values themselves for the others."""
+        values = np.asarray(values, dtype=np.float64)
+        return values - self.same if self.larger_differs else self.same - values
+
+    def __repr__(self) -> str:
+        return f"<Metric {self.name} ({self.key}): {self.range}, {self.same:g} = same>"
 
     def _oriented(self, value):
         return float(value) if self.larger_differs else self.same - float(value)
 
-    def place(self, value):
+    def place(self, value: float) -> tuple[str, str]:
         """The reference case ``value`` is most like (a key of :data:`REFERENCE_CASES`) and a
         phrase saying so. The cases split at the geometric mean of the highest value of one
         case and the lowest of the next (their ranges may overlap); a value within
@@ -89,32 +112,41 @@ METRICS = (
     Metric("bhattacharyya", "d_BD-Img", "0 to 1", 0.0, True,
            "Bhattacharyya distance of Sas colour histograms",
            "which semantic classes cover how much of the signature (the colours of Sas), not where",
-           _references((0.0381, 0.1967), (0.2187, 0.5872), (0.6450, 0.7772))),
+           _references((0.0381, 0.1967), (0.2187, 0.5872), (0.6450, 0.7772)),
+           of=lambda a, b: bhattacharyya(a.color, b.color)),
     Metric("ssim", "s_SSIM", "-1 to 1", 1.0, False, "structural similarity of Sg images",
            "the shape of the geometric signature Sg: where in the triangle the points lie, locally",
-           _references((0.9192, 0.9765), (0.8998, 0.9656), (0.6825, 0.8607))),
+           _references((0.9192, 0.9765), (0.8998, 0.9656), (0.6825, 0.8607)),
+           of=lambda a, b: ssim(a.sg, b.sg, a.mask), from_vectors=False),
     Metric("emd_info", "d_EMD-Info", "0 to ln 3 (1.10) nats", 0.0, True, "EMD of Egeom histograms (nats)",
            "how mixed the local geometry is (Egeom): e.g. more vegetation or clutter raises it",
-           _references((0.0052, 0.0424), (0.0131, 0.1154), (0.0401, 0.3044))),
+           _references((0.0052, 0.0424), (0.0131, 0.1154), (0.0401, 0.3044)),
+           of=lambda a, b: emd_info(a.egeom, b.egeom)),
     Metric("emd_img", "d_EMD-Img", "0 to 1.73", 0.0, True, "EMD of Sas colour histograms (RGB in [0, 1])",
            "the colours of Sas like d_BD-Img, but a change to a similar colour counts less",
-           _references((0.0080, 0.0341), (0.0500, 0.1611), (0.1751, 0.3291))),
+           _references((0.0080, 0.0341), (0.0500, 0.1611), (0.1751, 0.3291)),
+           of=lambda a, b: emd_img(a.color, b.color, bins=a.color_bins), from_vectors=False),
     Metric("fv", "delta_FV", "0 to 2", 0.0, True, "distance of Fisher vectors of saliency positions",
            "shifts of the points' distribution in the triangle (line-, surface- or point-type), "
            "at the scale of an eighth of its side",
-           _references((0.0175, 0.2054), (0.0928, 0.5503), (0.3935, 0.7881))),
+           _references((0.0175, 0.2054), (0.0928, 0.5503), (0.3935, 0.7881)),
+           of=lambda a, b: float(np.linalg.norm(a.fv - b.fv))),
     Metric("kl", "delta_KL", "0 to infinity", 0.0, True, "symmetric KL divergence of class distributions",
            "changes in class shares, strongly where a class is rare in one cloud",
-           _references((0.0000, 0.0002), (0.0150, 0.5972), (1.7644, 7.0806))),
+           _references((0.0000, 0.0002), (0.0150, 0.5972), (1.7644, 7.0806)),
+           of=lambda a, b: symmetric_kl(a.totals, b.totals), needs_labels=True),
     Metric("l1", "L1", "0 to 2", 0.0, True, "L1 distance of class distributions",
            "changes in class shares: twice the share of points that would have to change class",
-           _references((0.0006, 0.0114), (0.1057, 0.6154), (0.6531, 1.1463))),
+           _references((0.0006, 0.0114), (0.1057, 0.6154), (0.6531, 1.1463)),
+           of=lambda a, b: l1_distance(a.totals, b.totals), needs_labels=True),
 )
 #: Keys of the metrics (of :func:`compare`'s dict), in the order of METRICS: the order of every
 #: table of metrics and of the change map's GeoTIFF bands.
 METRIC_KEYS = tuple(m.key for m in METRICS)
 #: The paper's name of each metric, by key.
 METRIC_NAMES = {m.key: m.name for m in METRICS}
+#: Each metric by key.
+METRIC = {m.key: m for m in METRICS}
 
 
 def _as_counts(p, q):
@@ -374,16 +406,50 @@ def fv_distance(a, b, *, grid=FV_GRID):
 MAX_COLOR_BINS = 32
 
 
+class Operand:
+    """What the metrics read of one signature (:attr:`Metric.of`), each made when first asked
+    for: Sg and the colour histogram of Sas under ``render`` (``color_bins`` per RGB channel,
+    inside the frame's triangle ``mask``), the Egeom histogram, the Fisher vector and the class
+    totals. A catalogue gives the same from its stored vectors."""
+
+    def __init__(self, signature, render, color_bins, mask):
+        self.signature, self.render, self.color_bins, self.mask = signature, render, color_bins, mask
+
+    @functools.cached_property
+    def _rendered(self):
+        return self.signature.render(self.render)
+
+    @property
+    def sg(self):
+        return self._rendered[0]
+
+    @functools.cached_property
+    def color(self):
+        return color_histogram(self._rendered[1], self.mask, bins=self.color_bins)
+
+    @property
+    def egeom(self):
+        return self.signature.egeom_counts
+
+    @functools.cached_property
+    def fv(self):
+        return signature_fisher_vector(self.signature)
+
+    @property
+    def totals(self):
+        return self.signature.class_totals
+
+
 def compare(a, b, *, render="smooth", color_bins=8):
     """Every metric between two signatures, as a dict of floats (SPEC 6).
 
     Keys: ``bhattacharyya`` (d_BD-Img), ``ssim`` (s_SSIM), ``emd_info`` (d_EMD-Info, nats),
-    ``emd_img`` (d_EMD-Img), ``fv`` (delta_FV), ``kl`` (delta_KL) and ``l1`` (L1); ``kl`` and
-    ``l1`` are None when either cloud is unlabeled. The image metrics see Sg and Sas rendered
-    as ``render`` (see :mod:`lidar_sig.signature`); the semantic ones the class counts of every
-    labelled point the run used, its saliency defined or not (withheld and noise points left
-    out, ``Signature.class_totals``). Raises LidarSigError when the signatures are
-    not comparable (frames, class tables or methods differ).
+    ``emd_img`` (d_EMD-Img), ``fv`` (delta_FV), ``kl`` (delta_KL) and ``l1`` (L1); the metrics
+    that need labels (``kl`` and ``l1``) are None when either cloud is unlabeled. The image
+    metrics see Sg and Sas rendered as ``render`` (see :mod:`lidar_sig.signature`); the semantic
+    ones the class counts of every labelled point the run used, its saliency defined or not
+    (withheld and noise points left out, ``Signature.class_totals``). Raises LidarSigError when
+    the signatures are not comparable (frames, class tables or methods differ).
     """
     from .signature import Signature
 
@@ -394,20 +460,6 @@ def compare(a, b, *, render="smooth", color_bins=8):
     color_bins = whole_number(color_bins, "color_bins (bins per RGB channel)", low=2, high=MAX_COLOR_BINS)
     a.check_comparable(b)
     mask = a.frame.mask()
-    sg_a, sas_a = a.render(render)
-    sg_b, sas_b = b.render(render)
-    hist_a = color_histogram(sas_a, mask, bins=color_bins)
-    hist_b = color_histogram(sas_b, mask, bins=color_bins)
-    out = {
-        "bhattacharyya": bhattacharyya(hist_a, hist_b),
-        "ssim": ssim(sg_a, sg_b, mask),
-        "emd_info": emd_info(a.egeom_counts, b.egeom_counts),
-        "emd_img": emd_img(hist_a, hist_b, bins=color_bins),
-        "fv": fv_distance(a, b),
-        "kl": None,
-        "l1": None,
-    }
-    if a.classes.names:  # labeled: semantic metrics from class counts
-        out["kl"] = symmetric_kl(a.class_totals, b.class_totals)
-        out["l1"] = l1_distance(a.class_totals, b.class_totals)
-    return out
+    one, other = Operand(a, render, color_bins, mask), Operand(b, render, color_bins, mask)
+    labelled = bool(a.classes.names)
+    return {m.key: m.of(one, other) if labelled or not m.needs_labels else None for m in METRICS}

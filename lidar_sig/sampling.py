@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import LidarSigError, whole_number
-from .metrics import METRIC_KEYS, METRIC_NAMES, compare
+from .metrics import METRIC, METRIC_KEYS, compare
 from .progress import progress as _progress
 
 DEFAULT_FRACTIONS = tuple(round(f, 1) for f in np.arange(1.0, 0.05, -0.1))
@@ -128,7 +128,7 @@ def plot_resilience(result, path, *, overwrite=False):
         mean, _, lo, hi = result.summary(key)
         ax.fill_between(result.fractions, lo, hi, color="tab:blue", alpha=0.2, linewidth=0)
         ax.plot(result.fractions, mean, "o-", color="tab:blue", markersize=3)
-        ax.set_title(METRIC_NAMES[key] + (" (1 = same)" if key == "ssim" else " (0 = same)"), fontsize=10)
+        ax.set_title(f"{METRIC[key].name} ({METRIC[key].same:g} = same)", fontsize=10)
         ax.set_xlabel("fraction of points kept")
         ax.invert_xaxis()
         ax.grid(alpha=0.3)

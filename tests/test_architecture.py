@@ -203,3 +203,29 @@ def test_the_command_line_decides_no_block_or_tiles_and_handles_no_work_folder()
             if used in DECIDING:
                 found.append(f"{module} uses {used} (line {node.lineno})")
     assert not found, "\n".join(found)
+
+
+def test_no_module_decides_by_comparing_a_metric_or_plugin_name_to_a_text():
+    # a fact about a metric (direction, needs labels, screening) or a descriptor or strategy
+    # (kernels, tiles, chooses a scale) lives on that object: no `key == "ssim"`, no
+    # `name in ("kl", "l1")`, no `strategy.name == "optimal"`
+    from lidar_sig.metrics import METRIC_KEYS
+    from lidar_sig.plugins import available
+
+    names = set(METRIC_KEYS) | set(available("descriptor")) | set(available("strategy"))
+
+    def texts(node):
+        if isinstance(node, ast.Constant) and isinstance(node.value, str):
+            return {node.value}
+        if isinstance(node, (ast.Tuple, ast.List, ast.Set)):
+            return set().union(*(texts(e) for e in node.elts)) if node.elts else set()
+        return set()
+
+    found = []
+    for module, path in MODULES.items():
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Compare):
+                named = set().union(*(texts(c) for c in [node.left, *node.comparators])) & names
+                if named:
+                    found.append(f"{module}, line {node.lineno}: compares to {sorted(named)}")
+    assert not found, "\n".join(found)

@@ -15,7 +15,8 @@ strict = True
 follow_imports = silent
 warn_unused_configs = True
 
-[mypy-open3d.*]
+[mypy-open3d,open3d.*]
+follow_imports = skip
 ignore_missing_imports = True
 """
 

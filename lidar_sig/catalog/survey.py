@@ -5,14 +5,21 @@ and the survey (:meth:`Catalog.outliers`), the matrix of distances (:meth:`Catal
 from __future__ import annotations
 
 import json
+import os
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..errors import LidarSigError, a_kind, as_path, counted
 from .distances import SCREENING, combine, metric_keys, pair_metrics, screening
 from .features import Features, sg_image, signature_features
+
+if TYPE_CHECKING:
+    from ..signature import Signature
+    from .outliers import Outliers
+    from .similar import Similar
 
 
 @dataclass(repr=False)
@@ -69,7 +76,7 @@ class Catalog:
         self._sg = {}
 
     @classmethod
-    def build(cls, inputs, output, pipeline=None, **options):
+    def build(cls, inputs: Any, output: str | os.PathLike[str], pipeline: Any = None, **options: Any) -> Catalog:
         """Make or grow the catalogue ``output`` from LAS/LAZ tiles and folders ``inputs``
         (:func:`lidar_sig.catalog.build.build_catalog`, which takes ``options``); raises a
         LidarSigError naming the tiles that failed (the others are in the catalogue)."""
@@ -181,7 +188,7 @@ class Catalog:
             out[i] = flat.reshape(shape)
         return out
 
-    def signature(self, tile):
+    def signature(self, tile: int | str) -> Signature:
         """The signature of a tile (by row, name or path): compares like the tile's own."""
         from ..signature import Signature
 
@@ -279,21 +286,22 @@ class Catalog:
         return Query(name, kind, signature_features(signature),
                      sg_image(signature.total, signature.n_points, self.frame))
 
-    def similar(self, query, *, top=10, metric=None, shortlist=None, columns=None):
+    def similar(self, query: Any, *, top: int = 10, metric: str | None = None, shortlist: int | None = None,
+                columns: Any = None) -> Similar:
         """The tiles nearest to ``query`` (see :meth:`query`; ``columns`` of a text cloud), best
         first (:func:`lidar_sig.catalog.similar.similar`)."""
         from .similar import similar
 
         return similar(self, query, top=top, metric=metric, shortlist=shortlist, columns=columns)
 
-    def outliers(self, *, reach=None):
+    def outliers(self, *, reach: float | None = None) -> Outliers:
         """Every tile scored by how unlike it is to its spatial neighbours and to the survey
         (:func:`lidar_sig.catalog.outliers.outliers`)."""
         from .outliers import outliers
 
         return outliers(self, reach=reach)
 
-    def distances(self, metric=None):
+    def distances(self, metric: str | None = None) -> Distances:
         """A :class:`Distances` matrix between every pair of tiles: the screening distance
         (default, or "screening"), one metric's values (its key), or "distance", the ranking
         distance of :meth:`similar` (every metric: image metrics for all N^2 / 2 pairs, about

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..metrics import METRIC_KEYS, METRIC_NAMES
+from ..metrics import METRIC, METRIC_KEYS
 
 #: Each covered cell's coverage, in the legend's order; cells neither epoch covers are left out.
 COVERAGE = ("compared", "appeared", "vanished", "too few points")
@@ -84,7 +84,7 @@ def cells_layer(cm, name="cells"):
     """The cells as a :class:`lidar_sig.io.geopackage.Layer` with its default style."""
     from ..io.geopackage import Layer
 
-    ranking = f"{'1 - ' if cm.score == 'ssim' else ''}{METRIC_NAMES[cm.score]}"
+    ranking = METRIC[cm.score].distance_name
     return Layer(name, cm.crs, cell_features(cm), f"change map cells of {cm.cell:g} m: {cm.a.name} -> {cm.b.name}, "
                  f"score {ranking}, {cm.confidence:.0%} level of detection", CELL_TYPES, cells_style())
 
@@ -118,7 +118,7 @@ def score_style(cm, band=1):
     scores = cm.table["score"][cm.table["valid"]]
     top = float(np.nanmax(scores)) if len(scores) and np.isfinite(scores).any() else 1.0
     top = top if top > 0 else 1.0
-    ranking = f"{'1 - ' if cm.score == 'ssim' else ''}{METRIC_NAMES[cm.score]}"
+    ranking = METRIC[cm.score].distance_name
     values = np.linspace(0.0, top, len(SEQUENTIAL))
     labels = [f"{v:.4g}" for v in values]
     labels[0] = f"0: {ranking} as unchanged land"
@@ -151,7 +151,7 @@ def point_change(cm):
     significant = np.zeros(len(cells), np.uint16)
     score[inside], lod[inside] = t["score"][cells[inside]], t["lod"][cells[inside]]
     significant[inside] = t["significant"][cells[inside]]
-    ranking = f"{'1 - ' if cm.score == 'ssim' else ''}{METRIC_NAMES[cm.score]}"
+    ranking = METRIC[cm.score].distance_name
     return change_fields(score, lod, significant, ranking)
 
 

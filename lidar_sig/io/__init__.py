@@ -8,11 +8,15 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import lazy_loader
 
 from ..errors import LidarSigError, as_path
 from ..progress import step
+
+if TYPE_CHECKING:
+    from ..cloud import PointCloud
 from .atomic import atomic_output, check_output, check_outputs, output_group
 from .formats import (CLOUD_EXTENSIONS, HDF5_EXTENSIONS, LAS_EXTENSIONS, OPEN3D_EXTENSIONS, POINTS, SIGNATURE,
                       TEXT_EXTENSIONS, format_of)
@@ -40,7 +44,7 @@ def __dir__():
     return sorted(set(globals()) | set(_lazy_dir()))
 
 
-def read(path, *, columns=None):
+def read(path: str | os.PathLike[str], *, columns: str | list[str] | None = None) -> PointCloud:
     """Read a point cloud (LAS/LAZ, PLY/PCD, XYZ/TXT/PTS/CSV text) into a PointCloud.
 
     ``columns`` names the columns of a text file (see :mod:`lidar_sig.io.text`).

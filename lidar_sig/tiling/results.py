@@ -7,6 +7,7 @@ from __future__ import annotations
 import weakref
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -55,7 +56,7 @@ class SetRun:
     def complete(self):
         return not self.failed_sources and not self.failed_tiles
 
-    def tiling_record(self):
+    def tiling_record(self) -> dict[str, Any]:
         """The tiling as recorded in the set's archive."""
         return {"tile_size_m": self.tiling.size, "tiles": list(self.tiling.shape), "origin_m": list(self.ctx.lo),
                 "centre": list(self.ctx.centre), "area_cap_m": self.ctx.area_cap,
@@ -118,7 +119,7 @@ class SetRun:
             return Saliency.from_values(values, chosen if has_chosen else None)
         return chunk
 
-    def saliency_of(self, source):
+    def saliency_of(self, source: Any) -> Saliency | None:
         """Saliency of one input file's points, in its point order (in memory); None when a
         tile holding some of them failed."""
         chunk = self.point_values(source)

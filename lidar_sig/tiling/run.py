@@ -26,6 +26,7 @@ import os
 import tempfile
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -47,8 +48,9 @@ CELLS_PER_TILE = 4
 MIN_TILE_POINTS = 500
 
 
-def run_set(pipeline, inputs, *, work, tile_size=None, backend=None, resume=False, progress_enabled=None,
-            outputs=(), memory=DEFAULT_MEMORY):
+def run_set(pipeline: Any, inputs: Any, *, work: str | os.PathLike[str], tile_size: float | None = None,
+            backend: Any = None, resume: bool = False, progress_enabled: bool | None = None, outputs: Any = (),
+            memory: int | str = DEFAULT_MEMORY) -> SetRun:
     """Process the LAS/LAZ files and folders ``inputs`` as one set, in tiles of ``tile_size``
     metres (default: as many points as a process holds within ``memory`` bytes,
     :func:`lidar_sig.tiling.memory.tile_points`, and two tiles per worker at least), on ``backend``
