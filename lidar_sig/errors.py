@@ -65,6 +65,21 @@ def as_path(value, what):
     raise LidarSigError(f"{what} takes a file path, got {got}")
 
 
+def special_file(path):
+    """What ``path`` is when it is neither a regular file nor a folder: "a FIFO", "a socket", "a
+    device"; None when it is one of those or does not exist (a link is followed). Reading a FIFO
+    or a device waits for a writer, maybe forever: such paths are refused as inputs."""
+    import stat
+
+    try:
+        mode = os.stat(path).st_mode
+    except (OSError, ValueError):
+        return None
+    if stat.S_ISREG(mode) or stat.S_ISDIR(mode):
+        return None
+    return "a FIFO" if stat.S_ISFIFO(mode) else "a socket" if stat.S_ISSOCK(mode) else "a device"
+
+
 def a_kind(value):
     """What ``value`` is, for a message: "None", "an int", "a list" (its type, not its repr:
     an array's is many lines)."""

@@ -9,7 +9,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from ..errors import LidarSigError, as_path
+from ..errors import LidarSigError, as_path, special_file
 from ..lazy import lazy_names
 from ..progress import step
 from .atomic import atomic_output, check_output, check_outputs, output_group
@@ -45,6 +45,8 @@ def read(path, *, columns=None):
         raise LidarSigError("no such file; check the path", path=path)
     if path.is_dir():
         raise LidarSigError("is a folder, not a point-cloud file", path=path)
+    if special_file(path):  # reading it would wait for a writer, maybe forever
+        raise LidarSigError(f"is {special_file(path)}, not a regular file; give a point-cloud file", path=path)
     if not os.access(path, os.R_OK):
         raise LidarSigError("cannot be read (permission denied)", path=path)
     ext = path.suffix.lower()

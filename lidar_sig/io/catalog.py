@@ -10,12 +10,15 @@ per tile).
 from __future__ import annotations
 
 import json
+import math
+from pathlib import Path
 
 import numpy as np
 
 from ..classes import recorded_table
-from ..errors import LidarSigError, as_path
-from ..signature import Frame
+from ..errors import LidarSigError, as_path, special_file
+from ..metrics import FV_GRID, MAX_COLOR_BINS, METRIC_KEYS, SEMANTIC_KEYS, fv_mixture
+from ..signature import EGEOM_BINS, METHOD_KEYS, Frame
 from .h5 import described_dataset, hdf5_output
 
 FORMAT = "lidar_sig survey catalogue"
@@ -96,7 +99,8 @@ def _open(path):
     path = as_path(path, "a catalogue")
     if not path.is_file():
         raise LidarSigError("no such file; make a catalogue with `lidar-sig catalog TILES -o FILE.h5`"
-                            if not path.exists() else "is not a file", path=path)
+                            if not path.exists() else
+                            f"is {special_file(path) or 'a folder'}, not a regular file; give a catalogue", path=path)
     try:
         f = h5py.File(path, "r")
     except OSError as exc:
@@ -118,6 +122,8 @@ def is_catalog(path):
     """Whether ``path`` is an HDF5 file marked as a survey catalogue."""
     import h5py
 
+    if not Path(path).is_file():  # a FIFO would be waited on
+        return False
     try:
         with h5py.File(path, "r") as f:
             return f.attrs.get("format") == FORMAT

@@ -12,7 +12,7 @@ import json
 import numpy as np
 
 from ..classes import recorded_table
-from ..errors import LidarSigError, as_path, counted
+from ..errors import LidarSigError, as_path, counted, special_file
 from ..saliency import LN3
 from ..signature import METHOD_KEYS, Frame, Signature
 from .h5 import described_dataset, hdf5_output
@@ -180,7 +180,9 @@ def load_signature(path):
     """
     path = as_path(path, "load_signature")
     if not path.is_file():
-        raise LidarSigError("no such file; check the path" if not path.exists() else "is not a file", path=path)
+        raise LidarSigError("no such file; check the path" if not path.exists()
+                            else f"is {special_file(path) or 'a folder'}, not a regular file; give a signature archive",
+                            path=path)
     with _open(path) as f:
         try:
             return _read_signature(f, path)

@@ -27,7 +27,7 @@ import numpy as np
 
 from ..bounds import bounds
 from ..cloud import MAX_COORDINATE, check_magnitude, kept_points
-from ..errors import LidarSigError, counted, reason
+from ..errors import LidarSigError, counted, reason, special_file
 from ..io import LAS_EXTENSIONS
 
 #: Bits of a point identifier that hold its index in its file (files up to 10^12 points).
@@ -56,6 +56,8 @@ def expand(inputs):
                 raise LidarSigError("a set of tiles is read from LAS/LAZ files only; convert it, or give "
                                     "it alone", path=p)
             files.append(p)
+        elif special_file(p):
+            raise LidarSigError(f"is {special_file(p)}, not a regular file; give LAS/LAZ files or folders", path=p)
         else:
             raise LidarSigError("no such file or folder; check the path", path=p)
     seen = {}

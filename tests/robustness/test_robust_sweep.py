@@ -131,3 +131,41 @@ def test_a_dangling_link_is_replaced_with_overwrite(tmp_path, survey):
     proc = run("saliency", survey[0][0], "-o", link, "--overwrite", "-q")
     assert proc.returncode == 0, proc.stderr
     assert not link.is_symlink() and len(laspy.read(link).points) == 800
+
+
+# -- FIFOs ----------------------------------------------------------------------------------------
+
+@pytest.fixture
+def fifo_folder(tmp_path, survey):
+    """A folder holding a tile and FIFOs named p.laz and p.h5 (and, in a folder epoch/, a tile and
+    a FIFO named pipe.laz). Reading a FIFO waits for a writer: runs are child processes with a
+    time limit, so that a hang fails the test."""
+    if not hasattr(os, "mkfifo"):
+        pytest.skip("FIFOs need a POSIX system")
+    epoch = tmp_path / "epoch"
+    epoch.mkdir()
+    shutil.copyfile(survey[0][0], epoch / "t0.las")
+    for fifo in (epoch / "pipe.laz", tmp_path / "p.laz", tmp_path / "p.h5"):
+        os.mkfifo(fifo)
+    return tmp_path
+
+
+def test_changes_with_a_fifo_named_laz_in_a_folder_epoch_leaves_it_out(fifo_folder):
+    # it blocked forever; catalog and compare leave non-regular files of a folder out
+    proc = run_process("changes", "epoch", "epoch/t0.las", "-q", cwd=fifo_folder, timeout=180)
+    assert proc.returncode == 0, proc.stderr
+    assert "Traceback" not in proc.stderr
+
+
+@pytest.mark.parametrize("args", [
+    ["info", "p.laz"], ["info", "p.h5"], ["saliency", "p.laz", "-o", "o.laz"], ["compare", "p.laz", "epoch/t0.las"],
+    ["compare", "p.h5", "epoch/t0.las"], ["changes", "p.laz", "epoch/t0.las"], ["signature", "p.laz", "epoch/t0.las",
+                                                                               "-o", "s.h5"],
+    ["catalog", "p.laz", "-o", "c.h5"], ["outliers", "p.h5"],
+], ids=lambda a: " ".join(a[:2]))
+def test_a_fifo_given_as_an_input_is_refused(fifo_folder, args):
+    # info, saliency and changes blocked forever; a set of tiles said "no such file or folder"
+    proc = run_process(*args, cwd=fifo_folder, timeout=120)
+    name = args[1]
+    assert_one_line_error(proc, name, "is a FIFO, not a regular file")
+    assert sorted(p.name for p in fifo_folder.iterdir()) == ["epoch", "p.h5", "p.laz"]
