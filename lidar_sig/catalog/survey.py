@@ -120,14 +120,35 @@ class Catalog:
         unlabelled)."""
         return metric_keys(self.labelled)
 
+    def summary(self):
+        """Lines describing the catalogue, for `lidar-sig info` (it was checked when opened)."""
+        from ..crs import crs_name
+
+        m, c = self.method, self.columns
+        values = ", ".join(f"{v:g}" for v in m["scale_values"])
+        scales = f"k {values}" if m["scale_kind"] == "knn" else f"radii {values} ({m['scale_units'] or 'metric'})"
+        crs = [crs_name(w) or "none" for w in self.header["crs"]]
+        lines = [f"{self.path}: lidar_sig survey catalogue, {counted(len(self), 'tile')}",
+                 f"  descriptor {m['descriptor']}, strategy {m['strategy']}, {scales}, {m['weights']} weights",
+                 f"  signatures: {counted(int(c['n_signature'].sum()), 'point')}, "
+                 f"{int(c['n_undefined'].sum()):,} undefined, frame {self.frame.size} px, "
+                 f"class table {self.classes.name!r}",
+                 f"  CRS: {', '.join(crs)}"]
+        lines += [f"  tile {name}: {int(n):,} points" for name, n in zip(c["name"][:10], c["n_points"][:10])]
+        if len(self) > 10:
+            lines.append(f"  ... {counted(len(self) - 10, 'more tile')} (`lidar-sig outliers {self.path} --json`)")
+        return lines
+
     def crs_of(self, i):
         """Tile ``i``'s CRS as WKT, or None."""
         return self.header["crs"][int(self.columns["crs"][i])] or None
 
     def tile(self, i):
-        """Tile ``i``'s facts: name, path, SHA-256, CRS name, points, density, bounds, area."""
+        """Tile ``i``'s facts (by row, name or path): name, path, SHA-256, CRS name, points,
+        density, bounds, area."""
         from ..crs import crs_name
 
+        i = self._row(i)  # a negative row counted from the end: another tile than meant
         c = self.columns
         return {"name": c["name"][i], "path": c["path"][i], "sha256": c["sha256"][i],
                 "crs": crs_name(self.crs_of(i)), "points": int(c["n_points"][i]),
@@ -191,6 +212,9 @@ class Catalog:
 
     def _row(self, tile):
         i = self.index(tile)
+        if i is None and isinstance(tile, (int, np.integer)) and not isinstance(tile, bool):
+            raise LidarSigError(f"no tile at row {tile} of the catalogue {self.path}: it holds "
+                                f"{counted(len(self), 'tile')} (rows 0 to {len(self) - 1})")
         if i is None:
             raise LidarSigError(f"no tile {tile!r} in the catalogue {self.path}; `lidar-sig outliers "
                                 f"{self.path} --json` lists its tiles")

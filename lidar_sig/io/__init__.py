@@ -57,6 +57,9 @@ def read(path, *, columns=None):
             s.note(points=len(cloud))
         return cloud
     if ext in HDF5_EXTENSIONS:
+        from .catalog import refuse_catalog
+
+        refuse_catalog(path, "a point cloud")
         raise LidarSigError("is a signature archive, not a point cloud; use it with `lidar-sig compare` "
                             "or lidar_sig.load_signature", path=path)
     raise LidarSigError(f"unknown point-cloud format {ext or '(no extension)'!r}; "

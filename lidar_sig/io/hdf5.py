@@ -159,6 +159,11 @@ def _open(path):
     fmt, version = f.attrs.get("format"), f.attrs.get("format_version", 0)
     problem = None
     if fmt != FORMAT:
+        from .catalog import FORMAT as CATALOG, refuse_catalog
+
+        if fmt == CATALOG:
+            f.close()
+            refuse_catalog(path, "a signature archive")
         problem = ("is an HDF5 file but not a lidar_sig signature archive; make one with "
                    "`lidar-sig signature CLOUD -o OUT.h5`")
     elif not isinstance(version, (int, np.integer)) or isinstance(version, bool) or version < 1:
@@ -225,7 +230,11 @@ def _read_signature(f, path):
         raise damaged("its class table has no name (attribute table of signature/classes)")
     classes = recorded_table(str(c.attrs["table"]), names[:-1], groups[:-1], colors[:-1],
                              c["noise_codes"][()] if "noise_codes" in c else None)
-    frame = Frame(_int_attr(g.attrs, "frame_size", damaged), _int_attr(g.attrs, "frame_margin", damaged))
+    size, margin = _int_attr(g.attrs, "frame_size", damaged), _int_attr(g.attrs, "frame_margin", damaged)
+    try:
+        frame = Frame(size, margin)
+    except LidarSigError as exc:
+        raise damaged(f"its frame is not one lidar_sig makes ({str(exc).removeprefix('signature ')})") from None
     counts = _part(g, "counts", path)
     expected = (len(classes), frame.size, frame.size)
     if counts.shape != expected or counts.dtype.kind not in "iu":

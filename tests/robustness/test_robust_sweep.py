@@ -169,3 +169,191 @@ def test_a_fifo_given_as_an_input_is_refused(fifo_folder, args):
     name = args[1]
     assert_one_line_error(proc, name, "is a FIFO, not a regular file")
     assert sorted(p.name for p in fifo_folder.iterdir()) == ["epoch", "p.h5", "p.laz"]
+
+
+# -- damaged catalogues ---------------------------------------------------------------------------
+
+def _replace(group, name, values):
+    attrs = dict(group[name].attrs)
+    del group[name]
+    group.create_dataset(name, data=values).attrs.update(attrs)
+
+
+def _edit_spread(f, change):
+    spread = json.loads(f.attrs["spread"])
+    change(spread)
+    f.attrs["spread"] = json.dumps(spread)
+
+
+def _first(values, value):
+    values = np.array(values)
+    values.flat[0] = value
+    return values
+
+
+#: Damaged variants of a catalogue and a word the message must hold.
+DAMAGE = {
+    "count index out of range": (lambda f: _replace(f["tiles"], "counts_index", _first(f["tiles/counts_index"], 10**9)),
+                                 "outside the count raster"),
+    "count index negative": (lambda f: _replace(f["tiles"], "counts_index", _first(f["tiles/counts_index"], -1)),
+                             "outside the count raster"),
+    "NaN features": (lambda f: _replace(f["tiles"], "fv", _first(f["tiles/fv"], np.nan)), "column fv"),
+    "NaN colours": (lambda f: _replace(f["tiles"], "color", _first(f["tiles/color"], np.nan)), "column color"),
+    "zero spread": (lambda f: _edit_spread(f, lambda s: s.update(fv=0.0)), "spread of fv"),
+    "infinite bounds": (lambda f: _replace(f["tiles"], "bounds", _first(f["tiles/bounds"], np.inf)), "column bounds"),
+    "an Egeom column removed": (lambda f: _replace(f["tiles"], "egeom", f["tiles/egeom"][:, :-1]), "column egeom"),
+    "Egeom columns changed": (lambda f: _replace(f["tiles"], "egeom", np.hstack([f["tiles/egeom"][()]] * 2)),
+                              "column egeom"),
+    "spread lacking a metric": (lambda f: _edit_spread(f, lambda s: s.pop("ssim")), "spread lacks the metric ssim"),
+    "method not a JSON object": (lambda f: f.attrs.__setitem__("method", "[1, 2]"), "method attribute"),
+    "method not JSON": (lambda f: f.attrs.__setitem__("method", "{descriptor"), "method attribute"),
+    "frame size": (lambda f: f.attrs.__setitem__("frame_size", 5), "frame"),
+    "negative class totals": (lambda f: _replace(f["tiles"], "class_totals", _first(f["tiles/class_totals"], -3)),
+                              "negative"),
+    "meta not JSON": (lambda f: _replace(f["tiles"], "meta", np.array([b"{"] * f["tiles/meta"].shape[0])),
+                      "meta record"),
+}
+
+
+@pytest.mark.parametrize("command", ["similar", "outliers", "info", "compare", "changes"])
+@pytest.mark.parametrize("damage", DAMAGE)
+def test_damaged_catalogue_is_refused_naming_the_file_and_the_damage(tmp_path, catalogue, survey, damage, command):
+    # rc 0 with wrong rankings and NaN distances, or KeyError / ValueError / TypeError tracebacks
+    path = tmp_path / "c.h5"
+    shutil.copyfile(catalogue, path)
+    edit, said = DAMAGE[damage]
+    with h5py.File(path, "r+") as f:
+        edit(f)
+    before = digests(path)
+    other = survey[0][0]
+    args = {"similar": ["similar", other, path], "outliers": ["outliers", path], "info": ["info", path],
+            "compare": ["compare", path, other], "changes": ["changes", other, path]}[command]
+    proc = run(*args, cwd=tmp_path)
+    assert_one_line_error(proc, str(path), said, "the catalogue is damaged or was edited by hand")
+    assert digests(path) == before and sorted(p.name for p in tmp_path.iterdir()) == ["c.h5"]
+
+
+def test_damaged_catalogue_is_a_lidar_sig_error_in_python(tmp_path, catalogue):
+    path = tmp_path / "c.h5"
+    shutil.copyfile(catalogue, path)
+    with h5py.File(path, "r+") as f:
+        DAMAGE["spread lacking a metric"][0](f)
+    with pytest.raises(ls.LidarSigError, match="spread lacks"):
+        ls.Catalog(path)
+
+
+def test_a_catalogue_is_named_as_one_where_an_archive_or_cloud_is_expected(tmp_path, catalogue, survey):
+    # "is an HDF5 file but not a lidar_sig signature archive" / "is a signature archive, not a point cloud"
+    other = survey[0][0]
+    for args, said in ((["compare", catalogue, other], "not a signature archive"),
+                       (["compare", other, catalogue], "not a signature archive"),
+                       (["changes", catalogue, other], "not a point cloud")):
+        proc = run(*args, cwd=tmp_path)
+        assert_one_line_error(proc, str(catalogue), "is a survey catalogue", said, "lidar-sig similar")
+    proc = run("info", catalogue)
+    assert proc.returncode == 0 and not proc.stderr, proc.stderr
+    lines = proc.stdout.splitlines()
+    assert lines[0] == f"{catalogue}: lidar_sig survey catalogue, 4 tiles"
+    assert [line.split(":")[0].strip() for line in lines[4:]] == [f"tile {t.name}" for t in survey[0][:4]]
+
+
+def test_a_damaged_archive_frame_size_names_the_file_and_the_damage(tmp_path, epoch1_archive):
+    # "signature size 5 px with margin 16 px: the size must be 16 to 4096 px ..."
+    path = tmp_path / "a.h5"
+    shutil.copyfile(epoch1_archive, path)
+    with h5py.File(path, "r+") as f:
+        f["signature"].attrs["frame_size"] = 5
+    for args in (["info", path], ["compare", path, epoch1_archive]):
+        assert_one_line_error(run(*args), str(path), "its frame is not one lidar_sig makes (size 5 px",
+                              "the archive is damaged")
+
+
+# -- CRSs written differently ---------------------------------------------------------------------
+
+def _legacy_lambert93():
+    """EPSG:2154 as a legacy WKT with TOWGS84[0,0,0,0,0,0,0] (a bound CRS once read)."""
+    import pyproj
+
+    wkt = pyproj.CRS.from_epsg(2154).to_wkt("WKT1_GDAL")
+    at = wkt.index('AUTHORITY["EPSG","6171"]')  # the datum's own code, after its spheroid
+    return pyproj.CRS.from_wkt(wkt[:at] + "TOWGS84[0,0,0,0,0,0,0]," + wkt[at:])
+
+
+def _renamed_lambert93():
+    import pyproj
+
+    wkt = pyproj.CRS.from_epsg(2154).to_wkt()
+    return pyproj.CRS.from_wkt(wkt.replace('"RGF93 v1 / Lambert-93"', '"Lambert-93 (renamed)"', 1))
+
+
+def _las_in(path, crs, seed=0, east=0.0, n=3000):
+    """A LAS tile of the airborne-like scene in ``crs`` (a pyproj CRS or "EPSG:n")."""
+    import pyproj
+
+    xyz, labels = airborne_like(n, seed=seed)
+    header = laspy.LasHeader(point_format=6, version="1.4")
+    header.offsets, header.scales = np.floor(OFFSET), [0.01] * 3
+    header.add_crs(pyproj.CRS.from_user_input(crs))
+    las = laspy.LasData(header)
+    las.x, las.y, las.z = (xyz + OFFSET + [east, 0.0, 0.0]).T
+    las.classification = labels
+    las.write(path)
+    return path
+
+
+def test_same_crs_holds_for_the_same_crs_written_differently():
+    import pyproj
+
+    from lidar_sig.crs import same_crs
+
+    modern = pyproj.CRS.from_epsg(2154)
+    legacy, renamed = _legacy_lambert93(), _renamed_lambert93()
+    assert legacy.is_bound and not (legacy == modern)  # pyproj alone tells them apart
+    assert same_crs(modern.to_wkt(), legacy.to_wkt()) and same_crs(legacy.to_wkt(), renamed.to_wkt())
+    compound = pyproj.crs.CompoundCRS("legacy + NGF", [legacy, pyproj.CRS.from_epsg(5720)])
+    assert same_crs(compound.to_wkt(), pyproj.CRS("EPSG:2154+5720").to_wkt())
+    assert not same_crs(legacy.to_wkt(), pyproj.CRS.from_epsg(32631).to_wkt())
+    assert not same_crs(modern.to_wkt(), pyproj.CRS("EPSG:2154+5720").to_wkt())
+
+
+def test_changes_and_tiled_runs_take_the_legacy_wkt_of_the_same_crs(tmp_path):
+    # "a different CRS": refused by changes and by a tiled run
+    legacy = _las_in(tmp_path / "legacy.las", _legacy_lambert93())
+    modern = _las_in(tmp_path / "modern.las", "EPSG:2154", seed=1)
+    proc = run("changes", legacy, modern, "-q")
+    assert proc.returncode == 0, proc.stderr
+    east = _las_in(tmp_path / "east.las", "EPSG:2154", seed=2, east=40.0)
+    proc = run("signature", legacy, east, "-o", tmp_path / "set.h5", "--workers", "1", "-q")
+    assert proc.returncode == 0, proc.stderr
+
+
+def test_catalogue_tiles_in_one_crs_written_two_ways_are_one_survey(tmp_path):
+    # grouped by the exact WKT: a name-only variant split the survey, and tiles lost their neighbours
+    west = _las_in(tmp_path / "west.las", "EPSG:2154")
+    east = _las_in(tmp_path / "east.las", _renamed_lambert93(), seed=1, east=40.0)
+    legacy = _las_in(tmp_path / "legacy.las", _legacy_lambert93(), seed=2, east=80.0)
+    proc = run("catalog", west, east, legacy, "-o", tmp_path / "c.h5", "--workers", "1")
+    assert proc.returncode == 0, proc.stderr
+    assert "CRSs" not in proc.stdout and "; CRS " in proc.stdout.splitlines()[0]
+    found = ls.Catalog(tmp_path / "c.h5").outliers()
+    assert not found.notes
+    near = {r["name"]: sorted(r["neighbours"]) for r in found.results}
+    assert near == {"west.las": ["east.las"], "east.las": ["legacy.las", "west.las"], "legacy.las": ["east.las"]}
+
+
+def test_a_catalogue_written_with_a_crs_split_in_two_is_read_as_one(tmp_path):
+    # a catalogue of an earlier version holds both texts: read, they are one CRS
+    west = _las_in(tmp_path / "west.las", "EPSG:2154")
+    east = _las_in(tmp_path / "east.las", "EPSG:2154", seed=1, east=40.0)
+    made = run("catalog", west, east, "-o", tmp_path / "c.h5", "--workers", "1", "-q")
+    assert made.returncode == 0, made.stderr
+    with h5py.File(tmp_path / "c.h5", "r+") as f:
+        attrs = dict(f["crs"].attrs)
+        del f["crs"]
+        f.create_dataset("crs", data=np.array([ls.read(west).crs, _renamed_lambert93().to_wkt()], dtype=object),
+                         dtype=h5py.string_dtype()).attrs.update(attrs)
+        _replace(f["tiles"], "crs", np.array([0, 1], np.int64))
+    cat = ls.Catalog(tmp_path / "c.h5")
+    assert len(cat.header["crs"]) == 1 and cat.columns["crs"].tolist() == [0, 0]
+    assert {r["name"]: r["neighbours"] for r in cat.outliers().results} == {"west.las": ["east.las"],
+                                                                            "east.las": ["west.las"]}
