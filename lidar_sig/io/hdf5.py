@@ -325,6 +325,45 @@ def _method(attrs):
     return out
 
 
+#: Largest difference between a stored image and the one made again from the counts (float32 rounding).
+IMAGE_TOLERANCE = 1e-4
+
+
+def _stored_images(path, sig, render):
+    """Whether the stored Sg and Sas images are those of the counts (metrics are computed from
+    the counts, so a damaged image misleads only a reader of the file): said, with a note when
+    one differs."""
+    import warnings
+
+    from ..errors import LidarSigWarning
+    from ..signature import RENDERINGS
+
+    if render not in RENDERINGS:
+        return f"not checked (the rendering {render!r} is not one lidar_sig makes)"
+    made = dict(zip(("sg", "sas"), sig.render(render)))
+    differ = []
+    with _open(path) as f:
+        for name, image in made.items():
+            ds = f["signature"].get(name)
+            if ds is None:
+                differ.append(f"{name} missing")
+            elif ds.shape != image.shape:
+                differ.append(f"{name} of shape {ds.shape}, not {image.shape}")
+            else:
+                gap = np.abs(ds[()].astype(np.float64) - image)
+                if np.isnan(gap).any():
+                    differ.append(f"{name} holds NaN")
+                elif gap.max(initial=0.0) > IMAGE_TOLERANCE:
+                    differ.append(f"{name} differs from its counts by up to {gap.max():.3g}")
+    if not differ:
+        return f"Sg and Sas agree with the counts ({render} rendering)"
+    text = "; ".join(differ)
+    warnings.warn(LidarSigWarning(f"{path}: its stored image {text}: the archive is damaged or was edited; metrics "
+                                  f"use the counts and are not affected, but the stored picture misleads: {_AGAIN}"),
+                  stacklevel=2)
+    return text + " (damaged or edited)"
+
+
 def archive_summary(path):
     """Lines describing an archive, for `lidar-sig info`; a damaged record is said, not fatal."""
     sig = load_signature(path)
@@ -343,6 +382,7 @@ def archive_summary(path):
     for name, count in zip(sig.classes.class_names, sig.class_totals):
         if count:
             lines.append(f"    {name}: {int(count):,}")
+    lines.append(f"  stored images: {_stored_images(path, sig, attrs.get('render'))}")
     try:
         sources = json.loads(attrs.get("sources", "[]"))
         lines += [f"  source {src['path']} sha256 {src['sha256']}" for src in sources]

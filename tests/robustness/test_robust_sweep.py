@@ -357,3 +357,21 @@ def test_a_catalogue_written_with_a_crs_split_in_two_is_read_as_one(tmp_path):
     assert len(cat.header["crs"]) == 1 and cat.columns["crs"].tolist() == [0, 0]
     assert {r["name"]: r["neighbours"] for r in cat.outliers().results} == {"west.las": ["east.las"],
                                                                             "east.las": ["west.las"]}
+
+
+# -- stored images --------------------------------------------------------------------------------
+
+def test_a_corrupted_stored_sas_image_is_flagged_by_info(tmp_path, epoch1_archive):
+    # accepted silently (compare rebuilds images from the counts, so metrics stay right)
+    proc = run("info", epoch1_archive)
+    assert proc.returncode == 0 and not proc.stderr, proc.stderr
+    assert "  stored images: Sg and Sas agree with the counts (smooth rendering)" in proc.stdout.splitlines()
+    path = tmp_path / "a.h5"
+    shutil.copyfile(epoch1_archive, path)
+    with h5py.File(path, "r+") as f:
+        f["signature/sas"][100:110, 200:210, :] = 0.0
+    proc = run("info", path)
+    assert proc.returncode == 0, proc.stderr
+    assert "  stored images: sas differs from its counts by up to 1 (damaged or edited)" in proc.stdout.splitlines()
+    notes = proc.stderr.strip().splitlines()
+    assert len(notes) == 1 and notes[0].startswith(f"lidar-sig: note: {path}: its stored image sas"), proc.stderr
