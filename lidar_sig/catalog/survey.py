@@ -5,6 +5,7 @@ and the survey (:meth:`Catalog.outliers`), the matrix of distances (:meth:`Catal
 from __future__ import annotations
 
 import json
+import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -232,7 +233,9 @@ class Catalog:
         if isinstance(query, str) and not query.strip():
             raise LidarSigError("the query is empty; give a tile's name, a cloud or an archive")
         if isinstance(query, (str, Path, int, np.integer)) and not isinstance(query, bool):
-            i = self.index(query)
+            # a file given is that file, even where a tile has its name: the tile only when it is that file
+            on_disk = isinstance(query, (str, Path)) and os.path.lexists(query)
+            i = self.index(str(Path(query).resolve())) if on_disk else self.index(query)
             if i is not None:
                 return Query(self.columns["name"][i], "tile", self.features.row(i), self.sg([i])[i], i)
             if isinstance(query, (int, np.integer)):
@@ -257,14 +260,27 @@ class Catalog:
         return self._query_of(self._run(cloud), str(query), "cloud")
 
     def _run(self, cloud):
-        """The signature of ``cloud`` with the catalogue's method (a LAS cloud whose codes are
-        all 0 counted in class 0, as the catalogue's tiles are)."""
-        from ..io import LAS_EXTENSIONS
+        """The signature of ``cloud`` with the catalogue's method (a cloud without class codes,
+        or whose codes are all 0, counted in class 0, as the catalogue's tiles are)."""
         from ..pipeline import Pipeline
 
-        if cloud.labels is None and cloud.path and Path(cloud.path).suffix.lower() in LAS_EXTENSIONS:
+        if cloud.labels is None:
             cloud.labels = np.zeros(len(cloud), np.int64)
-        pipe = Pipeline.from_method(self.method, classes=self.classes, frame=self.frame)
+            k = int(self.classes.index(np.zeros(1, np.int64))[0])
+            if np.delete(np.asarray(self.columns["class_totals"]), k, axis=1).any():  # the tiles have classes
+                import warnings
+
+                from ..errors import LidarSigWarning
+
+                warnings.warn(f"{cloud.path or 'the query'} has no class codes: its points are counted in the class "
+                              "of code 0, as a tile without them is; the semantic metrics (delta_KL, L1) then "
+                              "compare it as unclassified (--metric fv ranks by geometry)", LidarSigWarning,
+                              stacklevel=3)
+        try:
+            pipe = Pipeline.from_method(self.method, classes=self.classes, frame=self.frame)
+        except LidarSigError as exc:
+            raise LidarSigError(f"its method record cannot be run ({exc}); the catalogue is damaged or was edited "
+                                "by hand: make it again", path=self.path) from None
         return pipe.run(cloud).signature
 
     def _query_of(self, signature, name, kind):

@@ -375,3 +375,35 @@ def test_a_corrupted_stored_sas_image_is_flagged_by_info(tmp_path, epoch1_archiv
     assert "  stored images: sas differs from its counts by up to 1 (damaged or edited)" in proc.stdout.splitlines()
     notes = proc.stderr.strip().splitlines()
     assert len(notes) == 1 and notes[0].startswith(f"lidar-sig: note: {path}: its stored image sas"), proc.stderr
+
+
+# -- similar ---------------------------------------------------------------------------------------
+
+def test_similar_query_naming_a_file_is_that_file_even_with_a_tiles_name(tmp_path, catalogue, survey):
+    # a file t0.las in the current folder holding t3's points: the answer was tile t0's own
+    tiles, _ = survey
+    shutil.copyfile(tiles[3], tmp_path / "t0.las")
+    proc = run("similar", "t0.las", catalogue, "--json", "-q", cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    found = json.loads(proc.stdout)
+    assert found["query"]["kind"] == "cloud"
+    assert found["results"][0]["name"] == "t3.las" and found["results"][0]["distance"] == pytest.approx(0, abs=1e-9)
+    # the catalogue's own file, or a name that is no file here, is the tile
+    for query in (tiles[0], "t1"):
+        proc = run("similar", query, catalogue, "--json", "-q", cwd=tmp_path)
+        assert json.loads(proc.stdout)["query"]["kind"] == "tile", proc.stderr
+
+
+def test_similar_with_an_unlabelled_text_cloud_as_query_runs_and_says_how_it_is_counted(tmp_path, catalogue,
+                                                                                         survey):
+    # "was made with another frame or class table ...; make it with the catalogue's settings, or give
+    # the cloud" although the cloud was given
+    las = laspy.read(survey[0][2])
+    np.savetxt(tmp_path / "q.xyz", np.column_stack([las.x, las.y, las.z]), fmt="%.3f")
+    proc = run("similar", "q.xyz", catalogue, "--top", "1", cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    assert "query q.xyz (a cloud" in proc.stdout
+    notes = proc.stderr.strip().splitlines()
+    assert len(notes) == 1 and "no class codes" in notes[0] and "--metric fv" in notes[0], proc.stderr
+    proc = run("similar", "q.xyz", catalogue, "--top", "1", "--metric", "fv", "--json", "-q", cwd=tmp_path)
+    assert json.loads(proc.stdout)["results"][0]["name"] == "t2.las"  # by geometry, its own tile
