@@ -407,3 +407,46 @@ def test_similar_with_an_unlabelled_text_cloud_as_query_runs_and_says_how_it_is_
     assert len(notes) == 1 and "no class codes" in notes[0] and "--metric fv" in notes[0], proc.stderr
     proc = run("similar", "q.xyz", catalogue, "--top", "1", "--metric", "fv", "--json", "-q", cwd=tmp_path)
     assert json.loads(proc.stdout)["results"][0]["name"] == "t2.las"  # by geometry, its own tile
+
+
+# -- text clouds written to LAS ---------------------------------------------------------------------
+
+@pytest.mark.parametrize("unit, scale, decimals", [("degree", 1.0 / 111_000, 8), ("kilometre", 1e-3, 6)])
+def test_text_cloud_in_degrees_or_km_keeps_its_resolution_in_las(tmp_path, unit, scale, decimals):
+    # a fixed 0.001 scale left 3 distinct x of 3,000 points in degrees, steps of 1 m in km
+    xyz, _ = airborne_like(3000)
+    xyz = np.column_stack([xyz[:, :2] * scale + [3.87, 43.6], xyz[:, 2] * (scale if unit == "kilometre" else 1.0)])
+    src = tmp_path / "c.xyz"
+    np.savetxt(src, xyz, fmt=f"%.{decimals}f")
+    given = np.loadtxt(src)
+    proc = run("saliency", src, "-o", tmp_path / "o.las", "--k", "10")
+    assert proc.returncode == 0 and "note" not in proc.stderr, proc.stderr
+    out = laspy.read(tmp_path / "o.las")
+    stored = np.column_stack([out.x, out.y, out.z])
+    np.testing.assert_allclose(stored, given, rtol=0, atol=0.51 * 10.0 ** -decimals)
+    assert len(np.unique(stored, axis=0)) == len(np.unique(given, axis=0))
+    assert [len(np.unique(stored[:, k])) for k in range(3)] == [len(np.unique(given[:, k])) for k in range(3)]
+
+
+def test_points_that_las_integers_merge_are_said(tmp_path):
+    # coordinates 4,000 km apart need 1 cm steps in LAS's 32-bit integers: points 1 mm apart in x
+    # merge (unless a step's boundary falls between them)
+    rng = np.random.default_rng(3)
+    near = np.round(rng.uniform(0, 0.5, (150, 3)), 3)
+    near = np.vstack([near, near + [0.001, 0, 0]])
+    xyz = np.vstack([near, near + [4e6, 0, 0]])
+    src = tmp_path / "c.xyz"
+    np.savetxt(src, xyz, fmt="%.3f")
+    proc = run("saliency", src, "-o", tmp_path / "o.las", "--k", "10", "--weights", "none")
+    assert proc.returncode == 0, proc.stderr
+    notes = [line for line in proc.stderr.splitlines() if "share a location" in line]
+    assert len(notes) == 1 and "0.01" in notes[0] and ".ply" in notes[0], proc.stderr
+
+
+def test_copc_input_written_as_las_is_not_called_laz(tmp_path):
+    # "written as plain LAZ 1.4" for a .las output
+    src = need_data(DATA / "copc" / "test_data_77050_627755.copc.laz")
+    proc = run("saliency", src, "-o", tmp_path / "o.las")
+    assert proc.returncode == 0, proc.stderr
+    notes = [line for line in proc.stderr.splitlines() if "COPC" in line]
+    assert len(notes) == 1 and "LAZ" not in notes[0] and "octree index" in notes[0], proc.stderr
