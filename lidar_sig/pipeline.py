@@ -138,6 +138,10 @@ class Pipeline:
         if not whole or not 3 <= max_neighbors <= 100_000 or not 2 <= min_neighbors <= max_neighbors:
             raise LidarSigError(f"max_neighbors must be a whole number from 3 to 100,000 and min_neighbors one "
                                 f"from 2 to max_neighbors, got {max_neighbors!r} and {min_neighbors!r}")
+        if self.scales.kind == "knn" and min(self.scales.values) < min_neighbors:  # no point is ever defined there
+            raise LidarSigError(f"k = {min(self.scales.values)} is below min_neighbors ({min_neighbors}), the fewest "
+                                f"points a saliency needs: no point would have one at that scale; use k of at least "
+                                f"{min_neighbors} (scales=knn(...), --k)")
         if frame is not None and not isinstance(frame, Frame):
             raise LidarSigError(f"frame must be a lidar_sig.Frame, got {frame!r}")
         if not isinstance(keep_noise, (bool, np.bool_)):

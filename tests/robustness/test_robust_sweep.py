@@ -450,3 +450,16 @@ def test_copc_input_written_as_las_is_not_called_laz(tmp_path):
     assert proc.returncode == 0, proc.stderr
     notes = [line for line in proc.stderr.splitlines() if "COPC" in line]
     assert len(notes) == 1 and "LAZ" not in notes[0] and "octree index" in notes[0], proc.stderr
+
+
+# -- k below min_neighbors --------------------------------------------------------------------------
+
+@pytest.mark.parametrize("command", ["saliency", "signature", "catalog"])
+def test_k_below_min_neighbors_is_refused_before_any_work(tmp_path, survey, command):
+    # 99.7% of the points were left undefined without a word
+    out = tmp_path / ("o.laz" if command == "saliency" else "o.h5")
+    proc = run(command, survey[0][0], "-o", out, "--k", "2")
+    assert_one_line_error(proc, "k = 2", "min_neighbors (3)", "--k")
+    assert not list(tmp_path.iterdir())
+    with pytest.raises(ls.LidarSigError, match="k = 2 is below min_neighbors"):
+        ls.Pipeline(scales=ls.knn(2, 20))
