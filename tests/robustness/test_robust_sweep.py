@@ -463,3 +463,23 @@ def test_k_below_min_neighbors_is_refused_before_any_work(tmp_path, survey, comm
     assert not list(tmp_path.iterdir())
     with pytest.raises(ls.LidarSigError, match="k = 2 is below min_neighbors"):
         ls.Pipeline(scales=ls.knn(2, 20))
+
+
+# -- tiny radii, and a far outlier with radii ------------------------------------------------------
+
+@pytest.mark.parametrize("radius", ["1e-20", "1e-100", "5e-324"])
+def test_tiny_radii_end_in_one_line(tmp_path, survey, radius):
+    # numpy RuntimeWarnings, then an IndexError in grid.py
+    proc = run("saliency", survey[0][0], "-o", tmp_path / "o.laz", "--radii", radius)
+    assert_one_line_error(proc, "t0.las", "no point has a defined saliency", "larger radii")
+    assert not list(tmp_path.iterdir())
+
+
+def test_a_far_outlier_does_not_change_the_other_points_radius_neighbourhoods():
+    # voxel keys overflowed int64 for a box 1e7 m on every side: neighbours were missed
+    xyz, _ = airborne_like(1500)
+    pipe = ls.Pipeline(scales=ls.radii(1.0, 1.5), progress=False)
+    alone = pipe.run(xyz).saliency
+    with_outlier = pipe.run(np.vstack([xyz, [1e7, 1e7, 1e7]])).saliency
+    for name in ("cl", "cs", "cp"):
+        np.testing.assert_allclose(getattr(with_outlier, name)[:-1], getattr(alone, name), rtol=0, atol=1e-9)
