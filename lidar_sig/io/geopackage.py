@@ -121,6 +121,11 @@ def write_geopackage(path, layers, *, overwrite=False):
                 table = "tiles" if len(layers) == 1 else f"tiles_{srs_id if srs_id >= 0 else 'no_crs'}"
                 _write_layer(con, table, srs_id, features)
             con.commit()
+        except sqlite3.Error as exc:  # a full disk: "database or disk is full"
+            full = getattr(exc, "sqlite_errorname", "") == "SQLITE_FULL" or "is full" in str(exc)
+            reason = "no space left on the device; free some space or write elsewhere" if full else \
+                f"{exc}; check the output folder"
+            raise LidarSigError(f"could not be written: {reason}", path=path) from None
         finally:
             con.close()
 

@@ -240,14 +240,15 @@ def stage_part(work, source, part, start, stop, cells, noise_codes=None):
                 for s, e in zip(np.r_[0, breaks], np.r_[breaks, len(rec)]):
                     key = (int(ci[s]), int(cj[s]))
                     occupied[key] = occupied.get(key, 0) + int(e - s)
-                    with open(out / f"c{key[0]}_{key[1]}.bin", "ab") as fh:
-                        rec[s:e].tofile(fh)
+                    try:  # a write of Python's, which says why it failed (tofile: "6740 requested and 102 written")
+                        with open(out / f"c{key[0]}_{key[1]}.bin", "ab") as fh:
+                            fh.write(rec[s:e].tobytes())
+                    except OSError as exc:  # the work folder's disk (full, read-only), not the input, failed
+                        raise LidarSigError(f"cannot stage {source.name} ({exc.strerror or reason(exc)}); free space "
+                                            "or give another --work-dir", path=out.parent.parent) from None
     except LidarSigError:
         raise
-    except OSError as exc:  # the work folder's disk (full, read-only), not the input, failed
-        if exc.filename is not None and str(exc.filename).startswith(str(out)):
-            raise LidarSigError(f"cannot stage {source.name} ({exc.strerror}); free space or give another "
-                                "--work-dir", path=out.parent.parent) from None
+    except OSError as exc:
         raise LidarSigError(f"cannot be read ({reason(exc)})", path=source.path) from None
     except Exception as exc:  # laspy and lazrs raise many kinds on damaged input
         raise LidarSigError(f"cannot be read as LAS/LAZ after {counted(start + n, 'point')} ({reason(exc)}); check "

@@ -483,3 +483,28 @@ def test_a_far_outlier_does_not_change_the_other_points_radius_neighbourhoods():
     with_outlier = pipe.run(np.vstack([xyz, [1e7, 1e7, 1e7]])).saliency
     for name in ("cl", "cs", "cp"):
         np.testing.assert_allclose(getattr(with_outlier, name)[:-1], getattr(alone, name), rtol=0, atol=1e-9)
+
+
+# -- full disks --------------------------------------------------------------------------------------
+
+def test_outliers_geopackage_on_a_full_disk_is_one_line(tmp_path, catalogue):
+    # sqlite3.OperationalError: database or disk is full
+    with mounted_tmpfs(tmp_path, size="64k") as fs:
+        fill(fs, leave=4096)
+        out = fs / "x.gpkg"
+        proc = run("outliers", catalogue, "-o", out)
+        assert_one_line_error(proc, str(out), "no space left")
+        assert sorted(p.name for p in fs.iterdir()) == ["filler"]
+
+
+def test_a_full_work_disk_in_a_tiled_run_says_so_not_that_the_input_is_unreadable(tmp_path, survey):
+    # "cannot be read (6740 requested and 102 written)"
+    tiles, _ = survey
+    with mounted_tmpfs(tmp_path, size="256k") as fs:
+        fill(fs, leave=20_000)
+        proc = run("signature", tiles[0], tiles[1], "-o", tmp_path / "set.h5", "--work-dir", fs / "work",
+                   "--workers", "1")
+    assert proc.returncode == 1 and "Traceback" not in proc.stderr, proc.stderr
+    missing = [line for line in proc.stderr.splitlines() if line.startswith("lidar-sig: missing:")]
+    assert missing and all("cannot stage" in line and "No space left" in line for line in missing), proc.stderr
+    assert "cannot be read" not in proc.stderr and not (tmp_path / "set.h5").exists()
