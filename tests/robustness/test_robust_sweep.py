@@ -508,3 +508,16 @@ def test_a_full_work_disk_in_a_tiled_run_says_so_not_that_the_input_is_unreadabl
     missing = [line for line in proc.stderr.splitlines() if line.startswith("lidar-sig: missing:")]
     assert missing and all("cannot stage" in line and "No space left" in line for line in missing), proc.stderr
     assert "cannot be read" not in proc.stderr and not (tmp_path / "set.h5").exists()
+
+
+# -- compare --report with an unreadable sources record -------------------------------------------
+
+def test_compare_report_with_a_sources_record_that_is_not_json(tmp_path, epoch1_archive):
+    # a JSONDecodeError traceback from reporting/provenance.py; info already said "unreadable"
+    path = tmp_path / "a.h5"
+    shutil.copyfile(epoch1_archive, path)
+    with h5py.File(path, "r+") as f:
+        f.attrs["sources"] = "not json"
+    proc = run("compare", path, epoch1_archive, "--report", tmp_path / "r.html", "-q")
+    assert proc.returncode == 0, proc.stderr
+    assert "sources record is not the JSON list" in (tmp_path / "r.html").read_text()
