@@ -91,8 +91,14 @@ def a_kind(value):
 
 def counted(n, noun, plural=None):
     """``n`` and the noun, singular for one: "1 point", "2 points", "12,345 classes" (``plural``
-    for nouns that do not take an s)."""
-    return f"{n:,} {noun if n == 1 else plural or noun + 's'}"
+    for nouns that do not take an s); see :func:`amount`."""
+    return f"{amount(n)} {noun if n == 1 else plural or noun + 's'}"
+
+
+def amount(n):
+    """A whole number for a message: "12,345"; "2.5e+23" from 1e15 on, which no count of points
+    or cells reaches (an absurd option, say a cell of 1e12 m, would otherwise print 25 digits)."""
+    return f"{n:,}" if abs(n) < 1e15 else f"{float(n):.3g}"
 
 
 def reason(exc):

@@ -32,8 +32,13 @@ LAYOUTS = {
 
 
 def parse_columns(text):
-    """``"x,y,z,-,label"`` -> a tuple of column names; must hold x, y and z."""
-    cols = tuple(_name(c.strip()) for c in str(text).split(",") if c.strip())
+    """``"x,y,z,-,label"`` -> a tuple of column names; must hold x, y and z, and name every
+    column (an empty item would shift the columns after it)."""
+    items = [c.strip() for c in str(text).split(",")]
+    if "" in items:
+        raise LidarSigError(f"columns has an empty item in {text!r}; name every column, - for one to skip "
+                            "(e.g. x,y,z,-,label)")
+    cols = tuple(_name(c) for c in items)
     if not {"x", "y", "z"} <= set(cols) or len(set(c for c in cols if c != "-")) != len([c for c in cols if c != "-"]):
         raise LidarSigError(f"columns must name x, y and z once each, got {text!r} (e.g. x,y,z,-,label)")
     return cols

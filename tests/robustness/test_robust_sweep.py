@@ -521,3 +521,24 @@ def test_compare_report_with_a_sources_record_that_is_not_json(tmp_path, epoch1_
     proc = run("compare", path, epoch1_archive, "--report", tmp_path / "r.html", "-q")
     assert proc.returncode == 0, proc.stderr
     assert "sources record is not the JSON list" in (tmp_path / "r.html").read_text()
+
+
+# -- messages -----------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("cell", ["1e-300", "1e12"])
+def test_changes_with_an_extreme_cell_prints_short_numbers(tmp_path, survey, cell):
+    # numbers of 300 and 25 digits
+    src = survey[0][0]
+    proc = run("changes", src, src, "--cell", cell)
+    assert_one_line_error(proc, "--cell")
+    assert not LONG_NUMBER.search(proc.stderr), proc.stderr
+
+
+def test_columns_with_an_empty_item_are_refused(tmp_path):
+    # x,,y,,z was read as x,y,z
+    src = tmp_path / "c.xyz"
+    np.savetxt(src, np.random.default_rng(0).uniform(0, 10, (50, 5)), fmt="%.3f")
+    proc = run("info", src, "--columns", "x,,y,,z")
+    assert_one_line_error(proc, "x,,y,,z", "empty item")
+    with pytest.raises(ls.LidarSigError, match="empty item"):
+        ls.read(src, columns="x,y,z,")
