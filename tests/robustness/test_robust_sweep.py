@@ -542,3 +542,21 @@ def test_columns_with_an_empty_item_are_refused(tmp_path):
     assert_one_line_error(proc, "x,,y,,z", "empty item")
     with pytest.raises(ls.LidarSigError, match="empty item"):
         ls.read(src, columns="x,y,z,")
+
+
+# -- Python arguments ---------------------------------------------------------------------------------
+
+def test_python_arguments_out_of_range_are_lidar_sig_errors_naming_them(catalogue):
+    # subset([-5]) and Catalog.tile(-5) wrapped round; repeats=2.7 ran twice; 'abc' a ValueError
+    cloud = ls.PointCloud(airborne_like(200)[0])
+    for keep in ([-5], [200], np.ones(3, bool), [[1, 2]]):
+        with pytest.raises(ls.LidarSigError, match="keep"):
+            cloud.subset(keep)
+    assert len(cloud.subset([0, 199])) == 2 and len(cloud.subset(np.arange(200) < 10)) == 10
+    cat = ls.Catalog(catalogue)
+    with pytest.raises(ls.LidarSigError, match=r"no tile at row -5 .*\(rows 0 to 3\)"):
+        cat.tile(-5)
+    assert cat.tile(3)["name"] == "t3.las" and cat.tile("t1")["name"] == "t1.las"
+    for repeats in (2.7, "abc", 0, True):
+        with pytest.raises(ls.LidarSigError, match="repeats must be a whole number"):
+            ls.resilience(cloud, repeats=repeats)
