@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import LidarSigError, a_kind, whole_number
+from .lazy import import_whole
 from .saliency import LN3
 from .signature import to_uint8
 
@@ -183,7 +184,7 @@ def emd_img(hist_a, hist_b, *, bins=8):
     Only bins occupied in either histogram enter the transport problem (the others carry no
     mass), which keeps it small.
     """
-    from pyemd import emd
+    emd = import_whole("pyemd").emd  # its import (POT, scipy.optimize) lasts half a second: Ctrl-C lands in it
 
     a = np.asarray(hist_a, dtype=np.float64)
     b = np.asarray(hist_b, dtype=np.float64)

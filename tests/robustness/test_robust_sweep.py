@@ -560,3 +560,62 @@ def test_python_arguments_out_of_range_are_lidar_sig_errors_naming_them(catalogu
     for repeats in (2.7, "abc", 0, True):
         with pytest.raises(ls.LidarSigError, match="repeats must be a whole number"):
             ls.resilience(cloud, repeats=repeats)
+
+
+# -- a signal during the first EMD import ---------------------------------------------------------
+
+def _interruptible():
+    signal.signal(signal.SIGINT, signal.SIG_DFL)  # as a command typed at a terminal
+
+
+def _start(*args, env=None):
+    return subprocess.Popen([sys.executable, *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            stdin=subprocess.DEVNULL, env=env, preexec_fn=_interruptible)
+
+
+def _assert_interrupted(proc, err):
+    lines = [line for line in err.splitlines() if not line.startswith("import time:")]
+    assert proc.returncode == 130, (proc.returncode, err[-2000:])
+    assert len(lines) == 1 and lines[0].startswith("lidar-sig: interrupted (SIGINT)"), lines
+    assert "Traceback" not in err and "Exception ignored" not in err
+
+
+def test_sigint_during_the_first_emd_import_ends_the_run_as_interrupted(epoch1_archive):
+    # pyemd -> POT -> scipy.optimize lasts about half a second: a Ctrl-C there gave "ImportError:
+    # initialization failed" (rc 1) or was swallowed (rc 0). Python's import log (-X importtime)
+    # lists a module as its import ends: POT's first line means that pyemd's import is under way
+    proc = _start("-X", "importtime", "-m", "lidar_sig", "compare", str(epoch1_archive), str(epoch1_archive))
+    err = b""
+    while True:
+        chunk = os.read(proc.stderr.fileno(), 65536)
+        if not chunk:
+            pytest.fail(f"the run ended before the EMD import: {err.decode(errors='replace')[-2000:]}")
+        err += chunk
+        if re.search(rb"\| +ot(\.[\w.]+)?\n", err):
+            break
+    assert not re.search(rb"\| +pyemd\n", err), "pyemd's import had ended: the signal would land after it"
+    proc.send_signal(signal.SIGINT)
+    out, rest = proc.communicate(timeout=120)
+    _assert_interrupted(proc, (err + rest).decode(errors="replace"))
+
+
+def test_a_signal_a_library_turns_into_an_import_error_is_still_an_interrupt(tmp_path, epoch1_archive):
+    # a compiled module's initialisation turns a KeyboardInterrupt into "ImportError:
+    # initialization failed": here a stand-in pyemd does so at once, the run must still end as
+    # interrupted (the import is done with the signal held)
+    fake = tmp_path / "fake" / "pyemd"
+    fake.mkdir(parents=True)
+    (fake / "__init__.py").write_text(
+        "import os, signal, time\n"
+        "try:\n"
+        "    os.kill(os.getpid(), signal.SIGINT)\n"
+        "    time.sleep(0.5)\n"
+        "except KeyboardInterrupt:\n"
+        "    raise ImportError('initialization failed') from None\n"
+        "def emd(a, b, distance):\n"
+        "    return 0.0\n")
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(fake.parent), os.environ.get("PYTHONPATH", "")])}
+    proc = _start("-m", "lidar_sig", "compare", str(epoch1_archive), str(epoch1_archive), env=env)
+    out, err = proc.communicate(timeout=120)
+    _assert_interrupted(proc, err.decode(errors="replace"))
+    assert not out
