@@ -68,11 +68,8 @@ def build_catalog(inputs, output, pipeline=None, *, backend=None, work=None, res
     removed after a complete run. Returns a :class:`CatalogRun`."""
     from ..io import HDF5_EXTENSIONS, check_output
     from ..io.atomic import exclusive_output
-    from ..io.catalog import is_catalog, read_catalog
     from ..pipeline import pipeline_or_default
-    from ..tiling.execute import InProcess
     from ..tiling.sources import expand
-    from ..tiling.work import prepare_work, remove_work
 
     start = time.perf_counter()
     given = pipeline is not None
@@ -87,62 +84,73 @@ def build_catalog(inputs, output, pipeline=None, *, backend=None, work=None, res
     if not inputs:
         raise LidarSigError("give at least one LAS/LAZ tile or folder of tiles")
     files = [str(f) for f in expand(inputs)]
-    check_output(output, overwrite=True)  # its folder; the catalogue itself is read below
+    check_output(output, overwrite=True)  # its folder; the catalogue itself is read once held
     # one run at a time: two runs growing it at once would each write the tiles it read and its
     # own, and the last to finish would drop the other's
     with exclusive_output(output, "making or growing"):
-        old = None
-        if output.exists() and not overwrite:
-            if not is_catalog(output):
-                raise LidarSigError("exists and is not a lidar_sig survey catalogue; give a new name, or --overwrite "
-                                    "to replace it", path=output)
-            old = read_catalog(output)
-            pipeline = _growing_pipeline(old[0], pipeline if given else None, method_given, output)
+        return _build(files, output, pipeline, given, start, backend=backend, work=work, resume=resume,
+                      overwrite=overwrite, method_given=method_given, progress_enabled=progress_enabled)
+
+
+def _build(files, output, pipeline, given, start, *, backend, work, resume, overwrite, method_given,
+           progress_enabled):
+    """:func:`build_catalog` once the catalogue is held: read it, compute the tiles, write it."""
+    from ..io import check_output
+    from ..io.catalog import is_catalog, read_catalog
+    from ..tiling.execute import InProcess
+    from ..tiling.work import prepare_work, remove_work
+
+    old = None
+    if output.exists() and not overwrite:
+        if not is_catalog(output):
+            raise LidarSigError("exists and is not a lidar_sig survey catalogue; give a new name, or --overwrite to "
+                                "replace it", path=output)
+        old = read_catalog(output)
+        pipeline = _growing_pipeline(old[0], pipeline if given else None, method_given, output)
+    else:
+        check_output(output, overwrite=overwrite)
+    backend = backend or InProcess()
+    if not callable(getattr(backend, "run", None)):
+        raise LidarSigError(f"backend must be one of lidar_sig.executor(...), got {a_kind(backend)}")
+    work = Path(work) if work is not None else output.with_name(output.name + ".work")
+    work = prepare_work(work, resume, keep=[*files, output])
+    run = CatalogRun(str(output), execution=backend.description, grown=old is not None)
+    pipeline.announce_compilation()  # the workers compile in silence
+    quiet = copy.copy(pipeline)
+    quiet.progress = False  # workers show nothing; this process shows tiles done
+    known = dict(zip(old[1]["path"], old[1]["sha256"])) if old else {}
+    tasks = [(str(work), f, quiet, known.get(f)) for f in files]
+    finished = []
+    for (_, path, _, _), summary, err in progress(backend.run(tile_task, tasks), total=len(tasks), desc="tiles",
+                                                  enabled=progress_enabled, unit="tile"):
+        if err is not None:
+            run.failed[path] = _reason(err)
+        elif summary.get("unchanged"):
+            run.unchanged.append(path)
         else:
-            check_output(output, overwrite=overwrite)
-        backend = backend or InProcess()
-        if not callable(getattr(backend, "run", None)):
-            raise LidarSigError(f"backend must be one of lidar_sig.executor(...), got {a_kind(backend)}")
-        work = Path(work) if work is not None else output.with_name(output.name + ".work")
-        work = prepare_work(work, resume, keep=[*files, output])
-        run = CatalogRun(str(output), execution=backend.description, grown=old is not None)
-        pipeline.announce_compilation()  # the workers compile in silence
-        quiet = copy.copy(pipeline)
-        quiet.progress = False  # workers show nothing; this process shows tiles done
-        known = dict(zip(old[1]["path"], old[1]["sha256"])) if old else {}
-        tasks = [(str(work), f, quiet, known.get(f)) for f in files]
-        finished = []
-        for (_, path, _, _), summary, err in progress(backend.run(tile_task, tasks), total=len(tasks), desc="tiles",
-                                                      enabled=progress_enabled, unit="tile"):
-            if err is not None:
-                run.failed[path] = _reason(err)
-            elif summary.get("unchanged"):
-                run.unchanged.append(path)
-            else:
-                (run.updated if path in known else run.added).append(path)
-                if summary.get("resumed"):
-                    run.resumed.append(path)
-                finished.append(path)
-        if not finished and old is None and run.failed:  # nothing to write: the inputs are at fault
-            remove_work(work)
-            if len(files) == 1:
-                raise LidarSigError(run.failed[files[0]], path=files[0])
-            raise LidarSigError(f"no catalogue written: none of the {len(files)} tiles could be computed ("
-                                + "; ".join(run.missing[:3]) + ("; ..." if len(run.missing) > 3 else "") + ")")
-        if finished or old is None or overwrite:
-            tiles = _merge(old, [_load(work, p) for p in sorted(finished)], output)
-            if tiles:
-                _write(output, pipeline, tiles, overwrite=old is not None or overwrite,
-                       progress_enabled=progress_enabled)
-        if output.exists():
-            header, columns = read_catalog(output)
-            run.n_tiles = len(columns["name"])
-            run.method = header["method"]
-            run.crs = [header["crs"][k] or None for k in sorted(set(columns["crs"].tolist()))]
-        if run.complete:
-            remove_work(work)
-        run.seconds = time.perf_counter() - start
-        return run
+            (run.updated if path in known else run.added).append(path)
+            if summary.get("resumed"):
+                run.resumed.append(path)
+            finished.append(path)
+    if not finished and old is None and run.failed:  # nothing to write: the inputs are at fault
+        remove_work(work)
+        if len(files) == 1:
+            raise LidarSigError(run.failed[files[0]], path=files[0])
+        raise LidarSigError(f"no catalogue written: none of the {len(files)} tiles could be computed ("
+                            + "; ".join(run.missing[:3]) + ("; ..." if len(run.missing) > 3 else "") + ")")
+    if finished or old is None or overwrite:
+        tiles = _merge(old, [_load(work, p) for p in sorted(finished)], output)
+        if tiles:
+            _write(output, pipeline, tiles, overwrite=old is not None or overwrite, progress_enabled=progress_enabled)
+    if output.exists():
+        header, columns = read_catalog(output)
+        run.n_tiles = len(columns["name"])
+        run.method = header["method"]
+        run.crs = [header["crs"][k] or None for k in sorted(set(columns["crs"].tolist()))]
+    if run.complete:
+        remove_work(work)
+    run.seconds = time.perf_counter() - start
+    return run
 
 
 def _growing_pipeline(header, pipeline, method_given, output):

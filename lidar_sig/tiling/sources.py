@@ -248,7 +248,10 @@ def stage_part(work, source, part, start, stop, cells, noise_codes=None):
                                             "or give another --work-dir", path=out.parent.parent) from None
     except LidarSigError:
         raise
-    except OSError as exc:
+    except OSError as exc:  # the work folder's disk (full, read-only), not the input, failed
+        if exc.filename is not None and str(exc.filename).startswith(str(out)):
+            raise LidarSigError(f"cannot stage {source.name} ({exc.strerror}); free space or give another "
+                                "--work-dir", path=out.parent.parent) from None
         raise LidarSigError(f"cannot be read ({reason(exc)})", path=source.path) from None
     except Exception as exc:  # laspy and lazrs raise many kinds on damaged input
         raise LidarSigError(f"cannot be read as LAS/LAZ after {counted(start + n, 'point')} ({reason(exc)}); check "
