@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from ..classes import recorded_table
+from ..crs import same_crs
 from ..errors import LidarSigError, as_path, special_file
 from ..metrics import FV_GRID, MAX_COLOR_BINS, METRIC_KEYS, SEMANTIC_KEYS, fv_mixture
 from ..signature import EGEOM_BINS, METHOD_KEYS, Frame
@@ -215,7 +216,7 @@ def _read(f, path):
             raise damaged(f"its {name} offsets do not match its {name} data")
     if hull_xy.ndim != 2 or hull_xy.shape[1] != 2 or not np.isfinite(hull_xy).all():
         raise damaged("its footprints (hull_xy) are not finite x, y pairs")
-    _check_counts(g, counts_at, columns["n_signature"], len(classes) * frame.size ** 2, damaged)
+    _check_counts(g, counts_at, columns, len(classes) * frame.size ** 2, damaged)
     columns["hull"] = [hull_xy[hull_at[i]:hull_at[i + 1]] for i in range(n)]
     columns["counts_offsets"] = counts_at
     header["crs"], columns["crs"] = _same_crs_once(header["crs"], columns["crs"])
@@ -255,7 +256,7 @@ def _check_columns(c, header, n, damaged):
             raise damaged(f"its column {name} has shape {shape}, not ({n}, {width})")
     if not n:
         return
-    if header["crs"] == [] or c["crs"].min() < 0 or c["crs"].max() >= len(header["crs"]):
+    if c["crs"].min() < 0 or c["crs"].max() >= len(header["crs"]):
         raise damaged("a tile's CRS index is out of range")
     for name in _COUNT_COLUMNS:
         if c[name].dtype.kind not in "iu" or c[name].min() < 0:
@@ -281,9 +282,11 @@ def _check_columns(c, header, n, damaged):
             raise damaged(f"tile {c['name'][i]}'s Egeom histogram, class totals and point counts disagree")
 
 
-def _check_counts(g, offsets, n_signature, size, damaged):
+def _check_counts(g, offsets, columns, size, damaged):
     """The sparse counts: indices within the count raster (``size`` pixels of all classes),
-    positive values summing to each tile's points; read in slices of whole tiles."""
+    positive values summing to each tile's points (``columns``' n_signature); read in slices of
+    whole tiles."""
+    n_signature = columns["n_signature"]
     index, value = g["counts_index"], g["counts_value"]
     if index.dtype.kind not in "iu" or value.dtype.kind not in "iu" or index.shape != value.shape:
         raise damaged("its counts are not whole numbers of one length")
@@ -302,26 +305,25 @@ def _check_counts(g, offsets, n_signature, size, damaged):
         sums[np.diff(offsets[lo:hi + 1]) == 0] = 0  # reduceat gives the next value for an empty tile
         bad = np.flatnonzero(sums != n_signature[lo:hi])
         if len(bad):
-            raise damaged(f"the counts of its tile {lo + int(bad[0])} hold {int(sums[bad[0]]):,} points, its column "
-                          f"n_signature {int(n_signature[lo + bad[0]]):,}")
+            i = lo + int(bad[0])
+            raise damaged(f"the counts of its tile {columns['name'][i]} hold {int(sums[bad[0]]):,} points, its "
+                          f"column n_signature {int(n_signature[i]):,}")
         lo = hi
 
 
 def _same_crs_once(crs_list, indices):
     """The CRS list without the same CRS written twice (say a name-only variant, or a legacy WKT
     with TOWGS84: :func:`lidar_sig.crs.same_crs`), and the tiles' indices into it."""
-    from ..crs import same_crs
-
     first = []
     for k, wkt in enumerate(crs_list):
-        first.append(next((j for j in range(k) if first[j] == j and _same(same_crs, crs_list[j], wkt)), k))
+        first.append(next((j for j in range(k) if first[j] == j and _same(crs_list[j], wkt)), k))
     if first == list(range(len(crs_list))):
         return crs_list, np.asarray(indices, np.int64)
     kept = sorted(set(first))
     return [crs_list[k] for k in kept], np.array([kept.index(first[k]) for k in indices], np.int64)
 
 
-def _same(same_crs, a, b):
+def _same(a, b):
     """Two CRS texts of a catalogue ('' for none) are the same CRS; an unreadable one is only itself."""
     try:
         return same_crs(a or None, b or None)

@@ -338,6 +338,10 @@ def _stored_images(path, sig, render):
     from ..errors import LidarSigWarning
     from ..signature import RENDERINGS
 
+    import h5py
+
+    if render is None:
+        return "not checked (no rendering recorded)"
     if render not in RENDERINGS:
         return f"not checked (the rendering {render!r} is not one lidar_sig makes)"
     made = dict(zip(("sg", "sas"), sig.render(render)))
@@ -345,10 +349,10 @@ def _stored_images(path, sig, render):
     with _open(path) as f:
         for name, image in made.items():
             ds = f["signature"].get(name)
-            if ds is None:
+            if not isinstance(ds, h5py.Dataset):
                 differ.append(f"{name} missing")
-            elif ds.shape != image.shape:
-                differ.append(f"{name} of shape {ds.shape}, not {image.shape}")
+            elif ds.shape != image.shape or ds.dtype.kind not in "iuf":
+                differ.append(f"{name} of shape {ds.shape} ({ds.dtype}), not {image.shape} numbers")
             else:
                 gap = np.abs(ds[()].astype(np.float64) - image)
                 if np.isnan(gap).any():
