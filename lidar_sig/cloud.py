@@ -109,6 +109,7 @@ class PointCloud:
         """The points ``keep`` (a boolean mask or indices) as a new PointCloud: coordinates,
         labels, withheld flags, CRS, units and path (not the source's record, which describes
         every point of the file)."""
+        keep = _checked_rows(keep, len(self), path=self.path)
         return PointCloud(self.xyz[keep], None if self.labels is None else self.labels[keep], path=self.path,
                           crs=self.crs, units=self.units,
                           withheld=None if self.withheld is None else self.withheld[keep])
@@ -180,3 +181,24 @@ def kept_points(labels, withheld, noise_codes):
         clean = ~np.isin(labels, np.asarray(noise_codes, dtype=np.int64))
         out = clean if out is None else out & clean
     return None if out is None or out.all() else out
+
+
+def _checked_rows(keep, n, *, path=None):
+    """``keep`` (of :meth:`PointCloud.subset`) checked against ``n`` points: a boolean mask of
+    one value per point, or indices from 0 to n - 1 (a negative index would count from the end
+    and pick another point than meant); else a LidarSigError naming ``keep``."""
+    try:
+        keep = np.asarray(keep)
+    except (TypeError, ValueError):
+        keep = np.asarray(None)
+    if keep.dtype == bool and keep.shape == (n,):
+        return keep
+    if keep.ndim == 1 and (keep.dtype.kind in "iu" or (keep.dtype.kind == "f" and not len(keep))):
+        keep = keep.astype(np.int64)
+        if len(keep) and (keep.min() < 0 or keep.max() >= n):
+            bad = int(keep[(keep < 0) | (keep >= n)][0])
+            raise LidarSigError(f"subset: keep holds the index {bad}, outside the cloud's {counted(n, 'point')} "
+                                f"(0 to {n - 1:,})", path=path)
+        return keep
+    raise LidarSigError(f"subset: keep must be a boolean mask of {counted(n, 'value')} or point indices, got "
+                        f"{keep.dtype} of shape {keep.shape}", path=path)

@@ -137,14 +137,29 @@ def _geokeys(header):
 
 def same_crs(a, b):
     """Whether two CRS (WKT or any text pyproj reads, or None) are the same; two unknown CRS
-    are the same (both taken as metres)."""
+    are the same (both taken as metres). The same CRS written differently is the same: another
+    name, another WKT version, or a legacy WKT's ``TOWGS84`` clause (a bound CRS: it says how to
+    reach WGS 84, the coordinates are those of its source CRS)."""
     if a == b:  # the usual case, tiles of one survey: no parsing
         return True
     if a is None or b is None:
         return False
     import pyproj
 
-    return pyproj.CRS.from_user_input(a) == pyproj.CRS.from_user_input(b)
+    return _unbound(pyproj.CRS.from_user_input(a)) == _unbound(pyproj.CRS.from_user_input(b))
+
+
+def _unbound(crs):
+    """The CRS the coordinates are in: a bound CRS's source, each member of a compound CRS so."""
+    import pyproj
+
+    if crs.is_bound:
+        return _unbound(crs.source_crs)
+    if crs.is_compound:
+        members = [_unbound(m) for m in crs.sub_crs_list]
+        if any(m is not n for m, n in zip(members, crs.sub_crs_list)):
+            return pyproj.crs.CompoundCRS(crs.name, members)
+    return crs
 
 
 def crs_name(crs):

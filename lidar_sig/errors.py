@@ -93,6 +93,21 @@ def as_path(value, what):
     raise LidarSigError(f"{what} takes a file path, got {got}")
 
 
+def special_file(path):
+    """What ``path`` is when it is neither a regular file nor a folder: "a FIFO", "a socket", "a
+    device"; None when it is one of those or does not exist (a link is followed). Reading a FIFO
+    or a device waits for a writer, maybe forever: such paths are refused as inputs."""
+    import stat
+
+    try:
+        mode = os.stat(path).st_mode
+    except (OSError, ValueError):
+        return None
+    if stat.S_ISREG(mode) or stat.S_ISDIR(mode):
+        return None
+    return "a FIFO" if stat.S_ISFIFO(mode) else "a socket" if stat.S_ISSOCK(mode) else "a device"
+
+
 def a_kind(value):
     """What ``value`` is, for a message: "None", "an int", "a list" (its type, not its repr:
     an array's is many lines)."""
@@ -104,8 +119,14 @@ def a_kind(value):
 
 def counted(n, noun, plural=None):
     """``n`` and the noun, singular for one: "1 point", "2 points", "12,345 classes" (``plural``
-    for nouns that do not take an s)."""
-    return f"{n:,} {noun if n == 1 else plural or noun + 's'}"
+    for nouns that do not take an s); see :func:`amount`."""
+    return f"{amount(n)} {noun if n == 1 else plural or noun + 's'}"
+
+
+def amount(n):
+    """A whole number for a message: "12,345"; "2.5e+23" from 1e15 on, which no count of points
+    or cells reaches (an absurd option, say a cell of 1e12 m, would otherwise print 25 digits)."""
+    return f"{n:,}" if abs(n) < 1e15 else f"{float(n):.3g}"
 
 
 def reason(exc):

@@ -590,13 +590,33 @@ def _morton_table():
 _MORTON = _morton_table()
 
 
+#: Most voxels of a grid's box: each has its key i + nx (j + ny k), and points are sorted by key
+#: times 64 plus their sub-voxel, within int64.
+KEY_VOXELS = 2.0**56
+
+
+def key_cell(extent, cell):
+    """``cell`` (a voxel side), grown where the box of ``extent`` (its sides) would hold more
+    than KEY_VOXELS voxels: a tiny radius (1e-20 m) or a far outlier (1e7 m away on every
+    axis) made keys that overflow, and searches that failed or missed neighbours. A voxel
+    larger than asked still holds what the search looks for: slower, never wrong."""
+    extent = np.maximum(np.asarray(extent, dtype=np.float64), 0.0)
+    cell = max(float(cell), float(extent.max()) / 2.0**40, np.finfo(np.float64).tiny)  # extent / cell finite
+    while True:
+        voxels = float(np.prod(np.floor(extent / cell) + 1.0))
+        if voxels <= KEY_VOXELS:
+            return cell
+        cell *= 1.01 * (voxels / KEY_VOXELS) ** (1.0 / 3.0)
+
+
 class VoxelGrid:
-    """Points sorted by voxel of side ``cell``; ``order[i]`` is the input index of sorted point i."""
+    """Points sorted by voxel of side ``cell`` (at least :func:`key_cell`'s); ``order[i]`` is
+    the input index of sorted point i."""
 
     def __init__(self, xyz, cell):
         xyz = np.asarray(xyz, dtype=np.float64)
-        self.cell = float(cell)
         self.origin = column_min(xyz)
+        self.cell = key_cell(column_max(xyz) - self.origin, cell) if len(xyz) else float(cell)
         f = (xyz - self.origin) / self.cell  # voxel units
         ijk = np.floor(f).astype(np.int64)
         self.dims = column_max(ijk) + 1

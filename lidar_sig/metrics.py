@@ -143,6 +143,8 @@ METRICS = (
 #: Keys of the metrics (of :func:`compare`'s dict), in the order of METRICS: the order of every
 #: table of metrics and of the change map's GeoTIFF bands.
 METRIC_KEYS = tuple(m.key for m in METRICS)
+#: The metrics of class composition, None when a cloud is unlabelled.
+SEMANTIC_KEYS = ("kl", "l1")
 #: The paper's name of each metric, by key.
 METRIC_NAMES = {m.key: m.name for m in METRICS}
 #: Each metric by key.
@@ -271,7 +273,7 @@ def emd_img(hist_a, hist_b, *, bins=8):
     Only bins occupied in either histogram enter the transport problem (the others carry no
     mass), which keeps it small.
     """
-    from pyemd import emd
+    emd = _import_whole("pyemd").emd  # its import (POT, scipy.optimize) lasts half a second: Ctrl-C lands in it
 
     a = np.asarray(hist_a, dtype=np.float64)
     b = np.asarray(hist_b, dtype=np.float64)
@@ -280,6 +282,34 @@ def emd_img(hist_a, hist_b, *, bins=8):
     centres = color_bin_centres(bins)[used]
     ground = np.sqrt(((centres[:, None, :] - centres[None, :, :]) ** 2).sum(axis=2))
     return float(max(0.0, emd(a[used], b[used], ground)))
+
+
+def _import_whole(name):
+    """The module ``name``, imported with SIGINT and SIGTERM held until the import is done, then
+    acted on as if they came just after it. A signal that lands inside a library's import may
+    be swallowed by the library, or turned by a compiled module's initialisation into
+    ``ImportError: initialization failed`` (pyemd -> POT -> scipy.optimize's pybind11 modules),
+    leaving it half loaded and the run going on or failing with a traceback. Held in the main
+    thread only, which alone runs Python's signal handlers."""
+    import importlib
+    import signal
+    import sys
+    import threading
+
+    if name in sys.modules or threading.current_thread() is not threading.main_thread():
+        return importlib.import_module(name)
+    received = []
+    previous = {}
+    for s in (signal.SIGINT, signal.SIGTERM):
+        if signal.getsignal(s) not in (None, signal.SIG_IGN):  # None: a handler set outside Python, kept
+            previous[s] = signal.signal(s, lambda signum, frame: received.append(signum))
+    try:
+        return importlib.import_module(name)
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, handler)
+        if received:
+            signal.raise_signal(received[0])  # to the handler of the run (KeyboardInterrupt, Interrupted)
 
 
 #: Fisher-vector mixture: an n x n grid of isotropic Gaussians over the unit triangle.

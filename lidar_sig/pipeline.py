@@ -13,7 +13,7 @@ from . import __version__
 from .classes import UNLABELED, class_table
 from .cloud import PointCloud, kept_points
 from .compile import COMMON, announce_compilation, load_kernels, warm_up
-from .errors import LidarSigError, LidarSigWarning, a_kind, arg, counted
+from .errors import FACE, LidarSigError, LidarSigWarning, a_kind, arg, counted
 from .io.open3d import from_open3d, is_open3d
 from .neighbors import WEIGHT_KERNELS, WEIGHTS, NeighborIndex, unique_points
 from .plugins import get_descriptor, get_strategy
@@ -97,6 +97,10 @@ class Pipeline:
         if not whole or not 3 <= max_neighbors <= 100_000 or not 2 <= min_neighbors <= max_neighbors:
             raise LidarSigError(f"max_neighbors must be a whole number from 3 to 100,000 and min_neighbors one "
                                 f"from 2 to max_neighbors, got {max_neighbors!r} and {min_neighbors!r}")
+        if self.scales.kind == "knn" and min(self.scales.values) < min_neighbors:  # no point is ever defined there
+            raise LidarSigError(f"k = {min(self.scales.values)} is below min_neighbors ({min_neighbors}), the fewest "
+                                f"points a saliency needs: no point would have one at that scale; use k of at least "
+                                f"{min_neighbors} ({arg('k') if FACE.get() == 'cli' else 'scales=knn(...)'})")
         if frame is not None and not isinstance(frame, Frame):
             raise LidarSigError(f"frame must be a lidar_sig.Frame, got {frame!r}")
         if not isinstance(keep_noise, (bool, np.bool_)):

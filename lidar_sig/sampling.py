@@ -84,11 +84,10 @@ def resilience(cloud, pipeline=None, *, fractions=DEFAULT_FRACTIONS, repeats=3, 
     """
     from .pipeline import as_point_cloud, pipeline_or_default
 
+    repeats = whole_number(repeats, "repeats", low=1)  # 2.7 ran twice, 'abc' raised a ValueError
     pipeline = pipeline_or_default(pipeline)
     cloud = as_point_cloud(cloud)
     fractions = check_fractions(fractions)
-    if int(repeats) < 1:
-        raise LidarSigError(f"repeats must be at least 1, got {repeats}")
     seed = whole_number(seed, "the seed")
     n = len(cloud)
     points = tuple(int(round(f * n)) for f in fractions)
@@ -100,8 +99,8 @@ def resilience(cloud, pipeline=None, *, fractions=DEFAULT_FRACTIONS, repeats=3, 
                             "fractions")
     full = pipeline.run(cloud).signature
     rng = np.random.default_rng(seed)
-    values = {key: np.full((len(fractions), int(repeats)), np.nan) for key in METRIC_KEYS}
-    runs = [(i, r) for i in range(len(fractions)) for r in range(int(repeats))]
+    values = {key: np.full((len(fractions), repeats), np.nan) for key in METRIC_KEYS}
+    runs = [(i, r) for i in range(len(fractions)) for r in range(repeats)]
     for i, r in _progress(runs, desc="subsamples", enabled=progress, unit="run"):
         keep = np.sort(rng.choice(n, points[i], replace=False))
         sub = cloud.subset(keep)  # labels and withheld flags with their points
@@ -109,7 +108,7 @@ def resilience(cloud, pipeline=None, *, fractions=DEFAULT_FRACTIONS, repeats=3, 
         for key in METRIC_KEYS:
             if metrics[key] is not None:
                 values[key][i, r] = metrics[key]
-    return Resilience(str(cloud.path or "(in memory)"), fractions, points, int(repeats), int(seed), render,
+    return Resilience(str(cloud.path or "(in memory)"), fractions, points, repeats, int(seed), render,
                       pipeline.method(), values)
 
 

@@ -33,6 +33,8 @@ DENSITY_REF = 1e-6
 DENSITY_SAT = 1e-2
 #: Largest signature image side, in pixels (a count raster per class is held in memory).
 MAX_FRAME = 4096
+#: Bins of a signature's Egeom histogram over [0, ln 3].
+EGEOM_BINS = 100
 #: Renderings of Sg and Sas (module docstring); the first is the default.
 RENDERINGS = ("smooth", "points", "density")
 #: Standard deviation of the "smooth" rendering's Gaussian, as a fraction of the triangle's side.
@@ -103,7 +105,7 @@ def _triangle_mask(frame):
     return inside
 
 
-def point_codes(sal, class_index, frame, *, egeom=None, egeom_bins=100):
+def point_codes(sal, class_index, frame, *, egeom=None, egeom_bins=EGEOM_BINS):
     """Per-point codes of a signature's rasters (SPEC 5): ``pixel`` = (class index x size + row)
     x size + col of the point's place in ``frame``, and ``egeom_bin`` its bin of the Egeom
     histogram over [0, ln 3] (bins of equal width, the last closed, as ``np.histogram``); both
@@ -171,7 +173,7 @@ class Signature:
             self.class_totals = self.class_counts
 
     @classmethod
-    def from_saliency(cls, sal, class_index, *, classes, frame=None, egeom=None, egeom_bins=100,
+    def from_saliency(cls, sal, class_index, *, classes, frame=None, egeom=None, egeom_bins=EGEOM_BINS,
                       metadata=None, kept=None):
         """Build a signature from per-point saliency (N, 3) and class indices (N,).
 
@@ -189,7 +191,7 @@ class Signature:
                               metadata=metadata)
 
     @classmethod
-    def from_codes(cls, pixel, egeom_bin, class_index, *, classes, frame, egeom_bins=100, metadata=None):
+    def from_codes(cls, pixel, egeom_bin, class_index, *, classes, frame, egeom_bins=EGEOM_BINS, metadata=None):
         """Build a signature from per-point codes (:func:`point_codes`) and class indices: the
         counts are bincounts, so that a subset or a resample of the points (a change map's cell,
         a bootstrap replicate) costs no saliency arithmetic."""

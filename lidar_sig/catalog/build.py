@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import LidarSigError, LidarSigWarning, a_kind, as_path, reason
+from ..errors import LidarSigError, LidarSigWarning, a_kind, arg, as_path, reason
 from ..progress import progress, step
 from .distances import spreads
 from .features import COLOR_BINS, RENDER, Features, sg_image
@@ -74,11 +74,9 @@ def build_catalog(inputs, output, pipeline=None, *, backend=None, work=None, res
     (default this process); ``work`` the folder of finished tiles (default ``OUTPUT.work``),
     removed after a complete run. Returns a :class:`CatalogRun`."""
     from ..io import HDF5_EXTENSIONS, check_output
-    from ..io.catalog import is_catalog, read_catalog
+    from ..io.atomic import exclusive_output
     from ..pipeline import pipeline_or_default
-    from ..tiling.execute import InProcess
     from ..tiling.sources import expand
-    from ..tiling.work import prepare_work, remove_work
 
     start = time.perf_counter()
     given = pipeline is not None
@@ -93,11 +91,27 @@ def build_catalog(inputs, output, pipeline=None, *, backend=None, work=None, res
     if not inputs:
         raise LidarSigError("give at least one LAS/LAZ tile or folder of tiles")
     files = [str(f) for f in expand(inputs)]
+    check_output(output, overwrite=True)  # its folder; the catalogue itself is read once held
+    # one run at a time: two runs growing it at once would each write the tiles it read and its
+    # own, and the last to finish would drop the other's
+    with exclusive_output(output, "making or growing"):
+        return _build(files, output, pipeline, given, start, backend=backend, work=work, resume=resume,
+                      overwrite=overwrite, method_given=method_given, progress_enabled=progress_enabled)
+
+
+def _build(files, output, pipeline, given, start, *, backend, work, resume, overwrite, method_given,
+           progress_enabled):
+    """:func:`build_catalog` once the catalogue is held: read it, compute the tiles, write it."""
+    from ..io import check_output
+    from ..io.catalog import is_catalog, read_catalog
+    from ..tiling.execute import InProcess
+    from ..tiling.work import prepare_work, remove_work
+
     old = None
     if output.exists() and not overwrite:
         if not is_catalog(output):
-            raise LidarSigError("exists and is not a lidar_sig survey catalogue; give a new name, or --overwrite to "
-                                "replace it", path=output)
+            raise LidarSigError(f"exists and is not a lidar_sig survey catalogue; give a new name, or "
+                                f"{arg('overwrite', True)} to replace it", path=output)
         old = read_catalog(output)
         pipeline = _growing_pipeline(old[0], pipeline if given else None, method_given, output)
     else:
@@ -173,7 +187,8 @@ def duplicate_note(kind, names):
     what = ("are identical files (the same SHA-256)" if kind == "identical files" else
             "hold the same points in different files (a copy, e.g. COPC)")
     return (f"tiles {', '.join(names[:-1])} and {names[-1]} {what}: each is the other's nearest tile, which bends "
-            "similar and outliers; keep one (make the catalogue anew with --overwrite from the tiles without the copy)")
+            f"similar and outliers; keep one (make the catalogue anew with {arg('overwrite', True)} from the tiles "
+            "without the copy)")
 
 
 def _growing_pipeline(header, pipeline, method_given, output):

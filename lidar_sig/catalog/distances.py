@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..metrics import KL_ALPHA, METRIC_KEYS, METRICS
+from ..metrics import KL_ALPHA, METRIC_KEYS, METRICS, SEMANTIC_KEYS
 from ..saliency import LN3
 
 #: Metrics computed from per-tile vectors for every pair (screening), in METRICS' order.
@@ -26,7 +26,7 @@ SCREENING = tuple(k for k in METRIC_KEYS if k in ("bhattacharyya", "emd_info", "
 #: Metrics that need images or a transport problem per pair.
 IMAGE = tuple(k for k in METRIC_KEYS if k not in SCREENING)
 #: The semantic metrics (None for unlabelled tiles, as in compare).
-SEMANTIC = ("kl", "l1")
+SEMANTIC = SEMANTIC_KEYS
 #: Most tiles whose pairs give the spread of an image metric (16 tiles: 120 pairs).
 SPREAD_TILES = 16
 _SAME = {m.key: (m.same, m.larger_differs) for m in METRICS}

@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import LidarSigError, whole_number
+from ..errors import LidarSigError, arg, whole_number
 from .distances import IMAGE, SCREENING, as_distance, combine, pair_metrics, screening
 from .features import sg_image
 
@@ -79,8 +79,8 @@ def similar(catalog, query, *, top=10, metric=None, shortlist=None, columns=None
         raise LidarSigError(f"unknown metric {metric!r}; use distance or one of {', '.join(keys)}")
     top = whole_number(top, "top (how many tiles to list)", low=1)
     if shortlist is not None:
-        shortlist = whole_number(shortlist, f"shortlist (--shortlist: the tiles given every metric, at least the "
-                                            f"{top} listed, --top)", low=top)
+        shortlist = whole_number(shortlist, f"{arg('shortlist')} (the tiles given every metric, at least the {top} "
+                                            f"listed, {arg('top')})", low=top)
     q = catalog.query(query, columns=columns)
     others = np.flatnonzero(np.arange(len(catalog)) != (-1 if q.index is None else q.index))
     n = len(others)

@@ -148,14 +148,35 @@ class Catalog:
         unlabelled)."""
         return metric_keys(self.labelled)
 
+    def summary(self):
+        """Lines describing the catalogue, for `lidar-sig info` (it was checked when opened)."""
+        from ..crs import crs_name
+
+        m, c = self.method, self.columns
+        values = ", ".join(f"{v:g}" for v in m["scale_values"])
+        scales = f"k {values}" if m["scale_kind"] == "knn" else f"radii {values} ({m['scale_units'] or 'metric'})"
+        crs = [crs_name(w) or "none" for w in self.header["crs"]]
+        lines = [f"{self.path}: lidar_sig survey catalogue, {counted(len(self), 'tile')}",
+                 f"  descriptor {m['descriptor']}, strategy {m['strategy']}, {scales}, {m['weights']} weights",
+                 f"  signatures: {counted(int(c['n_signature'].sum()), 'point')}, "
+                 f"{int(c['n_undefined'].sum()):,} undefined, frame {self.frame.size} px, "
+                 f"class table {self.classes.name!r}",
+                 f"  CRS: {', '.join(crs)}"]
+        lines += [f"  tile {name}: {int(n):,} points" for name, n in zip(c["name"][:10], c["n_points"][:10])]
+        if len(self) > 10:
+            lines.append(f"  ... {counted(len(self) - 10, 'more tile')} (`lidar-sig outliers {self.path} --json`)")
+        return lines
+
     def crs_of(self, i):
         """Tile ``i``'s CRS as WKT, or None."""
         return self.header["crs"][int(self.columns["crs"][i])] or None
 
     def tile(self, i):
-        """Tile ``i``'s facts: name, path, SHA-256, CRS name, points, density, bounds, area."""
+        """Tile ``i``'s facts (by row, name or path): name, path, SHA-256, CRS name, points,
+        density, bounds, area."""
         from ..crs import crs_name
 
+        i = self._row(i)  # a negative row counted from the end: another tile than meant
         c = self.columns
         return {"name": c["name"][i], "path": c["path"][i], "sha256": c["sha256"][i],
                 "crs": crs_name(self.crs_of(i)), "points": int(c["n_points"][i]),
@@ -219,6 +240,9 @@ class Catalog:
 
     def _row(self, tile):
         i = self.index(tile)
+        if i is None and isinstance(tile, (int, np.integer)) and not isinstance(tile, bool):
+            raise LidarSigError(f"no tile at row {tile} of the catalogue {self.path}: it holds "
+                                f"{counted(len(self), 'tile')} (rows 0 to {len(self) - 1})")
         if i is None:
             raise LidarSigError(f"no tile {tile!r} in the catalogue {self.path}; `lidar-sig outliers "
                                 f"{self.path} --json` lists its tiles")
@@ -236,7 +260,9 @@ class Catalog:
         if isinstance(query, str) and not query.strip():
             raise LidarSigError("the query is empty; give a tile's name, a cloud or an archive")
         if isinstance(query, (str, Path, int, np.integer)) and not isinstance(query, bool):
-            i = self.index(query)
+            # a file given is that file, even where a tile has its name: the tile only when it is that file
+            on_disk = isinstance(query, (str, Path)) and os.path.lexists(query)
+            i = self.index(str(Path(query).resolve())) if on_disk else self.index(query)
             if i is not None:
                 return Query(self.columns["name"][i], "tile", self.features.row(i), self.sg([i])[i], i)
             if isinstance(query, (int, np.integer)):
@@ -261,14 +287,27 @@ class Catalog:
         return self._query_of(self._run(cloud), str(query), "cloud")
 
     def _run(self, cloud):
-        """The signature of ``cloud`` with the catalogue's method (a LAS cloud whose codes are
-        all 0 counted in class 0, as the catalogue's tiles are)."""
-        from ..io import LAS_EXTENSIONS
+        """The signature of ``cloud`` with the catalogue's method (a cloud without class codes,
+        or whose codes are all 0, counted in class 0, as the catalogue's tiles are)."""
         from ..pipeline import Pipeline
 
-        if cloud.labels is None and cloud.path and Path(cloud.path).suffix.lower() in LAS_EXTENSIONS:
+        if cloud.labels is None:
             cloud.labels = np.zeros(len(cloud), np.int64)
-        pipe = Pipeline.from_method(self.method, classes=self.classes, frame=self.frame)
+            k = int(self.classes.index(np.zeros(1, np.int64))[0])
+            if np.delete(np.asarray(self.columns["class_totals"]), k, axis=1).any():  # the tiles have classes
+                import warnings
+
+                from ..errors import LidarSigWarning
+
+                warnings.warn(f"{cloud.path or 'the query'} has no class codes: its points are counted in the class "
+                              "of code 0, as a tile without them is; the semantic metrics (delta_KL, L1) then "
+                              "compare it as unclassified (--metric fv ranks by geometry)", LidarSigWarning,
+                              stacklevel=3)
+        try:
+            pipe = Pipeline.from_method(self.method, classes=self.classes, frame=self.frame)
+        except LidarSigError as exc:
+            raise LidarSigError(f"its method record cannot be run ({exc}); the catalogue is damaged or was edited "
+                                "by hand: make it again", path=self.path) from None
         return pipe.run(cloud).signature
 
     def _query_of(self, signature, name, kind):

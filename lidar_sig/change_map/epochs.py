@@ -56,7 +56,8 @@ def read_epoch(source, *, columns=None):
     if isinstance(source, Epoch):
         return source.cloud
     if isinstance(source, (str, Path)) and Path(source).is_dir():
-        paths = sorted(p for p in Path(source).iterdir() if p.suffix.lower() in CLOUD_EXTENSIONS)
+        # regular files only, as a set of tiles takes them (a FIFO named *.laz would be waited on)
+        paths = sorted(p for p in Path(source).iterdir() if p.suffix.lower() in CLOUD_EXTENSIONS and p.is_file())
         if not paths:
             raise LidarSigError(f"holds no point-cloud files ({', '.join(CLOUD_EXTENSIONS)})", path=source)
     elif isinstance(source, (list, tuple)):

@@ -11,7 +11,7 @@ import numpy as np
 
 from ..class_schemes import class_scheme_warnings, merge_classes
 from ..classes import UNLABELED
-from ..errors import LidarSigError, LidarSigWarning, counted, whole_number
+from ..errors import LidarSigError, LidarSigWarning, amount, counted, whole_number
 from ..metrics import METRIC_KEYS, METRIC_NAMES
 from ..progress import step
 from ..signature import Frame, method_differences
@@ -120,7 +120,7 @@ def changes(a, b, *more, cell=AUTO, pipeline=None, min_points=AUTO, score=None, 
         _check_overlap(used[k], used[k + 1], names[k], names[k + 1])
     grid = Grid.covering(np.vstack(used), cell / units.horizontal)
     if grid.n_cells > MAX_CELLS:  # a far outlier, or a cell size meant in another unit
-        raise LidarSigError(f"the epochs span {grid.cols:,} x {grid.rows:,} cells of {cell:g} m, more than "
+        raise LidarSigError(f"the epochs span {amount(grid.cols)} x {amount(grid.rows)} cells of {cell:g} m, more than "
                             f"{MAX_CELLS:,}; use a larger cell size (--cell) or remove far outlying points")
     counts = [np.bincount(grid.cell_of(xy), minlength=grid.n_cells) for xy in used]
     for k in range(len(clouds) - 1):  # said before the saliency is computed
@@ -128,7 +128,7 @@ def changes(a, b, *more, cell=AUTO, pipeline=None, min_points=AUTO, score=None, 
         if filled.max() < min_points:
             pair = "" if len(clouds) == 2 else f" {names[k]} and {names[k + 1]}"
             raise LidarSigError(f"no cell of {cell:g} m holds {counted(min_points, 'point')} in both "
-                                f"epochs{pair} (at most {filled.max():,}); {_fewer_points(min_points_rule)}")
+                                f"epochs{pair} (at most {amount(filled.max())}); {_fewer_points(min_points_rule)}")
     epochs, seconds = [], []
     for cloud, name, epoch, used_points in zip(clouds, names, given, kept):
         start = time.perf_counter()

@@ -13,10 +13,16 @@ from .options import columns_option
 @click.argument("path")
 @columns_option
 def info(path, columns):
-    """Summarize a signature archive (.h5) or a point-cloud file."""
+    """Summarize a signature archive or survey catalogue (.h5), or a point-cloud file."""
     if Path(path).suffix.lower() in HDF5_EXTENSIONS:
         from ..io import archive_summary
+        from ..io.catalog import is_catalog
 
+        if is_catalog(path):
+            from ..catalog import Catalog
+
+            click.echo("\n".join(Catalog(path).summary()))
+            return
         click.echo("\n".join(archive_summary(path)))
         return
     import numpy as np

@@ -15,7 +15,7 @@ import io
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..errors import LidarSigError, as_path
+from ..errors import LidarSigError, arg, as_path
 
 #: The sample's files, in the order they are written.
 SAMPLE_FILES = ("epoch1.laz", "epoch2.laz", "epoch2_aligned.laz")
@@ -57,7 +57,7 @@ def write_sample(folder: str | Path, *, overwrite: bool = False) -> list[SampleF
         if path.is_file() and path.read_bytes() == data:
             continue
         if (path.exists() or path.is_symlink()) and not overwrite:
-            raise LidarSigError("exists and is not the sample's file; pass overwrite=True (--overwrite) to "
+            raise LidarSigError(f"exists and is not the sample's file; pass {arg('overwrite', True)} to "
                                 "replace it, or give another folder", path=path)
         todo[name] = data
     created = not folder.exists()

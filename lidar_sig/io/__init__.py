@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING
 
 import lazy_loader
 
-from ..errors import LidarSigError, as_path
+from ..errors import LidarSigError, as_path, special_file
 from ..progress import step
 
 if TYPE_CHECKING:
@@ -59,6 +59,8 @@ def read(path: str | os.PathLike[str], *, columns: str | list[str] | None = None
         raise LidarSigError("no such file; check the path", path=path)
     if path.is_dir():
         raise LidarSigError("is a folder, not a point-cloud file", path=path)
+    if special_file(path):  # reading it would wait for a writer, maybe forever
+        raise LidarSigError(f"is {special_file(path)}, not a regular file; give a point-cloud file", path=path)
     if not os.access(path, os.R_OK):
         raise LidarSigError("cannot be read (permission denied)", path=path)
     fmt = format_of(path)
@@ -70,6 +72,9 @@ def read(path: str | os.PathLike[str], *, columns: str | list[str] | None = None
             s.note(points=len(cloud))
         return cloud
     if fmt is not None and SIGNATURE in fmt.holds:
+        from .catalog import refuse_catalog
+
+        refuse_catalog(path, "a point cloud")
         raise LidarSigError("is a signature archive, not a point cloud; use it with `lidar-sig compare` "
                             "or lidar_sig.load_signature", path=path)
     ext = path.suffix.lower()

@@ -15,6 +15,8 @@
   into place, for a run interrupted after some of them.
 - The file gets the mode an ordinary ``open(path, "w")`` would give it: 0666 less the umask for
   a new file (0644 under umask 022), the old mode for a file being overwritten.
+- An output that a run reads, then writes again (a catalogue grown) is held by one run at a time
+  (:func:`exclusive_output`): a second run is refused, naming the first.
 """
 from __future__ import annotations
 
@@ -27,9 +29,10 @@ import signal
 import socket
 import stat
 import threading
+import time
 from pathlib import Path
 
-from ..errors import Interrupted, LidarSigError
+from ..errors import Interrupted, LidarSigError, arg
 
 _HOST = socket.gethostname().replace(".", "-")[:32] or "host"
 # Outputs written inside an output_group, waiting to be renamed: [(tmp, path, overwrite)]
@@ -56,8 +59,9 @@ def check_output(path, *, overwrite=False):
     path = Path(path)
     if path.is_dir():
         raise LidarSigError("output is a folder; give a file name", path=path)
-    if path.exists() and not overwrite:
-        raise LidarSigError("output already exists; pass --overwrite to replace it", path=path)
+    if os.path.lexists(path) and not overwrite:  # a link to a missing file exists too: it would be replaced
+        raise LidarSigError("output already exists" + ("" if path.exists() else " (a link to a missing file)")
+                            + f"; pass {arg('overwrite', True)} to replace it", path=path)
     parent = path.parent if str(path.parent) else Path(".")
     if not parent.is_dir():
         raise LidarSigError("the output folder does not exist; create it first", path=path)
@@ -143,6 +147,46 @@ def atomic_output(path, *, overwrite=False):
 
 
 @contextlib.contextmanager
+def exclusive_output(path, doing):
+    """Hold ``path`` for this run while the block runs: a run that reads an output and then
+    replaces it (a catalogue grown) would otherwise lose what a run doing the same at the same
+    time added. The lock is the file ``.NAME.lock`` beside ``path``, locked (``flock``, released
+    by the system when a process ends, even killed) and removed at the end; a second run is
+    refused, naming the process that holds it (``doing``: what it does, for the message)."""
+    import fcntl
+
+    path = Path(path)
+    lock = path.parent / f".{path.name}.lock"
+    while True:
+        with os_errors(path):
+            fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = os.read(fd, 200).decode(errors="replace").strip() or "a process not yet named"
+            os.close(fd)
+            raise LidarSigError(f"another lidar-sig run is {doing} it ({holder}); wait for that run to end, "
+                                "then run this command again", path=path) from None
+        except OSError as exc:  # a file system without locks
+            os.close(fd)
+            raise LidarSigError(f"cannot be locked for this run ({exc.strerror or exc}); write it on a local "
+                                "file system", path=path) from None
+        # the run that held it may have removed the file between our open and our lock: lock anew
+        with contextlib.suppress(OSError):
+            if os.path.samestat(os.fstat(fd), os.stat(lock)):
+                break
+        os.close(fd)
+    try:
+        os.ftruncate(fd, 0)
+        os.write(fd, f"process {os.getpid()} on {socket.gethostname()}, since {time.strftime('%H:%M:%S')}".encode())
+        yield path
+    finally:
+        with contextlib.suppress(OSError):
+            os.unlink(lock)
+        os.close(fd)
+
+
+@contextlib.contextmanager
 def output_group():
     """Commit every output written inside the block together: each is written to its temporary
     file, and all are renamed at the end, or none if anything failed or was interrupted. Inside
@@ -165,8 +209,8 @@ def output_group():
 def _commit(items):
     """Rename temporary files onto their outputs, with the right mode, signals held."""
     for _, path, overwrite in items:
-        if path.exists() and not overwrite:  # appeared while we were working
-            raise LidarSigError("output already exists; pass --overwrite to replace it", path=path)
+        if os.path.lexists(path) and not overwrite:  # appeared while we were working
+            raise LidarSigError(f"output already exists; pass {arg('overwrite', True)} to replace it", path=path)
     written = _WRITTEN.get()
     with deferred_signals():
         for tmp, path, _ in items:

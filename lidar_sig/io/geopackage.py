@@ -183,6 +183,11 @@ def write_geopackage(path, layers, *, overwrite=False):
             if styled:
                 _write_styles(con, styled)
             con.commit()
+        except sqlite3.Error as exc:  # a full disk: "database or disk is full"
+            full = getattr(exc, "sqlite_errorname", "") == "SQLITE_FULL" or "is full" in str(exc)
+            reason = "no space left on the device; free some space or write elsewhere" if full else \
+                f"{exc}; check the output folder"
+            raise LidarSigError(f"could not be written: {reason}", path=path) from None
         finally:
             con.close()
 

@@ -12,7 +12,7 @@ import json
 import numpy as np
 
 from ..classes import recorded_table
-from ..errors import LidarSigError, as_path, counted
+from ..errors import LidarSigError, as_path, counted, special_file
 from ..saliency import LN3
 from ..signature import METHOD_KEYS, Frame, Signature
 from .h5 import described_dataset, hdf5_output
@@ -159,6 +159,11 @@ def _open(path):
     fmt, version = f.attrs.get("format"), f.attrs.get("format_version", 0)
     problem = None
     if fmt != FORMAT:
+        from .catalog import FORMAT as CATALOG, refuse_catalog
+
+        if fmt == CATALOG:
+            f.close()
+            refuse_catalog(path, "a signature archive")
         problem = ("is an HDF5 file but not a lidar_sig signature archive; make one with "
                    "`lidar-sig signature CLOUD -o OUT.h5`")
     elif not isinstance(version, (int, np.integer)) or isinstance(version, bool) or version < 1:
@@ -180,7 +185,9 @@ def load_signature(path):
     """
     path = as_path(path, "load_signature")
     if not path.is_file():
-        raise LidarSigError("no such file; check the path" if not path.exists() else "is not a file", path=path)
+        raise LidarSigError("no such file; check the path" if not path.exists()
+                            else f"is {special_file(path) or 'a folder'}, not a regular file; give a signature archive",
+                            path=path)
     with _open(path) as f:
         try:
             return _read_signature(f, path)
@@ -223,7 +230,11 @@ def _read_signature(f, path):
         raise damaged("its class table has no name (attribute table of signature/classes)")
     classes = recorded_table(str(c.attrs["table"]), names[:-1], groups[:-1], colors[:-1],
                              c["noise_codes"][()] if "noise_codes" in c else None)
-    frame = Frame(_int_attr(g.attrs, "frame_size", damaged), _int_attr(g.attrs, "frame_margin", damaged))
+    size, margin = _int_attr(g.attrs, "frame_size", damaged), _int_attr(g.attrs, "frame_margin", damaged)
+    try:
+        frame = Frame(size, margin)
+    except LidarSigError as exc:
+        raise damaged(f"its frame is not one lidar_sig makes ({str(exc).removeprefix('signature ')})") from None
     counts = _part(g, "counts", path)
     expected = (len(classes), frame.size, frame.size)
     if counts.shape != expected or counts.dtype.kind not in "iu":
@@ -314,6 +325,49 @@ def _method(attrs):
     return out
 
 
+#: Largest difference between a stored image and the one made again from the counts (float32 rounding).
+IMAGE_TOLERANCE = 1e-4
+
+
+def _stored_images(path, sig, render):
+    """Whether the stored Sg and Sas images are those of the counts (metrics are computed from
+    the counts, so a damaged image misleads only a reader of the file): said, with a note when
+    one differs."""
+    import warnings
+
+    from ..errors import LidarSigWarning
+    from ..signature import RENDERINGS
+
+    import h5py
+
+    if render is None:
+        return "not checked (no rendering recorded)"
+    if render not in RENDERINGS:
+        return f"not checked (the rendering {render!r} is not one lidar_sig makes)"
+    made = dict(zip(("sg", "sas"), sig.render(render)))
+    differ = []
+    with _open(path) as f:
+        for name, image in made.items():
+            ds = f["signature"].get(name)
+            if not isinstance(ds, h5py.Dataset):
+                differ.append(f"{name} missing")
+            elif ds.shape != image.shape or ds.dtype.kind not in "iuf":
+                differ.append(f"{name} of shape {ds.shape} ({ds.dtype}), not {image.shape} numbers")
+            else:
+                gap = np.abs(ds[()].astype(np.float64) - image)
+                if np.isnan(gap).any():
+                    differ.append(f"{name} holds NaN")
+                elif gap.max(initial=0.0) > IMAGE_TOLERANCE:
+                    differ.append(f"{name} differs from its counts by up to {gap.max():.3g}")
+    if not differ:
+        return f"Sg and Sas agree with the counts ({render} rendering)"
+    text = "; ".join(differ)
+    warnings.warn(LidarSigWarning(f"{path}: its stored image {text}: the archive is damaged or was edited; metrics "
+                                  f"use the counts and are not affected, but the stored picture misleads: {_AGAIN}"),
+                  stacklevel=2)
+    return text + " (damaged or edited)"
+
+
 def archive_summary(path):
     """Lines describing an archive, for `lidar-sig info`; a damaged record is said, not fatal."""
     sig = load_signature(path)
@@ -332,6 +386,7 @@ def archive_summary(path):
     for name, count in zip(sig.classes.class_names, sig.class_totals):
         if count:
             lines.append(f"    {name}: {int(count):,}")
+    lines.append(f"  stored images: {_stored_images(path, sig, attrs.get('render'))}")
     try:
         sources = json.loads(attrs.get("sources", "[]"))
         lines += [f"  source {src['path']} sha256 {src['sha256']}" for src in sources]

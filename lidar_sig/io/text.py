@@ -18,7 +18,7 @@ import warnings
 import numpy as np
 
 from ..cloud import PointCloud
-from ..errors import LidarSigError, LidarSigWarning, counted
+from ..errors import LidarSigError, LidarSigWarning, arg, counted
 from .atomic import atomic_output
 from .fields import marker, parse_marker
 from .formats import TEXT_EXTENSIONS  # noqa: F401 (a name of this module too)
@@ -32,8 +32,13 @@ LAYOUTS = {
 
 
 def parse_columns(text):
-    """``"x,y,z,-,label"`` -> a tuple of column names; must hold x, y and z."""
-    cols = tuple(_name(c.strip()) for c in str(text).split(",") if c.strip())
+    """``"x,y,z,-,label"`` -> a tuple of column names; must hold x, y and z, and name every
+    column (an empty item would shift the columns after it)."""
+    items = [c.strip() for c in str(text).split(",")]
+    if "" in items:
+        raise LidarSigError(f"columns has an empty item in {text!r}; name every column, - for one to skip "
+                            "(e.g. x,y,z,-,label)")
+    cols = tuple(_name(c) for c in items)
     if not {"x", "y", "z"} <= set(cols) or len(set(c for c in cols if c != "-")) != len([c for c in cols if c != "-"]):
         raise LidarSigError(f"columns must name x, y and z once each, got {text!r} (e.g. x,y,z,-,label)")
     return cols
@@ -63,10 +68,10 @@ def read_text(path, columns=None):
     n_cols = len(lines[0].replace(",", " ").split())
     layout = tuple(columns) if columns else LAYOUTS.get(n_cols)
     if layout is None:
-        raise LidarSigError(f"has {counted(n_cols, 'column')}; name them with --columns (e.g. x,y,z,-,label)",
+        raise LidarSigError(f"has {counted(n_cols, 'column')}; name them with {arg('columns')} (e.g. x,y,z,-,label)",
                             path=path)
     if len(layout) != n_cols:
-        raise LidarSigError(f"has {counted(n_cols, 'column')} but --columns names {len(layout)}", path=path)
+        raise LidarSigError(f"has {counted(n_cols, 'column')} but {arg('columns')} names {len(layout)}", path=path)
     delimiter = "," if "," in lines[0] else None
     try:
         data = np.loadtxt(lines, delimiter=delimiter, ndmin=2)
@@ -77,7 +82,7 @@ def read_text(path, columns=None):
     if "label" in col:
         lab = col.pop("label")
         if not (np.all(np.isfinite(lab)) and np.all(lab == np.round(lab))):
-            raise LidarSigError("the label column holds non-integer values; check --columns", path=path)
+            raise LidarSigError(f"the label column holds non-integer values; check {arg('columns')}", path=path)
         labels = lab.astype(np.int64)
     xyz = np.column_stack([col.pop("x"), col.pop("y"), col.pop("z")])
     return PointCloud(xyz, labels, source=None, path=str(path), attributes=col,

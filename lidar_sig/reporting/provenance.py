@@ -20,11 +20,29 @@ def _files(side):
     if path and Path(path).is_file():
         out.append((str(path), Path(path).stat().st_size, sha256_of(path)))
     if side.result is None:
-        import json
-
-        for src in json.loads(side.signature.metadata.get("sources", "[]") or "[]"):
+        sources = _recorded(side.signature.metadata.get("sources"), list)
+        if sources is None or not all(isinstance(src, dict) for src in sources):
+            # the metrics do not use it: the report says so rather than failing
+            out.append(("made from: unreadable (the archive's sources record is not the JSON list lidar_sig "
+                        "writes)", None, "?"))
+            sources = []
+        for src in sources:
             out.append((f"made from {src.get('path', '?')}", None, src.get("sha256", "?")))
     return out
+
+
+def _recorded(text, kind):
+    """A JSON record of an archive (``kind`` list or dict; empty when absent), or None when it is
+    not one."""
+    import json
+
+    if text is None or text == "":
+        return kind()
+    try:
+        value = json.loads(text) if isinstance(text, (str, bytes)) else text
+    except ValueError:
+        return None
+    return value if isinstance(value, kind) else None
 
 
 def provenance(sides, tags, render):
@@ -73,11 +91,10 @@ def provenance(sides, tags, render):
 
 
 def _params(params):
-    if isinstance(params, str):
-        import json
-
-        params = json.loads(params or "{}")
-    return ", ".join(f"{k}={v}" for k, v in sorted((params or {}).items()))
+    params = _recorded(params, dict)
+    if params is None:
+        return "(parameters unreadable)"
+    return ", ".join(f"{k}={v}" for k, v in sorted(params.items()))
 
 
 def _as_given(m):

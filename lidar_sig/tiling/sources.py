@@ -27,7 +27,7 @@ import numpy as np
 
 from ..bounds import bounds
 from ..cloud import MAX_COORDINATE, check_magnitude, kept_points
-from ..errors import LidarSigError, arg, counted, reason
+from ..errors import LidarSigError, arg, counted, reason, special_file
 from ..io import LAS_EXTENSIONS
 
 #: Bits of a point identifier that hold its index in its file (files up to 10^12 points).
@@ -56,6 +56,8 @@ def expand(inputs):
                 raise LidarSigError("a set of tiles is read from LAS/LAZ files only; convert it, or give "
                                     "it alone", path=p)
             files.append(p)
+        elif special_file(p):
+            raise LidarSigError(f"is {special_file(p)}, not a regular file; give LAS/LAZ files or folders", path=p)
         else:
             raise LidarSigError("no such file or folder; check the path", path=p)
     seen = {}
@@ -238,8 +240,12 @@ def stage_part(work, source, part, start, stop, cells, noise_codes=None):
                 for s, e in zip(np.r_[0, breaks], np.r_[breaks, len(rec)]):
                     key = (int(ci[s]), int(cj[s]))
                     occupied[key] = occupied.get(key, 0) + int(e - s)
-                    with open(out / f"c{key[0]}_{key[1]}.bin", "ab") as fh:
-                        rec[s:e].tofile(fh)
+                    try:  # a write of Python's, which says why it failed (tofile: "6740 requested and 102 written")
+                        with open(out / f"c{key[0]}_{key[1]}.bin", "ab") as fh:
+                            fh.write(rec[s:e].tobytes())
+                    except OSError as exc:  # the work folder's disk (full, read-only), not the input, failed
+                        raise LidarSigError(f"cannot stage {source.name} ({exc.strerror or reason(exc)}); free space "
+                                            f"or give another {arg('work_dir')}", path=out.parent.parent) from None
     except LidarSigError:
         raise
     except OSError as exc:  # the work folder's disk (full, read-only), not the input, failed

@@ -276,12 +276,13 @@ def test_saliency_of_an_empty_folder_names_the_folder_not_the_output(tmp_path):
     assert "o.laz" not in proc.stderr and sorted(p.name for p in tmp_path.iterdir()) == ["empty"]
 
 
-def test_no_defined_saliency_at_k_speaks_of_points_not_metres():
-    # "every neighbourhood at k 2 (= 2 m) holds fewer than 3 points"
-    with pytest.raises(ls.LidarSigError, match="no point has a defined saliency") as caught:
+def test_k_below_min_neighbors_speaks_of_points_not_metres():
+    # "every neighbourhood at k 2 (= 2 m) holds fewer than 3 points"; such a k is now refused before
+    # the run (issue 34), in points
+    with pytest.raises(ls.LidarSigError, match="k = 2 is below min_neighbors") as caught:
         ls.Pipeline(scales=ls.knn(2), progress=False).run(SMALL)
     message = str(caught.value)
-    assert "k 2" in message and " m)" not in message and "= 2" not in message
+    assert "3" in message and " m)" not in message and "= 2 m" not in message
 
 
 @pytest.mark.parametrize("option", ["--descriptor", "--strategy", "--classes"])
@@ -314,9 +315,9 @@ def test_counts_of_one_are_singular():
     with pytest.raises(ls.LidarSigError, match="1 point has NaN"):
         ls.PointCloud(xyz)
     with pytest.raises(ls.LidarSigError, match=r"holds 1 distinct location \(3 points\)"):
-        ls.Pipeline(scales=ls.knn(2), progress=False).run(np.ones((3, 3)))
+        ls.Pipeline(scales=ls.knn(3), progress=False).run(np.ones((3, 3)))
     with pytest.raises(ls.LidarSigError, match=r"holds 1 point,"):
-        ls.Pipeline(scales=ls.knn(2), progress=False).run(np.ones((1, 3)))
+        ls.Pipeline(scales=ls.knn(3), progress=False).run(np.ones((1, 3)))
 
     metadata = {"n_points": 1, "descriptor": "c3dcm", "strategy": "multiscale", "scale_kind": "knn",
                 "resolved_scales": [10], "weights": "area", "units": "metre", "n_undefined": 1,

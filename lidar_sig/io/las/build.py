@@ -30,13 +30,18 @@ def to_lasdata(cloud):
     if isinstance(src, laspy.LasData):
         las = laspy.LasData(header=copy.deepcopy(src.header), points=src.points.copy())
         if drop_copc(las.header):
-            notes.append("COPC input written as plain LAZ 1.4 (same points and dimensions; "
-                         "the COPC octree index is dropped)")
+            notes.append("COPC input written without its octree index (its COPC records dropped; same points "
+                         "and dimensions, LAS 1.4)")
         if las.header.version.minor < 4:
             las, more = upgrade_to_14(las)
             notes += more
     else:
         las = _new_lasdata(cloud)
+        merged = _merged(cloud.xyz, las.header.offsets, las.header.scales)
+        if merged:
+            notes.append(f"coordinates stored in steps of {', '.join(f'{v:g}' for v in las.header.scales)} (LAS "
+                         f"integers over this extent): {merged:,} distinct points now share a location with "
+                         "another; write .ply, .pcd or text to keep them apart")
     las.header.generating_software = f"lidar_sig {__version__}"
     las.header.creation_date = datetime.date.today()
     return las, notes
@@ -74,14 +79,44 @@ def _new_lasdata(cloud):
 
 
 def las_scaling(xyz):
-    """LAS offsets and scales for coordinates ``xyz``: offsets at the floor of the minimum,
-    millimetre scales unless the extent needs coarser ones to fit LAS's 32-bit integers (then
-    the next power of ten)."""
+    """LAS offsets and scales for coordinates ``xyz``: offsets at the floor of the minimum; per
+    axis the step of the coordinates' own decimals (:func:`decimal_steps`: 1e-8 for degrees
+    written to eight decimals, 1e-6 for kilometres to the millimetre, millimetres for coarser
+    ones), no finer than LAS's 32-bit integers allow over the extent (coordinates far apart get
+    a coarser one)."""
     lo, hi = bounds(xyz)
     offsets = np.floor(lo)
     span = np.maximum(hi - offsets, 1e-12)
-    scales = np.maximum(1e-3, 10.0 ** np.ceil(np.log10(span / (2**31 - 2))))
-    return offsets, scales
+    coarsest = 10.0 ** np.ceil(np.log10(span / (2**31 - 2)))
+    return offsets, np.maximum(coarsest, decimal_steps(xyz))
+
+
+#: Finest step of coordinates written to LAS by their decimals (beyond: as fine as the extent allows).
+FINEST_STEP = 1e-12
+
+
+def decimal_steps(xyz):
+    """(3,) per column the largest power of ten, at most a millimetre, of which every value is a
+    multiple (to a thousandth of it: round-off): the decimals the values were written with;
+    FINEST_STEP where none is."""
+    steps = []
+    for k in range(3):
+        values = xyz[:, k] - (np.floor(xyz[:, k].min()) if len(xyz) else 0.0)  # small numbers, small round-off
+        for d in range(3, int(-np.log10(FINEST_STEP)) + 1):
+            scaled = values * 10.0**d
+            if np.all(np.abs(scaled - np.round(scaled)) <= 1e-3):
+                break
+        steps.append(10.0**-d)
+    return np.array(steps)
+
+
+def _merged(xyz, offsets, scales):
+    """Points whose location another point takes once the coordinates are LAS integers; none
+    when every scale is at most the step of its coordinates' decimals (every value is kept)."""
+    if np.all(scales <= decimal_steps(xyz) * (1 + 1e-9)):
+        return 0
+    stored = np.round((xyz - offsets) / scales)
+    return len(np.unique(xyz, axis=0)) - len(np.unique(stored, axis=0))
 
 
 def check_las_output(cloud, path=None):
