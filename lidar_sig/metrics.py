@@ -143,8 +143,8 @@ METRICS = (
 #: Keys of the metrics (of :func:`compare`'s dict), in the order of METRICS: the order of every
 #: table of metrics and of the change map's GeoTIFF bands.
 METRIC_KEYS = tuple(m.key for m in METRICS)
-#: The metrics of class composition, None when a cloud is unlabelled.
-SEMANTIC_KEYS = ("kl", "l1")
+#: The metrics of class composition (they need labels), None when a cloud is unlabelled.
+SEMANTIC_KEYS = tuple(m.key for m in METRICS if m.needs_labels)
 #: The paper's name of each metric, by key.
 METRIC_NAMES = {m.key: m.name for m in METRICS}
 #: Each metric by key.

@@ -95,7 +95,7 @@ def test_write_refuses_existing_output(tmp_path):
     out_path = tmp_path / "o.laz"
     out_path.write_bytes(b"keep me")
     result = ls.Pipeline(scales=ls.knn(10)).run(path)
-    with pytest.raises(ls.LidarSigError, match="--overwrite"):
+    with pytest.raises(ls.LidarSigError, match="overwrite=True"):
         result.write(out_path)
     assert out_path.read_bytes() == b"keep me"
     result.write(out_path, overwrite=True)

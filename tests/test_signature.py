@@ -135,7 +135,7 @@ def test_write_png(tmp_path):
     img = cv2.imread(str(tmp_path / "s.png"), cv2.IMREAD_UNCHANGED)[..., ::-1]  # BGR -> RGB
     assert img.shape == (512, 512, 3)
     assert np.array_equal(img, signature_image(res.signature))  # PNG is lossless
-    with pytest.raises(ls.LidarSigError, match="--overwrite"):
+    with pytest.raises(ls.LidarSigError, match="overwrite=True"):
         res.write(tmp_path / "s.png")
 
 

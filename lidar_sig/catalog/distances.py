@@ -18,25 +18,23 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..metrics import KL_ALPHA, METRIC_KEYS, METRICS, SEMANTIC_KEYS
+from ..metrics import KL_ALPHA, METRIC, METRIC_KEYS, METRICS, SEMANTIC_KEYS
 from ..saliency import LN3
 
 #: Metrics computed from per-tile vectors for every pair (screening), in METRICS' order.
-SCREENING = tuple(k for k in METRIC_KEYS if k in ("bhattacharyya", "emd_info", "fv", "kl", "l1"))
+SCREENING = tuple(m.key for m in METRICS if m.from_vectors)
 #: Metrics that need images or a transport problem per pair.
-IMAGE = tuple(k for k in METRIC_KEYS if k not in SCREENING)
+IMAGE = tuple(m.key for m in METRICS if not m.from_vectors)
 #: The semantic metrics (None for unlabelled tiles, as in compare).
 SEMANTIC = SEMANTIC_KEYS
 #: Most tiles whose pairs give the spread of an image metric (16 tiles: 120 pairs).
 SPREAD_TILES = 16
-_SAME = {m.key: (m.same, m.larger_differs) for m in METRICS}
 
 
 def as_distance(key, values):
-    """A metric's values as distances from identical clouds (0 = same): s_SSIM becomes 1 - s_SSIM."""
-    same, larger_differs = _SAME[key]
-    values = np.asarray(values, dtype=np.float64)
-    return values - same if larger_differs else same - values
+    """A metric's values as distances from identical clouds (0 = same): s_SSIM becomes 1 - s_SSIM
+    (:meth:`lidar_sig.metrics.Metric.distance`)."""
+    return METRIC[key].distance(values)
 
 
 def metric_keys(labelled):
@@ -88,26 +86,20 @@ def pair_metrics(a, b, sg_a, sg_b, mask, keys):
     """Every metric of ``keys`` between one tile ``a`` and one tile ``b`` (Features of one row
     each; ``sg_a``, ``sg_b`` their Sg images, needed for s_SSIM), computed by the metrics' own
     functions as :func:`lidar_sig.metrics.compare` does."""
-    from .. import metrics
-    from .features import COLOR_BINS
+    one, other = TileOperand(a, sg_a, mask), TileOperand(b, sg_b, mask)
+    return {key: METRIC[key].of(one, other) for key in keys}
 
-    out = {}
-    for key in keys:
-        if key == "bhattacharyya":
-            out[key] = metrics.bhattacharyya(a.color[0], b.color[0])
-        elif key == "ssim":
-            out[key] = metrics.ssim(sg_a, sg_b, mask)
-        elif key == "emd_info":
-            out[key] = metrics.emd_info(a.egeom[0], b.egeom[0])
-        elif key == "emd_img":
-            out[key] = metrics.emd_img(a.color[0], b.color[0], bins=COLOR_BINS)
-        elif key == "fv":
-            out[key] = float(np.linalg.norm(a.fv[0] - b.fv[0]))
-        elif key == "kl":
-            out[key] = metrics.symmetric_kl(a.totals[0], b.totals[0])
-        elif key == "l1":
-            out[key] = metrics.l1_distance(a.totals[0], b.totals[0])
-    return out
+
+class TileOperand:
+    """What a metric reads of one tile (as :class:`lidar_sig.metrics.Operand` of a signature),
+    from its stored vectors (Features of one row) and its Sg image."""
+
+    def __init__(self, features, sg, mask):
+        from .features import COLOR_BINS
+
+        self.color, self.egeom, self.fv, self.totals = (features.color[0], features.egeom[0], features.fv[0],
+                                                        features.totals[0])
+        self.sg, self.mask, self.color_bins = sg, mask, COLOR_BINS
 
 
 def combine(values, spread, keys):
