@@ -14,10 +14,11 @@ from ..errors import LidarSigError, as_path, whole_number
 from ..metrics import METRIC_KEYS, METRIC_NAMES, METRICS
 from ..progress import step
 from ..signature import Frame
-from .cells import CELL_FRAME, cell_signature, epoch_cells
+from .cells import CELL_FRAME, CHANGE_KEYS, COVERAGE, cell_signature, epoch_cells
+from .heights import HEIGHT, HEIGHT_NAME
 from .epochs import Epoch
 from .grid import Grid
-from .lod import CONFIDENCE, level_of_detection
+from .lod import CONFIDENCE, level_of_detection, pooled_confidence
 
 #: Metric that ranks the cells by default (docs/changes.md): delta_KL of the class distributions
 #: where both epochs are labelled in overlapping class schemes, else LABEL_FREE_SCORE.
@@ -28,7 +29,9 @@ SCORE = "kl"
 LABEL_FREE_SCORE = "fv"
 #: Bands of the change map's GeoTIFF before the metrics and after them.
 BANDS = ("score", "lod", "significant")
-COUNT_BANDS = ("points_a", "points_b", "undefined_a", "undefined_b")
+COUNT_BANDS = ("points_a", "points_b", "undefined_a", "undefined_b", "coverage")
+#: Names of what the change map compares: the metrics' and delta_H's.
+NAMES = {**METRIC_NAMES, HEIGHT: HEIGHT_NAME}
 
 
 def oriented(values, metric):
@@ -49,7 +52,7 @@ def metric_levels(table, null, *, confidence=CONFIDENCE):
     :func:`~lidar_sig.change_map.cells.null_metrics`."""
     return {k: level_of_detection(oriented(table[k], k), oriented(null[:, :, m], k), table["valid"],
                                   confidence=confidence)
-            for m, k in enumerate(METRIC_KEYS)}
+            for m, k in enumerate(CHANGE_KEYS)}
 
 
 @dataclass
@@ -108,12 +111,31 @@ class ChangeMap:
     timings: dict = field(default_factory=dict)
 
     def rank_by(self, score):
-        """Fill the table's ranking fields (``score``, ``lod``, ``z``, ``significant``) from
-        metric ``score`` and its level."""
+        """Fill the table's ranking fields from metric ``score`` and delta_H, the two tests of
+        a cell (:meth:`tests`): ``score``, its level ``lod`` and delta_H's ``height_lod`` at the
+        confidence of each of the two tests (:func:`~lidar_sig.change_map.lod.pooled_confidence`),
+        ``z`` the larger of their z, and ``significant`` where either exceeds its level."""
         self.score = score
-        level = self.levels[score]
-        self.table["score"] = score_values(self.table, score)
-        self.table["lod"], self.table["z"], self.table["significant"] = level.lod, level.z, level.significant
+        each = pooled_confidence(self.confidence, len(self.tests))
+        t = self.table
+        t["score"] = score_values(t, score)
+        t["lod"] = self.levels[score].lod_at(each)
+        t["height_lod"] = self.levels[HEIGHT].lod_at(each)
+        with np.errstate(invalid="ignore"):
+            t["z"] = np.fmax(self.levels[score].z, self.levels[HEIGHT].z)
+            t["significant"] = t["valid"] & ((t["score"] > t["lod"]) | (t[HEIGHT] > t["height_lod"]))
+
+    @property
+    def names(self):
+        """{key: name} of everything the map compares: the metrics' names and delta_H."""
+        return dict(NAMES)
+
+    @property
+    def tests(self):
+        """The metrics whose levels of detection decide a cell's significance: the score (what
+        the cell is made of) and delta_H (how high it is), each at the confidence that keeps
+        the map's (docs/changes.md, "Significance")."""
+        return (self.score, HEIGHT)
 
     @property
     def n_significant(self):
@@ -184,14 +206,31 @@ class ChangeMap:
                     "bounds": [float(rec[k]) for k in ("x_min", "y_min", "x_max", "y_max")],
                     "points_a": int(rec["points_a"]), "points_b": int(rec["points_b"]),
                     "undefined_a": float(rec["undefined_a"]), "undefined_b": float(rec["undefined_b"]),
-                    "score": float(rec["score"]), "lod": _plain(rec["lod"]), "z": _plain(rec["z"]),
+                    "score": float(rec["score"]), "lod": _plain(rec["lod"]), "height_lod": _plain(rec["height_lod"]),
+                    "z": _plain(rec["z"]),
                     "significant": bool(rec["significant"])}
-            item.update({k: _plain(rec[k]) for k in METRIC_KEYS})
-            item["significant_metrics"] = [k for k in METRIC_KEYS if k in self.levels
+            item.update({k: _plain(rec[k]) for k in CHANGE_KEYS})
+            item["significant_metrics"] = [k for k in CHANGE_KEYS if k in self.levels
                                            and self.levels[k].significant[flat]]
             item["classes"] = self.composition(flat)
             out.append(item)
         return out
+
+    def coverage(self):
+        """{state: cells} of every coverage state (:data:`~lidar_sig.change_map.cells.COVERAGE`):
+        compared, appeared, vanished, too few points, not covered."""
+        codes = np.bincount(self.table["coverage"].astype(np.int64), minlength=len(COVERAGE))
+        return {name: int(codes[code]) for code, name in COVERAGE.items()}
+
+    def uncompared(self, state):
+        """The cells in coverage ``state`` ("appeared", "vanished", ...) as plain dicts: row,
+        col, bounds, the points of each epoch."""
+        code = next(k for k, v in COVERAGE.items() if v == state)
+        t = self.table
+        return [{"row": int(t["row"][c]), "col": int(t["col"][c]),
+                 "bounds": [float(t[k][c]) for k in ("x_min", "y_min", "x_max", "y_max")],
+                 "points_a": int(t["points_a"][c]), "points_b": int(t["points_b"][c])}
+                for c in np.flatnonzero(t["coverage"] == code)]
 
     def settings(self):
         """The grid and settings as plain values (``to_dict`` without the cells)."""
@@ -204,6 +243,8 @@ class ChangeMap:
                 "grid": {"rows": self.grid.rows, "cols": self.grid.cols, "transform": [a, b, c, d, e, f],
                          "cells": self.grid.n_cells, "valid": int(self.table["valid"].sum()),
                          "significant": self.n_significant},
+                "coverage": {"cells": self.coverage(), "codes": {str(k): v for k, v in COVERAGE.items()},
+                             "appeared": self.uncompared("appeared"), "vanished": self.uncompared("vanished")},
                 "levels": {k: {"beta": v.beta, "tau": v.tau, "survey": v.survey,
                                "significant": int(v.significant.sum())} for k, v in self.levels.items()
                            if np.isfinite(v.mu0).any()},
@@ -227,7 +268,7 @@ class ChangeMap:
         """(rasters, descriptions) of the GeoTIFF's bands: the score, its level of detection,
         significant (0/1), every metric, the points of each epoch and their undefined shares;
         NaN where there is no data. ``prefix`` starts each description (a series' interval)."""
-        names = BANDS + METRIC_KEYS + COUNT_BANDS
+        names = BANDS + CHANGE_KEYS + COUNT_BANDS
         rasters = []
         for n in names:
             r = self.raster(n)
@@ -277,12 +318,15 @@ def _plain(value):
 
 def _band_description(name, score, confidence=CONFIDENCE):
     names = {m.key: f"{m.name}: {m.short}" for m in METRICS}
-    ranking = f"{'1 - ' if score == 'ssim' else ''}{METRIC_NAMES[score]}"
+    names[HEIGHT] = f"{HEIGHT_NAME}: EMD of heights above the cell's lowest points (m)"
+    ranking = f"{'1 - ' if score == 'ssim' else ''}{NAMES[score]}"
     text = {"score": f"score: {ranking}, the ranking metric",
             "lod": f"lod: level of detection of the score ({ranking} of unchanged land at {confidence:.0%})",
             "significant": f"significant: 1 where the score exceeds its level of detection ({confidence:.0%}), "
                            "0 where not",
             "points_a": "points of epoch A", "points_b": "points of epoch B",
             "undefined_a": "share of A's points with undefined saliency",
-            "undefined_b": "share of B's points with undefined saliency"}
+            "undefined_b": "share of B's points with undefined saliency",
+            "coverage": "coverage: " + ", ".join(f"{k} {v}" for k, v in COVERAGE.items())
+                        + " (only B covers the cell: appeared; only A: vanished)"}
     return text.get(name) or names[name]

@@ -16,7 +16,7 @@ from ..metrics import METRIC_KEYS, METRIC_NAMES
 from ..progress import step
 from ..signature import Frame, method_differences
 from .cells import CELL_FRAME, SEED, bin_points, cell_table, null_metrics, observed_metrics
-from .density import auto_cell, auto_min_points, density
+from .density import LEAST_DENSITY, MIN_POINTS_FLOOR, RECALL_BELOW, auto_cell, auto_min_points, density
 from .epochs import Epoch, check_same_crs, read_epoch
 from .grid import MAX_CELLS, Grid, check_cell
 from .lod import CONFIDENCE, MIN_CELLS, REPLICATES
@@ -112,6 +112,11 @@ def changes(a, b, *more, cell=AUTO, pipeline=None, min_points=AUTO, score=None, 
     kept = [pipeline.kept(c) if x is None else x.kept for x, c in zip(given, clouds)]
     used = [c.xyz[:, :2] if k is None else c.xyz[k, :2] for c, k in zip(clouds, kept)]
     densities = [density(xy, units.horizontal) for xy in used]
+    sparse = min(range(len(densities)), key=densities.__getitem__)
+    if densities[sparse] < LEAST_DENSITY:
+        notes.append(f"{names[sparse]} holds {densities[sparse]:.2g} points/m²: below {LEAST_DENSITY:g} point/m² the "
+                     f"change map finds fewer than 80% of known changes ({RECALL_BELOW:.0%} at 0.5 points/m² in its "
+                     "benchmark, docs/changes.md), so a cell that is not significant may still have changed")
     if cell is None:
         cell = auto_cell(min(densities))
     if min_points is None:
@@ -205,10 +210,12 @@ def _check_overlap(xy_a, xy_b, name_a, name_b):
 
 
 def _fewer_points(min_points_rule):
-    """The fix when no cell holds enough points: with --min-points auto, a fifth of a full cell,
-    a larger cell needs more points, so only a smaller one helps."""
+    """The fix when no cell holds enough points: a larger cell holds more of them. With
+    --min-points auto the minimum grows with the cell's area too, but never falls below
+    MIN_POINTS_FLOOR, which is what a small cell of a sparse survey cannot hold."""
     if min_points_rule == AUTO:
-        return "use a smaller cell size (--cell) or give a smaller minimum (--min-points)"
+        return (f"use a larger cell size (--cell; the automatic minimum is {MIN_POINTS_FLOOR} points or more) or give "
+                "a smaller minimum (--min-points)")
     return "use a larger cell size (--cell) or a smaller minimum (--min-points)"
 
 
