@@ -91,12 +91,15 @@ def test_coverage_states_follow_the_documented_rule():
     from lidar_sig.change_map.cells import COVERAGE, coverage
 
     codes = {v: k for k, v in COVERAGE.items()}
-    points_a = np.array([500, 0, 400, 30, 9, 0, 3])
-    points_b = np.array([600, 450, 0, 700, 0, 0, 20])
-    valid = np.array([True, False, False, False, False, False, False])
-    got = coverage(points_a, points_b, valid, 100)  # an epoch covers a cell from 10 points
-    assert [COVERAGE[int(c)] for c in got] == ["compared", "appeared", "vanished", "too few points", "not covered",
-                                               "not covered", "appeared"]
+    points_a = np.array([500, 0, 400, 80, 49, 0, 3, 30, 1000])
+    points_b = np.array([600, 450, 0, 700, 0, 0, 60, 40, 90])
+    valid = np.array([True] + [False] * 8)
+    # one epoch covers a cell from 50 points, where the other holds less than a tenth as many
+    got = coverage(points_a, points_b, valid, 100)
+    assert [COVERAGE[int(c)] for c in got] == ["compared", "appeared", "vanished", "too few points", "too few points",
+                                               "not covered", "appeared", "too few points", "vanished"]
+    # per unit of density: 90 points of a survey ten times sparser are not "almost none"
+    assert COVERAGE[int(coverage(points_a, points_b, valid, 100, densities=(10.0, 1.0))[-1])] == "too few points"
     assert codes["compared"] == 1 and codes["not covered"] == 0
 
 
@@ -132,6 +135,8 @@ def test_the_advice_when_no_cell_holds_enough_points_names_the_option_that_fixes
 
 
 def test_a_map_of_a_pair_that_only_partly_overlaps_keeps_every_point_in_a_state():
+    from lidar_sig.change_map.cells import COVERS
+
     a, b = read_epoch(SAMPLES / "epoch1.laz"), read_epoch(ALIGNED)
     x = np.median(a.xyz[:, 0])
     b = PointCloud(b.xyz[b.xyz[:, 0] < x + 12], b.labels[b.xyz[:, 0] < x + 12], crs=b.crs)
@@ -140,7 +145,32 @@ def test_a_map_of_a_pair_that_only_partly_overlaps_keeps_every_point_in_a_state(
     states = cm.coverage()
     assert states["vanished"] > 0 and sum(states.values()) == cm.grid.n_cells
     covered = (t["points_a"] > 0) | (t["points_b"] > 0)
-    # a cell that holds points of either epoch is never "not covered" unless both hold only a few
-    least = max(1, int(np.ceil(0.1 * cm.min_points)))
-    crumbs = (t["points_a"] < least) & (t["points_b"] < least)
-    assert not ((t["coverage"] == 0) & covered & ~crumbs).any()
+    assert np.array_equal(t["coverage"] == 0, ~covered)  # "not covered" only where neither epoch has a point
+    least = max(1, int(np.ceil(COVERS * cm.min_points)))
+    only_a = (t["points_a"] >= least) & (t["points_b"] / cm.density[1] < 0.1 * t["points_a"] / cm.density[0])
+    assert np.array_equal(t["coverage"] == 3, only_a & ~t["valid"])
+
+
+def test_a_run_below_the_density_where_recall_drops_warns_with_the_figure(tmp_path):
+    from edited_epoch import write_las
+
+    from lidar_sig.change_map.density import LEAST_DENSITY, RECALL_BELOW
+    from lidar_sig.errors import LidarSigWarning
+
+    rng = np.random.default_rng(3)
+    paths = []
+    for source, name in ((SAMPLES / "epoch1.laz", "a.laz"), (ALIGNED, "b.laz")):
+        cloud = read_epoch(source)
+        keep = rng.random(len(cloud)) < 0.06  # about 0.5 points/m² of the 8.5 and 6.4 of the sample
+        write_las(PointCloud(cloud.xyz[keep], cloud.labels[keep], crs=cloud.crs), tmp_path / name)
+        paths.append(tmp_path / name)
+    with pytest.warns(LidarSigWarning, match=rf"b\.laz holds 0\.\d+ points/m²: below {LEAST_DENSITY:g} point/m²"):
+        cm = changes(*paths, cell=16)
+    assert cm.density[1] < LEAST_DENSITY and f"({RECALL_BELOW:.0%} at 0.5 points/m²" in cm.warnings[0]
+    proc = run("changes", *paths, "--cell", "16", "--top", "1")
+    assert proc.returncode == 0, proc.stderr
+    notes = [line for line in proc.stderr.splitlines() if "point/m²" in line]
+    assert len(notes) == 1 and notes[0].startswith("lidar-sig: note: ")
+    # a survey at or above the figure is not warned about
+    dense = changes(SAMPLES / "epoch1.laz", ALIGNED, cell=CELL)
+    assert not any("point/m²" in w for w in dense.warnings)

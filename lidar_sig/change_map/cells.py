@@ -31,11 +31,16 @@ CELL_FIELDS = (("row", np.int32), ("col", np.int32), ("x_min", np.float64), ("y_
                ("undefined_b", np.float64), ("valid", bool), ("coverage", np.int8))
 #: The coverage states of a cell (the table's ``coverage``, the GeoTIFF's band), by code:
 #: compared (both epochs hold the fewest points), appeared (only the later epoch covers it),
-#: vanished (only the earlier), too few points (both cover it, one or both below the fewest
-#: points), not covered (neither). An epoch covers a cell where it holds a tenth of the fewest
-#: points or more (:data:`COVERS`): a few points across the edge of a survey do not.
+#: vanished (only the earlier), too few points (points of either or both, not enough to
+#: compare), not covered (no point of either).
 COVERAGE = {1: "compared", 2: "appeared", 3: "vanished", 4: "too few points", 0: "not covered"}
-COVERS = 0.1
+#: Only one epoch covers a cell where it holds this share of the fewest points or more (a tenth of
+#: a full cell with the automatic minimum: the sliver of points that a shift of a few decimetres
+#: moves across a survey's edge, 1.2% of a full 25 m cell for 0.3 m, does not) ...
+COVERS = 0.5
+#: ... and the other epoch holds less than this share of as many points per m² (its points
+#: divided by its density, so that a sparser survey does not look absent).
+ALMOST_NONE = 0.1
 #: The ranking's fields, filled by the ranking: the score, its level of detection, delta_H's
 #: level, z (the larger of the two tests') and the significance.
 RANKING_FIELDS = (("score", np.float64), ("lod", np.float64), ("height_lod", np.float64), ("z", np.float64),
@@ -101,12 +106,13 @@ def cell_signature(epoch, idx, classes, labelled, frame):
                                    egeom=sal.egeom[idx])
 
 
-def cell_table(grid, binned, min_points):
+def cell_table(grid, binned, min_points, densities=(1.0, 1.0)):
     """The per-cell table of two binned epochs: bounds, counts and ``valid`` (both epochs hold
     ``min_points`` points with defined saliency: the signatures leave the others out, and a cell
     of points all undefined, e.g. spherical scales on a sparse cell, has no signature to
-    compare); the metrics and ranking fields NaN (False) for :func:`observed_metrics` and the
-    ranking to fill."""
+    compare), ``coverage`` (:func:`coverage`, with the epochs' ``densities`` in points per m²);
+    the metrics and ranking fields NaN (False) for :func:`observed_metrics` and the ranking to
+    fill."""
     n_cells = grid.n_cells
     dtype = list(CELL_FIELDS) + [(k, np.float64) for k in CHANGE_KEYS] + list(RANKING_FIELDS)
     table = np.zeros(n_cells, dtype=dtype)
@@ -119,19 +125,24 @@ def cell_table(grid, binned, min_points):
         table[f"defined_{tag}"] = n - b.undefined
         table[f"undefined_{tag}"] = b.undefined / np.maximum(n, 1)
     table["valid"] = (table["defined_a"] >= min_points) & (table["defined_b"] >= min_points)
-    table["coverage"] = coverage(table["points_a"], table["points_b"], table["valid"], min_points)
+    table["coverage"] = coverage(table["points_a"], table["points_b"], table["valid"], min_points, densities)
     for k in CHANGE_KEYS + ("score", "lod", "height_lod", "z"):
         table[k] = np.nan
     return table
 
 
-def coverage(points_a, points_b, valid, min_points):
-    """(cells,) int8 :data:`COVERAGE` code of each cell from its points in each epoch and
-    whether it is compared: an epoch covers a cell where it holds :data:`COVERS` x
-    ``min_points`` points or more (at least one)."""
+def coverage(points_a, points_b, valid, min_points, densities=(1.0, 1.0)):
+    """(cells,) int8 :data:`COVERAGE` code of each cell from its points in each epoch, whether it
+    is compared and the epochs' ``densities``: appeared where B holds :data:`COVERS` x
+    ``min_points`` points or more (at least one) and A, per unit of its density, less than
+    :data:`ALMOST_NONE` of B's; vanished the other way round; too few points where either holds
+    a point; not covered where neither does."""
     least = max(1, int(np.ceil(COVERS * min_points)))
-    covers_a, covers_b = np.asarray(points_a) >= least, np.asarray(points_b) >= least
-    code = np.select([valid, covers_b & ~covers_a, covers_a & ~covers_b, covers_a & covers_b], [1, 2, 3, 4], 0)
+    points_a, points_b = np.asarray(points_a), np.asarray(points_b)
+    per_a, per_b = points_a / densities[0], points_b / densities[1]  # points as if at one density
+    appeared = (points_b >= least) & (per_a < ALMOST_NONE * per_b)
+    vanished = (points_a >= least) & (per_b < ALMOST_NONE * per_a)
+    code = np.select([valid, appeared, vanished, (points_a > 0) | (points_b > 0)], [1, 2, 3, 4], 0)
     return code.astype(np.int8)
 
 

@@ -152,7 +152,7 @@ def changes(a, b, *more, cell=AUTO, pipeline=None, min_points=AUTO, score=None, 
     maps = []
     for k in range(len(epochs) - 1):
         maps.append(_interval(k, epochs, binned, grid, classes, min_points, cell, render, frame, confidence, seed,
-                              score, method, units, names, min_points_rule))
+                              score, method, units, names, min_points_rule, densities[k:k + 2]))
         cm = maps[-1]
         cm.cell_rule, cm.min_points_rule = cell_rule, min_points_rule
         cm.density = (densities[k], densities[k + 1])
@@ -164,10 +164,10 @@ def changes(a, b, *more, cell=AUTO, pipeline=None, min_points=AUTO, score=None, 
 
 
 def _interval(k, epochs, binned, grid, classes, min_points, cell, render, frame, confidence, seed, score, method,
-              units, names, min_points_rule):
+              units, names, min_points_rule, densities):
     """The ChangeMap of epochs k and k + 1: table, metrics, levels of detection, ranking."""
     pair = binned[k:k + 2]
-    table = cell_table(grid, pair, min_points)
+    table = cell_table(grid, pair, min_points, densities)
     if not table["valid"].any():  # the points are there, their saliency is not
         most = int(np.minimum(table["defined_a"], table["defined_b"]).max())
         raise LidarSigError(f"no cell of {cell:g} m holds {counted(min_points, 'point')} with defined saliency in both "

@@ -83,8 +83,8 @@ def coverage_text(cm):
     """The cells by coverage state, and those that only one epoch covers with their bounds."""
     counts = cm.coverage()
     text = ("<p>Coverage: " + ", ".join(f"{n} {page.esc(state)}" for state, n in counts.items())
-            + " (appeared: only B covers the cell; vanished: only A; too few points: both cover it, one or both "
-            f"with fewer than {cm.min_points:,} points with defined saliency).</p>")
+            + " (appeared: only B covers the cell; vanished: only A; too few points: points of either or both, "
+            f"fewer than {cm.min_points:,} with defined saliency in one of them; not covered: no point).</p>")
     rows = [[page.esc(state), f"{c['bounds'][0]:.0f} to {c['bounds'][2]:.0f}<br>{c['bounds'][1]:.0f} to "
              f"{c['bounds'][3]:.0f}", f"{c['points_a']:,} / {c['points_b']:,}"]
             for state in ("appeared", "vanished") for c in cm.uncompared(state)]
