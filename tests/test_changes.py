@@ -204,11 +204,12 @@ def test_geotiff_has_the_crs_transform_bands_metadata_and_no_data(sample_run):
         assert [a, b, c, d, e, f] == info["grid"]["transform"]
         assert src.nodata == -9999.0 and src.profile["compress"] == "deflate"
         names = src.descriptions
-        assert names[0].startswith("score: delta_KL") and len(names) == 16
+        assert names[0].startswith("score: delta_KL") and len(names) == 17
         assert names[1].startswith("lod: level of detection") and names[2].startswith("significant:")
         assert {n.split(":")[0] for n in names[3:11]} == {"d_BD-Img", "s_SSIM", "d_EMD-Info", "d_EMD-Img",
                                                           "delta_FV", "delta_KL", "L1", "delta_H"}
-        assert names[-1].startswith("coverage:")
+        assert names[-1].startswith("coverage:") and names[11].startswith("height_lod:")
+        height, height_lod = src.read(11), src.read(12)
         tags = src.tags()
         score, lod, significant = src.read(1), src.read(2), src.read(3)
         points_a = src.read(names.index("points of epoch A") + 1)
@@ -223,6 +224,8 @@ def test_geotiff_has_the_crs_transform_bands_metadata_and_no_data(sample_run):
         r, k = cell["row"], cell["col"]
         assert score[r, k] == pytest.approx(cell["score"], rel=1e-6)
         assert lod[r, k] == pytest.approx(cell["lod"], rel=1e-6)
+        assert height[r, k] == pytest.approx(cell["height"], rel=1e-6)
+        assert height_lod[r, k] == pytest.approx(cell["height_lod"], rel=1e-6)
         assert significant[r, k] == float(cell["significant"])
         assert cell["significant"] == (cell["score"] > cell["lod"] or cell["height"] > cell["height_lod"])
         assert isinstance(cell["significant"], bool)
@@ -551,8 +554,8 @@ def test_three_epochs_give_a_series_computed_once_per_epoch(tmp_path, monkeypatc
     series.save(tmp_path / "series.tif")
     with rasterio.open(tmp_path / "series.tif") as src:
         names = src.descriptions
-        assert len(names) == 2 * 16 + 1 and names[-1].startswith("when:")
-        assert names[0].startswith("interval 1 (") and names[16].startswith("interval 2 (")
+        assert len(names) == 2 * 17 + 1 and names[-1].startswith("when:")
+        assert names[0].startswith("interval 1 (") and names[17].startswith("interval 2 (")
         assert np.array_equal(src.read(len(names)) == -9999.0, ~valid.reshape(src.shape))
         assert src.tags()["epoch_3"]
     html = series.report().html()

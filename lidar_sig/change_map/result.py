@@ -11,13 +11,13 @@ import numpy as np
 
 from ..crs import crs_name
 from ..errors import LidarSigError, as_path, whole_number
-from ..metrics import METRIC_KEYS, METRIC_NAMES, METRICS
+from ..metrics import METRIC_NAMES, METRICS
 from ..progress import step
 from ..signature import Frame
 from .cells import CELL_FRAME, CHANGE_KEYS, COVERAGE, cell_signature, epoch_cells
-from .heights import HEIGHT, HEIGHT_NAME
 from .epochs import Epoch
 from .grid import Grid
+from .heights import HEIGHT, HEIGHT_NAME
 from .lod import CONFIDENCE, level_of_detection, pooled_confidence
 
 #: Metric that ranks the cells by default (docs/changes.md): delta_KL of the class distributions
@@ -29,7 +29,7 @@ SCORE = "kl"
 LABEL_FREE_SCORE = "fv"
 #: Bands of the change map's GeoTIFF before the metrics and after them.
 BANDS = ("score", "lod", "significant")
-COUNT_BANDS = ("points_a", "points_b", "undefined_a", "undefined_b", "coverage")
+COUNT_BANDS = ("height_lod", "points_a", "points_b", "undefined_a", "undefined_b", "coverage")
 #: Names of what the change map compares: the metrics' and delta_H's.
 NAMES = {**METRIC_NAMES, HEIGHT: HEIGHT_NAME}
 
@@ -66,10 +66,11 @@ class ChangeMap:
         ``x_min, y_min, x_max, y_max`` (CRS coordinates), ``points_a``, ``points_b``,
         ``defined_a``, ``defined_b`` (those with defined saliency), ``undefined_a``,
         ``undefined_b`` (share of the cell's points with undefined saliency), ``valid`` (both
-        epochs hold ``min_points`` points with defined saliency or more), the metrics of
-        :data:`lidar_sig.metrics.METRIC_KEYS`, and the ranking metric's ``score``, ``lod``
-        (its level of detection), ``z`` and ``significant``; NaN (False) where ``valid`` is
-        False.
+        epochs hold ``min_points`` points with defined saliency or more), ``coverage`` (the
+        code of :data:`~lidar_sig.change_map.cells.COVERAGE`), the metrics of
+        :data:`lidar_sig.metrics.METRIC_KEYS` and ``height`` (delta_H, m), and the ranking's
+        ``score``, ``lod`` (its level of detection), ``height_lod`` (delta_H's), ``z`` and
+        ``significant`` (:meth:`rank_by`); NaN (False) where ``valid`` is False.
     classes_a, classes_b : (cells, C) int64
         Points of each class of ``class_table`` per cell, in each epoch.
     grid : Grid
@@ -77,7 +78,7 @@ class ChangeMap:
         The metric that ranks the cells (a key of METRIC_KEYS); the table's ``score`` holds its
         values, 1 - s_SSIM for ``"ssim"``, so that a larger score always means more change.
     levels : dict
-        {metric key: :class:`~lidar_sig.change_map.lod.Level`}: every metric's level of
+        {metric key or "height": :class:`~lidar_sig.change_map.lod.Level`}: every metric's level of
         detection and significance per cell.
     cell_rule, min_points_rule : str
         ``"auto"`` (chosen from the epochs' densities) or ``"given"``.
@@ -266,8 +267,9 @@ class ChangeMap:
 
     def bands(self, prefix=""):
         """(rasters, descriptions) of the GeoTIFF's bands: the score, its level of detection,
-        significant (0/1), every metric, the points of each epoch and their undefined shares;
-        NaN where there is no data. ``prefix`` starts each description (a series' interval)."""
+        significant (0/1), every metric and delta_H, delta_H's level, the points of each epoch,
+        their undefined shares and the coverage state; NaN where there is no data. ``prefix``
+        starts each description (a series' interval)."""
         names = BANDS + CHANGE_KEYS + COUNT_BANDS
         rasters = []
         for n in names:
@@ -320,10 +322,12 @@ def _band_description(name, score, confidence=CONFIDENCE):
     names = {m.key: f"{m.name}: {m.short}" for m in METRICS}
     names[HEIGHT] = f"{HEIGHT_NAME}: EMD of heights above the cell's lowest points (m)"
     ranking = f"{'1 - ' if score == 'ssim' else ''}{NAMES[score]}"
+    each = f"{pooled_confidence(confidence, 2):.1%}"
     text = {"score": f"score: {ranking}, the ranking metric",
-            "lod": f"lod: level of detection of the score ({ranking} of unchanged land at {confidence:.0%})",
-            "significant": f"significant: 1 where the score exceeds its level of detection ({confidence:.0%}), "
-                           "0 where not",
+            "lod": f"lod: level of detection of the score ({ranking} of unchanged land at {each})",
+            "height_lod": f"height_lod: level of detection of {HEIGHT_NAME} (m, unchanged land at {each})",
+            "significant": f"significant: 1 where the score or {HEIGHT_NAME} exceeds its level of detection (the "
+                           f"two at {confidence:.0%} together), 0 where not",
             "points_a": "points of epoch A", "points_b": "points of epoch B",
             "undefined_a": "share of A's points with undefined saliency",
             "undefined_b": "share of B's points with undefined saliency",

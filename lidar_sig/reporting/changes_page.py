@@ -74,8 +74,8 @@ def settings_text(cm):
             f"points with defined saliency or more in both epochs ({chosen[cm.min_points_rule]}; densities "
             f"{density} points/m²) and are compared. Ranked by <b>{page.esc(ranking)}</b>: "
             f"<b>{cm.n_significant} of {valid} cells changed significantly</b> (their score or their height "
-            f"component exceeds its level of detection, at {cm.confidence:.0%} confidence together), listed first; per-cell signatures in a "
-            f"{cm.frame.size} px frame, {page.esc(cm.render)} rendering; saliency {page.esc(_method(cm.method))}, "
+            f"component exceeds its level of detection, at {cm.confidence:.0%} confidence together), listed "
+            f"first, then the others by z; per-cell signatures in a {cm.frame.size} px frame, {page.esc(cm.render)} rendering; saliency {page.esc(_method(cm.method))}, "
             "computed on each whole epoch.</p>" + coverage_text(cm))
 
 

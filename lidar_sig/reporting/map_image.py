@@ -293,6 +293,6 @@ def _when_legend(series):
                     _SMALL, _INK, 1, cv2.LINE_AA)
     y = 26 + 22 * n
     _swatch(legend, 12, y, (255, 255, 255), FADED, False)
-    cv2.putText(legend, f"compared, never significant: {int((when == 0).sum())} cells; grey: not compared", (36, y + 11),
-                _FONT, _SMALL, _INK, 1, cv2.LINE_AA)
+    cv2.putText(legend, f"compared, never significant: {int((when == 0).sum())} cells; grey: not compared",
+                (36, y + 11), _FONT, _SMALL, _INK, 1, cv2.LINE_AA)
     return legend
