@@ -132,6 +132,9 @@ def test_the_advice_when_no_cell_holds_enough_points_names_the_option_that_fixes
     # and a smaller one does not
     proc = run("changes", SAMPLES / "epoch1.laz", ALIGNED, "--cell", "0.25", "-q")
     assert proc.returncode == 2 and "larger cell size" in proc.stderr
+    # cells larger than the survey: the minimum, a fifth of a full cell, is what a smaller cell fixes
+    proc = run("changes", SAMPLES / "epoch1.laz", ALIGNED, "--cell", "500", "-q")
+    assert proc.returncode == 2 and "use a smaller cell size (--cell)" in proc.stderr
 
 
 def test_a_map_of_a_pair_that_only_partly_overlaps_keeps_every_point_in_a_state():

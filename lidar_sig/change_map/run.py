@@ -132,8 +132,9 @@ def changes(a, b, *more, cell=AUTO, pipeline=None, min_points=AUTO, score=None, 
         filled = np.minimum(counts[k], counts[k + 1])
         if filled.max() < min_points:
             pair = "" if len(clouds) == 2 else f" {names[k]} and {names[k + 1]}"
+            fix = _fewer_points(min_points_rule, min_points)
             raise LidarSigError(f"no cell of {cell:g} m holds {counted(min_points, 'point')} in both "
-                                f"epochs{pair} (at most {filled.max():,}); {_fewer_points(min_points_rule)}")
+                                f"epochs{pair} (at most {filled.max():,}); {fix}")
     epochs, seconds = [], []
     for cloud, name, epoch, used_points in zip(clouds, names, given, kept):
         start = time.perf_counter()
@@ -170,9 +171,9 @@ def _interval(k, epochs, binned, grid, classes, min_points, cell, render, frame,
     table = cell_table(grid, pair, min_points, densities)
     if not table["valid"].any():  # the points are there, their saliency is not
         most = int(np.minimum(table["defined_a"], table["defined_b"]).max())
+        fix = _fewer_points(min_points_rule, min_points)
         raise LidarSigError(f"no cell of {cell:g} m holds {counted(min_points, 'point')} with defined saliency in both "
-                            f"{names[k]} and {names[k + 1]} (at most {most:,}); {_fewer_points(min_points_rule)} "
-                            "or larger scales")
+                            f"{names[k]} and {names[k + 1]} (at most {most:,}); {fix} or larger scales")
     n_valid = int(table["valid"].sum())
     timings = {}
     start = time.perf_counter()
@@ -209,13 +210,17 @@ def _check_overlap(xy_a, xy_b, name_a, name_b):
                             "overlap; give epochs of the same area")
 
 
-def _fewer_points(min_points_rule):
-    """The fix when no cell holds enough points: a larger cell holds more of them. With
-    --min-points auto the minimum grows with the cell's area too, but never falls below
-    MIN_POINTS_FLOOR, which is what a small cell of a sparse survey cannot hold."""
+def _fewer_points(min_points_rule, min_points):
+    """The fix when no cell holds enough points. With --min-points auto the minimum is a fifth of
+    a full cell, but never below MIN_POINTS_FLOOR: where the floor holds, the cells are too small
+    for a sparse survey and a larger one holds more points; above it, the cells are larger than
+    what the survey fills and a smaller one needs fewer."""
+    if min_points_rule == AUTO and min_points <= MIN_POINTS_FLOOR:
+        return (f"use a larger cell size (--cell): the automatic minimum is {MIN_POINTS_FLOOR} points or more, "
+                "which small cells of a sparse survey do not hold; or give a smaller minimum (--min-points)")
     if min_points_rule == AUTO:
-        return (f"use a larger cell size (--cell; the automatic minimum is {MIN_POINTS_FLOOR} points or more) or give "
-                "a smaller minimum (--min-points)")
+        return ("use a smaller cell size (--cell): the automatic minimum is a fifth of a full cell, which cells "
+                "larger than the survey do not hold; or give a smaller minimum (--min-points)")
     return "use a larger cell size (--cell) or a smaller minimum (--min-points)"
 
 
