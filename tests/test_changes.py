@@ -562,6 +562,7 @@ def test_three_epochs_give_a_series_computed_once_per_epoch(tmp_path, monkeypatc
     assert "Interval 1 (" in html and "Interval 2 (" in html and html.count("data:image/png;base64,") == 3
     info = series.to_dict(2)
     assert [i["interval"] for i in info["intervals"]] == [1, 2] and len(info["intervals"][0]["top"]) == 2
+    assert sum(info["intervals"][0]["coverage"]["cells"].values()) == series.grid.n_cells
     assert sum(info["when"]["cells"].values()) == valid.sum()
     json.dumps(info)
 
