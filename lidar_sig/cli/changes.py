@@ -59,6 +59,7 @@ def changes_command(epochs, output, cell, min_points, score, confidence, class_m
     min_points = _auto_or(min_points, "the fewest points (--min-points)", _whole)
     _check_outputs(output, png, report, overwrite)
     from ..change_map import ChangeSeries, changes
+
     result = changes(*epochs, cell=cell, pipeline=pipeline, min_points=min_points, score=score,
                      render=render or "smooth", columns=columns, confidence=confidence,
                      class_map=list(class_map) or None)
@@ -81,10 +82,12 @@ def changes_command(epochs, output, cell, min_points, score, confidence, class_m
         for item in cm.top(top):
             classes = ", ".join(f"{k} {na:,}->{nb:,}" for k, (na, nb) in item["classes"].items())
             lod = "" if item["lod"] is None else f"{item['lod']:.4f}"
+            height_lod = "" if item["height_lod"] is None else f"{item['height_lod']:.2f}"
+            z = "" if item["z"] is None else f"{item['z']:.1f}"
             mark = "*" if item["significant"] else " "
             click.echo(f"{item['rank']:>4}{mark} {item['bounds'][0]:>10.1f} {item['bounds'][1]:>11.1f} "
                        f"{item['points_a']:>9,} {item['points_b']:>9,} {item['score']:>8.4f} {lod:>8} "
-                       f"{item['height']:>7.2f} {item['height_lod']:>6.2f} {item['z']:>5.1f}  {classes}")
+                       f"{item['height']:>7.2f} {height_lod:>6} {z:>5}  {classes}")
     if len(maps) > 1:
         counts = result.to_dict(0)["when"]["cells"]
         click.echo("when: " + ", ".join(f"{counts[str(k)]} cells changed most in interval {k}"
