@@ -17,9 +17,10 @@ and the two AHN3 crops of Delft joined (../shared/data/ahn3_delft). For each blo
   ``--class-map 1,3,4,5=vegetation-or-other``.
 
 Every run uses the change map's defaults (cell and fewest points chosen from the densities, 95%
-confidence). Printed: compared cells, the share of significant cells per metric (for the edited
-pairs: the edited cells found significant, and the share of the other cells), the ranks of the
-edited cells, and the time of the level-of-detection step against the change map's total.
+confidence). Printed: compared cells, the share of significant cells of the map (its score or
+delta_H above its level, the two tests together at 95%) and per metric at 95% each (for the
+edited pairs: the edited cells found significant, and the share of the other cells), the ranks
+of the edited cells, and the time of the level-of-detection step against the change map's total.
 
     python benchmarks/change_noise.py [--seeds 0 1 2] [--blocks ign ahn3]
 """
@@ -80,11 +81,11 @@ def sparse_pair(cloud, seed=0, density=SPARSE_DENSITY):
 
 
 def shares(cm):
-    """{metric: share of the compared cells significant in it}."""
-    from lidar_sig.metrics import METRIC_KEYS
-
+    """{"map" or metric: share of the compared cells significant in the map, or in the metric}."""
     n = int(cm.table["valid"].sum())
-    return {k: cm.levels[k].significant.sum() / n for k in METRIC_KEYS if np.isfinite(cm.levels[k].mu0).any()}
+    out = {"map": cm.n_significant / n}
+    out.update({k: v.significant.sum() / n for k, v in cm.levels.items() if np.isfinite(v.mu0).any()})
+    return out
 
 
 def main():
@@ -96,11 +97,14 @@ def main():
     from edited_epoch import edit
     from lidar_sig.change_map import read_epoch
     from lidar_sig.errors import LidarSigWarning
-    from lidar_sig.metrics import METRIC_KEYS, METRIC_NAMES
+    from lidar_sig.change_map.cells import CHANGE_KEYS
+    from lidar_sig.change_map.result import NAMES
 
     warnings.simplefilter("ignore", LidarSigWarning)  # the sparse pair's scheme warning is the point
     pipeline = ls.Pipeline(progress=False)
-    header = "| block | pair | cells | " + " | ".join(METRIC_NAMES[k] for k in METRIC_KEYS) + " |"
+    keys = ("map",) + CHANGE_KEYS
+    names = {"map": "map", **NAMES}
+    header = "| block | pair | cells | " + " | ".join(names[k] for k in keys) + " |"
     rows, notes = [], []
     for key in args.blocks:
         title, folder, vegetation = BLOCKS[key]
@@ -116,29 +120,28 @@ def main():
             n = int(cm.table["valid"].sum())
             t = cm.timings
             notes.append(f"{title}, {name}: {n} cells of {cm.cell:g} m (min {cm.min_points:,} points), ranked by "
-                         f"{METRIC_NAMES[cm.score]}; level of detection {t['lod']:.2f} s of {total:.2f} s (cell "
+                         f"{names[cm.score]}; level of detection {t['lod']:.2f} s of {total:.2f} s (cell "
                          f"metrics {t['cells']:.2f} s, saliency {sum(t['saliency']):.2f} s)")
             if name != "edited":
                 values = shares(cm)
                 rows.append(f"| {title} | {name} | {n} | "
-                            + " | ".join(f"{values[k]:.3f}" if k in values else "n/a" for k in METRIC_KEYS) + " |")
+                            + " | ".join(f"{values[k]:.3f}" if k in values else "n/a" for k in keys) + " |")
                 continue
             cells = [int(cm.grid.cell_of(np.array([xy]))[0]) for xy in edits.values()]
             others = cm.table["valid"].copy()
             others[cells] = False
             found = []
-            for k in METRIC_KEYS:
-                level = cm.levels[k]
-                found.append(f"{sum(bool(level.significant[c]) for c in cells)} / "
-                             f"{level.significant[others].sum() / others.sum():.3f}")
+            for k in keys:
+                flags = cm.table["significant"] if k == "map" else cm.levels[k].significant
+                found.append(f"{sum(bool(flags[c]) for c in cells)} / {flags[others].sum() / others.sum():.3f}")
             rows.append(f"| {title} | edited: edits found / share of others | {n} | " + " | ".join(found) + " |")
             order = list(cm.ranked())
             ranks = ", ".join(f"{e} {order.index(c) + 1 if c in order else 'not compared'}"
                               for e, c in zip(edits, cells))
-            notes.append(f"{title}, edited: ranks by {METRIC_NAMES[cm.score]}: {ranks}; "
+            notes.append(f"{title}, edited: ranks by {names[cm.score]}: {ranks}; "
                          f"{cm.n_significant} significant cells")
             notes.append(f"{title}, edited: z of the edited cells ({', '.join(edits)}): " + "; ".join(
-                f"{METRIC_NAMES[k]} " + "/".join(f"{cm.levels[k].z[c]:.1f}" for c in cells) for k in METRIC_KEYS))
+                f"{names[k]} " + "/".join(f"{cm.levels[k].z[c]:.1f}" for c in cells) for k in CHANGE_KEYS))
         if key == "ign":  # the sparse pair of two class schemes (tests/test_changes.py, must-show 3)
             a, b = sparse_pair(block)
             for name, options in (("sparse, two schemes", {}),
@@ -147,13 +150,13 @@ def main():
                 cm = ls.changes(a, b, pipeline=pipeline, **options)
                 values, n = shares(cm), int(cm.table["valid"].sum())
                 rows.append(f"| {title} | {name} | {n} | "
-                            + " | ".join(f"{values[k]:.3f}" if k in values else "n/a" for k in METRIC_KEYS) + " |")
+                            + " | ".join(f"{values[k]:.3f}" if k in values else "n/a" for k in keys) + " |")
                 notes.append(f"{title}, {name}: {n} cells of {cm.cell:g} m (min {cm.min_points:,} points, densities "
                              + ", ".join(f"{d:.2f}" for d in cm.density) + f" points/m²), ranked by "
-                             f"{METRIC_NAMES[cm.score]}; survey factors exp(beta): " + ", ".join(
-                                 f"{METRIC_NAMES[k]} {np.exp(cm.levels[k].beta):.2f}" for k in METRIC_KEYS))
+                             f"{names[cm.score]}; survey factors exp(beta): " + ", ".join(
+                                 f"{names[k]} {np.exp(cm.levels[k].beta):.2f}" for k in CHANGE_KEYS))
     print(header)
-    print("|" + "---|" * (3 + len(METRIC_KEYS)))
+    print("|" + "---|" * (3 + len(keys)))
     for row in rows:
         print(row)
     print()

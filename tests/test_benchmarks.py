@@ -84,3 +84,22 @@ def test_tiles_benchmark_runs_the_auto_case_on_small_sizes(tmp_path):
     rows = [line for line in proc.stdout.splitlines() if line.startswith("auto ")]
     assert len(rows) == 2 and rows[0].endswith("one block") and "processed in" in rows[1], proc.stdout
     assert "µs/point" in proc.stdout and "main MiB" in proc.stdout
+
+
+@pytest.mark.skipif(importlib.util.find_spec("py4dgeo") is None,
+                    reason="py4dgeo (M3C2) not installed: pip install -e '.[bench]'")
+def test_power_benchmark_finds_every_kind_of_edit_at_2_points_per_m2_beside_m3c2():
+    # issue 33, must-show 1 on one edited pair of the IGN block: every kind of edit flagged, at
+    # most 5% of the unchanged pairs' cells, and M3C2's row beside the change map's
+    need_data(IGN / "test_data_77060_627760_LA93_IGN69.laz")
+    proc = subprocess.run([sys.executable, str(BENCH / "change_power.py"), "--surveys", "ign", "--densities", "2",
+                           "--pairs", "1"], capture_output=True, text=True, timeout=1200)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    rows = {line.split(" | ")[1]: line.strip("| ").split(" | ") for line in proc.stdout.splitlines()
+            if line.startswith("| 2 |")}
+    assert set(rows) == {"change map", "score alone", "M3C2"}
+    found = rows["change map"][2:7]
+    assert found == ["1 / 1"] * 5, found  # building removed, added, trees cut, ground works, new vegetation
+    flagged, of = (int(v) for v in rows["change map"][8].split("(")[1].rstrip(")").split(" / "))
+    assert of >= 40 and flagged <= 0.05 * of
+    assert not list((ROOT / "benchmarks").glob("py4dgeo.log")) and not list(ROOT.glob("py4dgeo.log"))

@@ -135,10 +135,10 @@ def test_a_sparse_pair_of_two_class_schemes_gives_a_map_without_options(block):
     assert cm.cell_rule == cm.min_points_rule == "auto" and max(cm.density) < 0.4
     assert cm.table["valid"].sum() >= 20 and cm.score == "fv"  # delta_FV does not depend on the labels
     assert cm.n_significant / cm.table["valid"].sum() <= 0.05  # two thinnings of the same land
-    with warnings.catch_warnings():
-        warnings.simplefilter("error", LidarSigWarning)  # the schemes made comparable: no warning
+    with pytest.warns(LidarSigWarning) as said:  # the schemes made comparable: only the density is said
         merged = changes(a, b, class_map="1,3,4,5=vegetation-or-other")
-    assert merged.score == "kl" and merged.warnings == []
+    assert [str(w.message) for w in said] == merged.warnings and len(merged.warnings) == 1
+    assert merged.score == "kl" and "below 1 point/m²" in merged.warnings[0]
     assert np.exp(merged.levels["kl"].beta) < 0.1 * np.exp(cm.levels["kl"].beta)  # the scheme no longer
 
 

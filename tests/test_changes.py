@@ -204,10 +204,12 @@ def test_geotiff_has_the_crs_transform_bands_metadata_and_no_data(sample_run):
         assert [a, b, c, d, e, f] == info["grid"]["transform"]
         assert src.nodata == -9999.0 and src.profile["compress"] == "deflate"
         names = src.descriptions
-        assert names[0].startswith("score: delta_KL") and len(names) == 14
+        assert names[0].startswith("score: delta_KL") and len(names) == 17
         assert names[1].startswith("lod: level of detection") and names[2].startswith("significant:")
-        assert {n.split(":")[0] for n in names[3:10]} == {"d_BD-Img", "s_SSIM", "d_EMD-Info", "d_EMD-Img",
-                                                          "delta_FV", "delta_KL", "L1"}
+        assert {n.split(":")[0] for n in names[3:11]} == {"d_BD-Img", "s_SSIM", "d_EMD-Info", "d_EMD-Img",
+                                                          "delta_FV", "delta_KL", "L1", "delta_H"}
+        assert names[-1].startswith("coverage:") and names[11].startswith("height_lod:")
+        height, height_lod = src.read(11), src.read(12)
         tags = src.tags()
         score, lod, significant = src.read(1), src.read(2), src.read(3)
         points_a = src.read(names.index("points of epoch A") + 1)
@@ -222,9 +224,12 @@ def test_geotiff_has_the_crs_transform_bands_metadata_and_no_data(sample_run):
         r, k = cell["row"], cell["col"]
         assert score[r, k] == pytest.approx(cell["score"], rel=1e-6)
         assert lod[r, k] == pytest.approx(cell["lod"], rel=1e-6)
+        assert height[r, k] == pytest.approx(cell["height"], rel=1e-6)
+        assert height_lod[r, k] == pytest.approx(cell["height_lod"], rel=1e-6)
         assert significant[r, k] == float(cell["significant"])
-        assert cell["significant"] == (cell["score"] > cell["lod"])
-        assert isinstance(cell["significant"], bool) and set(cell["significant_metrics"]) <= set(METRIC_KEYS)
+        assert cell["significant"] == (cell["score"] > cell["lod"] or cell["height"] > cell["height_lod"])
+        assert isinstance(cell["significant"], bool)
+        assert set(cell["significant_metrics"]) <= set(METRIC_KEYS) | {"height"}
         assert points_a[r, k] == cell["points_a"]
         x0, y0, x1, y1 = cell["bounds"]
         assert (x0, y1) == (c + k * 8, f - r * 8) and x1 - x0 == 8
@@ -236,7 +241,7 @@ def test_geotiff_has_the_crs_transform_bands_metadata_and_no_data(sample_run):
         z = [cell["z"] for cell in info["top"] if cell["significant"] == group]
         assert z == sorted(z, reverse=True)
     assert info["cell_rule"] == "given" and info["min_points_rule"] == "auto" and info["confidence"] == 0.95
-    assert set(info["levels"]) == set(METRIC_KEYS) and info["warnings"] == []
+    assert set(info["levels"]) == set(METRIC_KEYS) | {"height"} and info["warnings"] == []
 
 
 def test_gdalinfo_reads_the_geotiff(sample_run):
@@ -260,10 +265,11 @@ def test_cli_prints_the_ranked_cells_and_marks_the_significant_ones():
     assert proc.returncode == 0, proc.stderr
     lines = proc.stdout.splitlines()
     assert lines[0].startswith("9 x 9 cells of 8 m (given)") and "(auto)" in lines[0]
-    assert "ranked by delta_KL" in lines[1] and "changed significantly" in lines[1]
-    n = int(lines[1].split("; ")[1].split()[0])
+    assert lines[1].startswith("coverage: 79 cells compared")
+    assert "delta_KL or delta_H" in lines[2] and "changed significantly" in lines[2]
+    n = int(lines[2].split()[0])
     assert n >= 5
-    ranks = [line.split()[0] for line in lines[3:]]
+    ranks = [line.split()[0] for line in lines[4:]]
     assert ranks == [f"{k}*" if k <= n else str(k) for k in range(1, 7)]
 
 
@@ -321,8 +327,10 @@ def test_python_api_table_transform_and_ranking():
     assert (np.diff(significant.astype(int)) <= 0).all()  # significant cells first
     for group in (significant, ~significant):  # then by z
         assert (np.diff(t["z"][order][group]) <= 0).all()
-    assert np.array_equal(t["significant"], t["score"] > t["lod"])
-    assert np.array_equal(t["lod"], cm.levels["kl"].lod, equal_nan=True)
+    assert np.array_equal(t["significant"], (t["score"] > t["lod"]) | (t["height"] > t["height_lod"]))
+    # each of the two tests at 97.5%, so that together they keep 95%
+    assert np.array_equal(t["lod"], cm.levels["kl"].lod_at(0.975), equal_nan=True)
+    assert (t["lod"][t["valid"]] > cm.levels["kl"].lod[t["valid"]]).all()
     if importlib.util.find_spec("pandas"):
         assert len(cm.to_pandas()) == len(t)
 
@@ -546,14 +554,15 @@ def test_three_epochs_give_a_series_computed_once_per_epoch(tmp_path, monkeypatc
     series.save(tmp_path / "series.tif")
     with rasterio.open(tmp_path / "series.tif") as src:
         names = src.descriptions
-        assert len(names) == 2 * 14 + 1 and names[-1].startswith("when:")
-        assert names[0].startswith("interval 1 (") and names[14].startswith("interval 2 (")
+        assert len(names) == 2 * 17 + 1 and names[-1].startswith("when:")
+        assert names[0].startswith("interval 1 (") and names[17].startswith("interval 2 (")
         assert np.array_equal(src.read(len(names)) == -9999.0, ~valid.reshape(src.shape))
         assert src.tags()["epoch_3"]
     html = series.report().html()
     assert "Interval 1 (" in html and "Interval 2 (" in html and html.count("data:image/png;base64,") == 3
     info = series.to_dict(2)
     assert [i["interval"] for i in info["intervals"]] == [1, 2] and len(info["intervals"][0]["top"]) == 2
+    assert sum(info["intervals"][0]["coverage"]["cells"].values()) == series.grid.n_cells
     assert sum(info["when"]["cells"].values()) == valid.sum()
     json.dumps(info)
 

@@ -156,18 +156,16 @@ def test_the_cells_geopackage_has_an_index_a_style_and_the_command_s_cells(outpu
     assert "coverage: String" in ogrinfo("-so", gpkg, "cells") and "Feature Count: 81" in ogrinfo("-so", gpkg, "cells")
 
 
-def test_a_cell_appears_or_vanishes_where_one_epoch_alone_holds_enough_points_to_compare():
+def test_the_cells_layer_names_the_coverage_state_the_change_map_gives_each_cell():
+    # the states themselves are the change map's (tests/test_change_coverage.py); the layer names them
+    from lidar_sig.change_map.cells import coverage as states
     from lidar_sig.change_map.layers import coverage
 
-    fields = [("points_a", int), ("points_b", int), ("defined_a", int), ("defined_b", int), ("valid", bool)]
-    table = np.array([(500, 400, 500, 400, True),   # compared
-                      (0, 400, 0, 390, False),      # only B, enough: appeared
-                      (0, 12, 0, 12, False),        # only B, a sliver along an edge: too few points
-                      (450, 0, 449, 0, False),      # only A, enough: vanished
-                      (30, 40, 30, 40, False),      # both, too few
-                      (0, 0, 0, 0, False)], dtype=fields)
-    assert coverage(table, 100).tolist() == ["compared", "appeared", "too few points", "vanished", "too few points",
-                                             ""]
+    points_a, points_b = np.array([500, 0, 0, 450, 30, 0]), np.array([400, 400, 12, 0, 40, 0])
+    valid = np.array([True, False, False, False, False, False])
+    table = np.zeros(6, dtype=[("coverage", np.int8)])
+    table["coverage"] = states(points_a, points_b, valid, 100)
+    assert coverage(table).tolist() == ["compared", "appeared", "too few points", "vanished", "too few points", ""]
 
 
 def test_the_outliers_geopackage_has_an_index_a_style_and_marks_the_tiles_that_stand_out(tmp_path):

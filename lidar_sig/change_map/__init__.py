@@ -13,19 +13,22 @@ shift of a few decimetres between the epochs moves a few points across a cell ed
   coordinates (converted to the CRS unit), so that grids of different runs agree. A cell is
   half-open: [x0 + i s, x0 + (i + 1) s) x [y0 + j s, y0 + (j + 1) s). By default the cell and
   the fewest points per cell are chosen from the epochs' densities (:mod:`.density`).
-- A cell where either epoch holds fewer than ``min_points`` points with defined saliency gets
-  no data.
-- Per-cell signatures use a :data:`CELL_FRAME` of 64 px instead of 512 (docs/changes.md).
+- A cell where either epoch holds fewer than ``min_points`` points with defined saliency is not
+  compared; its coverage state says why (appeared, vanished, too few points, not covered).
+- Per-cell signatures use a :data:`CELL_FRAME` of 64 px instead of 512 (docs/changes.md), and
+  one more augmentation, the height component delta_H (:mod:`.heights`).
 - Every metric gets a level of detection per cell (:mod:`.lod`): resamples of each epoch's
   points for the sampling part, the spread over all cells for what differs between the surveys.
-- Cells are ranked by :data:`SCORE` (delta_KL), or :data:`LABEL_FREE_SCORE` (delta_FV) where
-  the labels cannot say (unlabelled epochs, class schemes that barely overlap); significant
-  cells first.
+- A cell changed significantly when its score, :data:`SCORE` (delta_KL) or
+  :data:`LABEL_FREE_SCORE` (delta_FV) where the labels cannot say (unlabelled epochs, class
+  schemes that barely overlap), or its delta_H exceeds its level, the two tests together at
+  the map's confidence; significant cells first, then by z.
 
 The modules: :mod:`~lidar_sig.change_map.grid` (the cells), :mod:`~lidar_sig.change_map.density`
 (the defaults from the densities), :mod:`~lidar_sig.change_map.epochs` (an epoch read, joined
 from tiles, checked against the others), :mod:`~lidar_sig.change_map.cells` (per-cell
-signatures, metrics and resampled metrics from computed saliency), :mod:`~lidar_sig.change_map.lod`
+signatures, metrics and resampled metrics from computed saliency, coverage states),
+:mod:`~lidar_sig.change_map.heights` (delta_H), :mod:`~lidar_sig.change_map.lod`
 (the level of detection, array in, array out), :mod:`~lidar_sig.change_map.result` (the
 ChangeMap: levels, ranking, rasters, files), :mod:`~lidar_sig.change_map.series` (more than two
 epochs) and :mod:`~lidar_sig.change_map.run` (:func:`changes`, which reads the epochs and runs

@@ -12,6 +12,7 @@ import numpy as np
 
 from ..metrics import METRIC_KEYS, compare
 from ..signature import Frame, Signature, point_codes
+from .heights import HEIGHT, height_distance
 from .lod import REPLICATES
 
 #: Frame of the per-cell signatures: 64 px (2 px margin) instead of 512 (docs/changes.md).
@@ -19,15 +20,31 @@ CELL_FRAME = Frame(64, 2)
 #: Seed of the resampling; each cell draws from its own stream (seed, interval, cell), so that
 #: the draws do not depend on the order in which cells are processed.
 SEED = 17
-#: Fields of the per-cell table besides the metrics (:data:`lidar_sig.metrics.METRIC_KEYS`) and
-#: the ranking fields (:data:`RANKING_FIELDS`).
+#: What the change map compares per cell: every metric of the signatures
+#: (:data:`lidar_sig.metrics.METRIC_KEYS`) and the height component delta_H (:mod:`.heights`).
+CHANGE_KEYS = METRIC_KEYS + (HEIGHT,)
+#: Fields of the per-cell table besides the compared values (:data:`CHANGE_KEYS`) and the
+#: ranking fields (:data:`RANKING_FIELDS`).
 CELL_FIELDS = (("row", np.int32), ("col", np.int32), ("x_min", np.float64), ("y_min", np.float64),
                ("x_max", np.float64), ("y_max", np.float64), ("points_a", np.int64), ("points_b", np.int64),
                ("defined_a", np.int64), ("defined_b", np.int64), ("undefined_a", np.float64),
-               ("undefined_b", np.float64), ("valid", bool))
-#: The ranking metric's fields, filled by the ranking: its score, level of detection, z and
-#: significance.
-RANKING_FIELDS = (("score", np.float64), ("lod", np.float64), ("z", np.float64), ("significant", bool))
+               ("undefined_b", np.float64), ("valid", bool), ("coverage", np.int8))
+#: The coverage states of a cell (the table's ``coverage``, the GeoTIFF's band), by code:
+#: compared (both epochs hold the fewest points), appeared (only the later epoch covers it),
+#: vanished (only the earlier), too few points (points of either or both, not enough to
+#: compare), not covered (no point of either).
+COVERAGE = {1: "compared", 2: "appeared", 3: "vanished", 4: "too few points", 0: "not covered"}
+#: Only one epoch covers a cell where it holds this share of the fewest points or more (a tenth of
+#: a full cell with the automatic minimum: the sliver of points that a shift of a few decimetres
+#: moves across a survey's edge, 1.2% of a full 25 m cell for 0.3 m, does not) ...
+COVERS = 0.5
+#: ... and the other epoch holds less than this share of as many points per m² (its points
+#: divided by its density, so that a sparser survey does not look absent).
+ALMOST_NONE = 0.1
+#: The ranking's fields, filled by the ranking: the score, its level of detection, delta_H's
+#: level, z (the larger of the two tests') and the significance.
+RANKING_FIELDS = (("score", np.float64), ("lod", np.float64), ("height_lod", np.float64), ("z", np.float64),
+                  ("significant", bool))
 
 
 @dataclass
@@ -35,7 +52,8 @@ class Binned:
     """An epoch's points by cell: ``order`` sorts them by cell, so that cell c holds the points
     ``order[starts[c]:starts[c + 1]]``; ``classes`` (cells, C) counts its points per class and
     ``undefined`` (cells,) those with undefined saliency; ``pixel``, ``egeom_bin`` and
-    ``class_index`` (N,) code each point for a signature (:func:`lidar_sig.signature.point_codes`)."""
+    ``class_index`` (N,) code each point for a signature (:func:`lidar_sig.signature.point_codes`);
+    ``height`` (N,) is each point's z in metres (:mod:`.heights`)."""
 
     order: np.ndarray
     starts: np.ndarray
@@ -44,6 +62,7 @@ class Binned:
     pixel: np.ndarray
     egeom_bin: np.ndarray
     class_index: np.ndarray
+    height: np.ndarray
 
     def points(self, c):
         """Indices of the epoch's points in cell ``c``."""
@@ -75,7 +94,8 @@ def bin_points(epoch, grid, classes, labelled, frame=CELL_FRAME):
     counts = np.bincount(cells * n_classes + index, minlength=(n_cells + 1) * n_classes)[:n_cells * n_classes]
     undefined = np.bincount(cells[~epoch.saliency.defined], minlength=n_cells + 1)[:n_cells]
     pixel, egeom_bin = point_codes(epoch.saliency.values, index, frame, egeom=epoch.saliency.egeom)
-    return Binned(order, starts, counts.reshape(n_cells, n_classes), undefined, pixel, egeom_bin, index)
+    height = epoch.cloud.xyz[:, 2] * epoch.cloud.units.vertical
+    return Binned(order, starts, counts.reshape(n_cells, n_classes), undefined, pixel, egeom_bin, index, height)
 
 
 def cell_signature(epoch, idx, classes, labelled, frame):
@@ -86,14 +106,15 @@ def cell_signature(epoch, idx, classes, labelled, frame):
                                    egeom=sal.egeom[idx])
 
 
-def cell_table(grid, binned, min_points):
+def cell_table(grid, binned, min_points, densities=(1.0, 1.0)):
     """The per-cell table of two binned epochs: bounds, counts and ``valid`` (both epochs hold
     ``min_points`` points with defined saliency: the signatures leave the others out, and a cell
     of points all undefined, e.g. spherical scales on a sparse cell, has no signature to
-    compare); the metrics and ranking fields NaN (False) for :func:`observed_metrics` and the
-    ranking to fill."""
+    compare), ``coverage`` (:func:`coverage`, with the epochs' ``densities`` in points per m²);
+    the metrics and ranking fields NaN (False) for :func:`observed_metrics` and the ranking to
+    fill."""
     n_cells = grid.n_cells
-    dtype = list(CELL_FIELDS) + [(k, np.float64) for k in METRIC_KEYS] + list(RANKING_FIELDS)
+    dtype = list(CELL_FIELDS) + [(k, np.float64) for k in CHANGE_KEYS] + list(RANKING_FIELDS)
     table = np.zeros(n_cells, dtype=dtype)
     flat = np.arange(n_cells)
     table["row"], table["col"] = np.divmod(flat, grid.cols)
@@ -104,31 +125,56 @@ def cell_table(grid, binned, min_points):
         table[f"defined_{tag}"] = n - b.undefined
         table[f"undefined_{tag}"] = b.undefined / np.maximum(n, 1)
     table["valid"] = (table["defined_a"] >= min_points) & (table["defined_b"] >= min_points)
-    for k in METRIC_KEYS + ("score", "lod", "z"):
+    table["coverage"] = coverage(table["points_a"], table["points_b"], table["valid"], min_points, densities)
+    for k in CHANGE_KEYS + ("score", "lod", "height_lod", "z"):
         table[k] = np.nan
     return table
 
 
+def coverage(points_a, points_b, valid, min_points, densities=(1.0, 1.0)):
+    """(cells,) int8 :data:`COVERAGE` code of each cell from its points in each epoch, whether it
+    is compared and the epochs' ``densities``: appeared where B holds :data:`COVERS` x
+    ``min_points`` points or more (at least one) and A, per unit of its density, less than
+    :data:`ALMOST_NONE` of B's; vanished the other way round; too few points where either holds
+    a point; not covered where neither does."""
+    least = max(1, int(np.ceil(COVERS * min_points)))
+    points_a, points_b = np.asarray(points_a), np.asarray(points_b)
+    per_a, per_b = points_a / densities[0], points_b / densities[1]  # points as if at one density
+    appeared = (points_b >= least) & (per_a < ALMOST_NONE * per_b)
+    vanished = (points_a >= least) & (per_b < ALMOST_NONE * per_a)
+    code = np.select([valid, appeared, vanished, (points_a > 0) | (points_b > 0)], [1, 2, 3, 4], 0)
+    return code.astype(np.int8)
+
+
 def observed_metrics(table, binned, classes, *, render="smooth", frame=CELL_FRAME, progress=None):
     """Fill the table's metrics: every metric of :func:`lidar_sig.metrics.compare` between the
-    two epochs' signatures of each valid cell (NaN where a metric is undefined)."""
+    two epochs' signatures of each valid cell (NaN where a metric is undefined), and delta_H
+    between their heights."""
     cells = np.flatnonzero(table["valid"])
     for c in (progress.track(cells, unit="cell") if progress is not None else cells):
-        pair = [b.signature(b.points(c), classes, frame) for b in binned]
-        values = compare(*pair, render=render)
-        for k in METRIC_KEYS:
-            table[k][c] = np.nan if values[k] is None else values[k]
+        idx = [b.points(c) for b in binned]
+        values = _compared(*(b.signature(i, classes, frame) for b, i in zip(binned, idx)),
+                           *(b.height[i] for b, i in zip(binned, idx)), render)
+        for k, v in zip(CHANGE_KEYS, values):
+            table[k][c] = v
+
+
+def _compared(sig_a, sig_b, z_a, z_b, render):
+    """The values of :data:`CHANGE_KEYS` between two cells' signatures and heights, NaN where a
+    metric is undefined."""
+    values = compare(sig_a, sig_b, render=render)
+    return [np.nan if values[k] is None else values[k] for k in METRIC_KEYS] + [height_distance(z_a, z_b)]
 
 
 def null_metrics(table, binned, classes, *, replicates=REPLICATES, render="smooth", frame=CELL_FRAME, seed=SEED,
                  stream=0, progress=None):
-    """(cells, 2 x replicates, metrics) values of every metric between resamples of one
+    """(cells, 2 x replicates, :data:`CHANGE_KEYS`) values of every metric between resamples of one
     epoch's points, NaN outside the valid cells: for each epoch and replicate, the cell's
     points of that epoch drawn with replacement at A's count and at B's count (undefined
     points included, as the class totals count them) and compared. What unchanged land gives,
     sampled as this cell is: the sampling part of the level of detection. Each cell draws from
     the random stream (``seed``, ``stream``, cell)."""
-    n_metrics = len(METRIC_KEYS)
+    n_metrics = len(CHANGE_KEYS)
     out = np.full((len(table), 2 * replicates, n_metrics), np.nan)
     cells = np.flatnonzero(table["valid"])
     for c in (progress.track(cells, unit="cell") if progress is not None else cells):
@@ -138,9 +184,9 @@ def null_metrics(table, binned, classes, *, replicates=REPLICATES, render="smoot
         for b in binned:
             idx = b.points(c)
             for _ in range(replicates):
-                pair = [b.signature(idx[rng.integers(0, len(idx), m)], classes, frame) for m in sizes]
+                draws = [idx[rng.integers(0, len(idx), m)] for m in sizes]
+                pair = [b.signature(d, classes, frame) for d in draws]
                 if all(s.n_points for s in pair):  # a resample of defined points only, all but surely
-                    values = compare(*pair, render=render)
-                    out[c, j] = [np.nan if values[k] is None else values[k] for k in METRIC_KEYS]
+                    out[c, j] = _compared(*pair, *(b.height[d] for d in draws), render)
                 j += 1
     return out

@@ -27,6 +27,12 @@ CELL_STEP = 5.0
 FILL = 0.2
 #: Fewest points of a compared cell whatever the density.
 MIN_POINTS_FLOOR = 30
+#: Points per m² below which the change map finds fewer than 80% of known edits: in
+#: benchmarks/change_power.py (two surveys, five kinds of edit, eight cells each) it found 88% at
+#: 1 point/m² and 75% at 0.5 (docs/changes.md, "Power beside M3C2"). A run below it warns.
+LEAST_DENSITY = 1.0
+#: The recall measured just below :data:`LEAST_DENSITY` (at 0.5 points/m²), said in the warning.
+RECALL_BELOW = 0.75
 
 
 def density(xy, metres_per_unit=1.0):

@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..metrics import METRIC, METRIC_KEYS
+from .cells import COVERAGE as STATES
 
 #: Each covered cell's coverage, in the legend's order; cells neither epoch covers are left out.
 COVERAGE = ("compared", "appeared", "vanished", "too few points")
@@ -19,16 +20,13 @@ CLASSES_LISTED = 3
 CLASS_CHANGE_MIN = 1.0
 
 
-def coverage(table, min_points):
-    """(cells,) text: each cell's coverage, from the table's ``valid``, ``points_a``,
-    ``points_b``, ``defined_a`` and ``defined_b``: "compared"; "appeared" (no point of A, and B
-    holds ``min_points`` points with defined saliency, enough to have been compared); "vanished"
-    (the same with A and B swapped); "too few points" (any other cell with points: a sliver along
-    an edge that a shift between the epochs empties is no change); "" (neither holds a point)."""
-    # Where the table holds a coverage field of its own (issue 33), read it here instead.
-    a, b = table["points_a"] > 0, table["points_b"] > 0
-    full_a, full_b = table["defined_a"] >= min_points, table["defined_b"] >= min_points
-    return np.select([table["valid"], ~a & full_b, ~b & full_a, a | b], list(COVERAGE), default="")
+def coverage(table):
+    """(cells,) text: each cell's coverage state, the name of the table's ``coverage`` code
+    (:data:`lidar_sig.change_map.cells.COVERAGE`: compared, appeared, vanished, too few points);
+    "" where neither epoch holds a point."""
+    names = np.array([STATES.get(code, "") for code in range(max(STATES) + 1)], dtype=object)
+    names[0] = ""  # not covered: no layer feature
+    return names[table["coverage"].astype(np.int64)]
 
 
 def class_changes(names, counts_a, counts_b):
@@ -48,7 +46,7 @@ def cell_features(cm):
     significant (1/0; NULL where not compared), the metrics in which it changed significantly,
     every metric, and the classes that changed most (share of B minus share of A, points)."""
     t = cm.table
-    state = coverage(t, cm.min_points)
+    state = coverage(t)
     ranks = np.zeros(len(t), np.int64)
     ranks[cm.ranked()] = np.arange(1, int(t["valid"].sum()) + 1)
     names = cm.class_table.class_names

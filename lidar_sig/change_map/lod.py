@@ -63,6 +63,17 @@ class Level:
     survey: bool
     confidence: float
 
+    def lod_at(self, confidence):
+        """(cells,) the level of detection at another ``confidence`` (NaN where not compared)."""
+        spread = np.sqrt(self.tau ** 2 + self.sigma ** 2)
+        return self.mu0 * np.exp(self.beta + quantile(confidence) * spread)
+
+
+def pooled_confidence(confidence, tests):
+    """The confidence of each of ``tests`` tests that together keep ``confidence``
+    (Bonferroni): 1 - (1 - confidence) / tests, 0.975 each for two tests at 95%."""
+    return 1.0 - (1.0 - confidence) / tests
+
 
 def quantile(confidence):
     """z_q: the one-sided standard normal quantile of ``confidence`` (1.645 at 0.95)."""

@@ -12,13 +12,14 @@ import numpy as np
 
 from ..crs import crs_name
 from ..errors import LidarSigError, as_path, whole_number
-from ..metrics import METRIC_KEYS, METRIC_NAMES, METRICS
+from ..metrics import METRIC_NAMES, METRICS
 from ..progress import step
 from ..signature import Frame
-from .cells import CELL_FRAME, cell_signature, epoch_cells
+from .cells import CELL_FRAME, CHANGE_KEYS, COVERAGE, cell_signature, epoch_cells
 from .epochs import Epoch
 from .grid import Grid
-from .lod import CONFIDENCE, level_of_detection
+from .heights import HEIGHT, HEIGHT_NAME
+from .lod import CONFIDENCE, level_of_detection, pooled_confidence
 
 #: Metric that ranks the cells by default (docs/changes.md): delta_KL of the class distributions
 #: where both epochs are labelled in overlapping class schemes, else LABEL_FREE_SCORE.
@@ -29,7 +30,9 @@ SCORE = "kl"
 LABEL_FREE_SCORE = "fv"
 #: Bands of the change map's GeoTIFF before the metrics and after them.
 BANDS = ("score", "lod", "significant")
-COUNT_BANDS = ("points_a", "points_b", "undefined_a", "undefined_b")
+COUNT_BANDS = ("height_lod", "points_a", "points_b", "undefined_a", "undefined_b", "coverage")
+#: Names of what the change map compares: the metrics' and delta_H's.
+NAMES = {**METRIC_NAMES, HEIGHT: HEIGHT_NAME}
 
 
 def oriented(values, metric):
@@ -50,7 +53,7 @@ def metric_levels(table, null, *, confidence=CONFIDENCE):
     :func:`~lidar_sig.change_map.cells.null_metrics`."""
     return {k: level_of_detection(oriented(table[k], k), oriented(null[:, :, m], k), table["valid"],
                                   confidence=confidence)
-            for m, k in enumerate(METRIC_KEYS)}
+            for m, k in enumerate(CHANGE_KEYS)}
 
 
 @dataclass(repr=False)
@@ -64,10 +67,11 @@ class ChangeMap:
         ``x_min, y_min, x_max, y_max`` (CRS coordinates), ``points_a``, ``points_b``,
         ``defined_a``, ``defined_b`` (those with defined saliency), ``undefined_a``,
         ``undefined_b`` (share of the cell's points with undefined saliency), ``valid`` (both
-        epochs hold ``min_points`` points with defined saliency or more), the metrics of
-        :data:`lidar_sig.metrics.METRIC_KEYS`, and the ranking metric's ``score``, ``lod``
-        (its level of detection), ``z`` and ``significant``; NaN (False) where ``valid`` is
-        False.
+        epochs hold ``min_points`` points with defined saliency or more), ``coverage`` (the
+        code of :data:`~lidar_sig.change_map.cells.COVERAGE`), the metrics of
+        :data:`lidar_sig.metrics.METRIC_KEYS` and ``height`` (delta_H, m), and the ranking's
+        ``score``, ``lod`` (its level of detection), ``height_lod`` (delta_H's), ``z`` and
+        ``significant`` (:meth:`rank_by`); NaN (False) where ``valid`` is False.
     classes_a, classes_b : (cells, C) int64
         Points of each class of ``class_table`` per cell, in each epoch.
     grid : Grid
@@ -75,7 +79,7 @@ class ChangeMap:
         The metric that ranks the cells (a key of METRIC_KEYS); the table's ``score`` holds its
         values, 1 - s_SSIM for ``"ssim"``, so that a larger score always means more change.
     levels : dict
-        {metric key: :class:`~lidar_sig.change_map.lod.Level`}: every metric's level of
+        {metric key or "height": :class:`~lidar_sig.change_map.lod.Level`}: every metric's level of
         detection and significance per cell.
     cell_rule, min_points_rule : str
         ``"auto"`` (chosen from the epochs' densities) or ``"given"``.
@@ -145,12 +149,31 @@ class ChangeMap:
                          "compared")
 
     def rank_by(self, score):
-        """Fill the table's ranking fields (``score``, ``lod``, ``z``, ``significant``) from
-        metric ``score`` and its level."""
+        """Fill the table's ranking fields from metric ``score`` and delta_H, the two tests of
+        a cell (:meth:`tests`): ``score``, its level ``lod`` and delta_H's ``height_lod`` at the
+        confidence of each of the two tests (:func:`~lidar_sig.change_map.lod.pooled_confidence`),
+        ``z`` the larger of their z, and ``significant`` where either exceeds its level."""
         self.score = score
-        level = self.levels[score]
-        self.table["score"] = score_values(self.table, score)
-        self.table["lod"], self.table["z"], self.table["significant"] = level.lod, level.z, level.significant
+        each = pooled_confidence(self.confidence, len(self.tests))
+        t = self.table
+        t["score"] = score_values(t, score)
+        t["lod"] = self.levels[score].lod_at(each)
+        t["height_lod"] = self.levels[HEIGHT].lod_at(each)
+        with np.errstate(invalid="ignore"):
+            t["z"] = np.fmax(self.levels[score].z, self.levels[HEIGHT].z)
+            t["significant"] = t["valid"] & ((t["score"] > t["lod"]) | (t[HEIGHT] > t["height_lod"]))
+
+    @property
+    def names(self):
+        """{key: name} of everything the map compares: the metrics' names and delta_H."""
+        return dict(NAMES)
+
+    @property
+    def tests(self):
+        """The metrics whose levels of detection decide a cell's significance: the score (what
+        the cell is made of) and delta_H (how high it is), each at the confidence that keeps
+        the map's (docs/changes.md, "Significance")."""
+        return (self.score, HEIGHT)
 
     @property
     def n_significant(self):
@@ -221,14 +244,31 @@ class ChangeMap:
                     "bounds": [float(rec[k]) for k in ("x_min", "y_min", "x_max", "y_max")],
                     "points_a": int(rec["points_a"]), "points_b": int(rec["points_b"]),
                     "undefined_a": float(rec["undefined_a"]), "undefined_b": float(rec["undefined_b"]),
-                    "score": float(rec["score"]), "lod": _plain(rec["lod"]), "z": _plain(rec["z"]),
+                    "score": float(rec["score"]), "lod": _plain(rec["lod"]), "height_lod": _plain(rec["height_lod"]),
+                    "z": _plain(rec["z"]),
                     "significant": bool(rec["significant"])}
-            item.update({k: _plain(rec[k]) for k in METRIC_KEYS})
-            item["significant_metrics"] = [k for k in METRIC_KEYS if k in self.levels
+            item.update({k: _plain(rec[k]) for k in CHANGE_KEYS})
+            item["significant_metrics"] = [k for k in CHANGE_KEYS if k in self.levels
                                            and self.levels[k].significant[flat]]
             item["classes"] = self.composition(flat)
             out.append(item)
         return out
+
+    def coverage(self):
+        """{state: cells} of every coverage state (:data:`~lidar_sig.change_map.cells.COVERAGE`):
+        compared, appeared, vanished, too few points, not covered."""
+        codes = np.bincount(self.table["coverage"].astype(np.int64), minlength=len(COVERAGE))
+        return {name: int(codes[code]) for code, name in COVERAGE.items()}
+
+    def uncompared(self, state):
+        """The cells in coverage ``state`` ("appeared", "vanished", ...) as plain dicts: row,
+        col, bounds, the points of each epoch."""
+        code = next(k for k, v in COVERAGE.items() if v == state)
+        t = self.table
+        return [{"row": int(t["row"][c]), "col": int(t["col"][c]),
+                 "bounds": [float(t[k][c]) for k in ("x_min", "y_min", "x_max", "y_max")],
+                 "points_a": int(t["points_a"][c]), "points_b": int(t["points_b"][c])}
+                for c in np.flatnonzero(t["coverage"] == code)]
 
     def settings(self):
         """The grid and settings as plain values (``to_dict`` without the cells)."""
@@ -241,6 +281,8 @@ class ChangeMap:
                 "grid": {"rows": self.grid.rows, "cols": self.grid.cols, "transform": [a, b, c, d, e, f],
                          "cells": self.grid.n_cells, "valid": int(self.table["valid"].sum()),
                          "significant": self.n_significant},
+                "coverage": {"cells": self.coverage(), "codes": {str(k): v for k, v in COVERAGE.items()},
+                             "appeared": self.uncompared("appeared"), "vanished": self.uncompared("vanished")},
                 "levels": {k: {"beta": v.beta, "tau": v.tau, "survey": v.survey,
                                "significant": int(v.significant.sum())} for k, v in self.levels.items()
                            if np.isfinite(v.mu0).any()},
@@ -262,9 +304,10 @@ class ChangeMap:
 
     def bands(self, prefix=""):
         """(rasters, descriptions) of the GeoTIFF's bands: the score, its level of detection,
-        significant (0/1), every metric, the points of each epoch and their undefined shares;
-        NaN where there is no data. ``prefix`` starts each description (a series' interval)."""
-        names = BANDS + METRIC_KEYS + COUNT_BANDS
+        significant (0/1), every metric and delta_H, delta_H's level, the points of each epoch,
+        their undefined shares and the coverage state; NaN where there is no data. ``prefix``
+        starts each description (a series' interval)."""
+        names = BANDS + CHANGE_KEYS + COUNT_BANDS
         rasters = []
         for n in names:
             r = self.raster(n)
@@ -338,12 +381,17 @@ def _plain(value):
 
 def _band_description(name, score, confidence=CONFIDENCE):
     names = {m.key: f"{m.name}: {m.short}" for m in METRICS}
-    ranking = f"{'1 - ' if score == 'ssim' else ''}{METRIC_NAMES[score]}"
+    names[HEIGHT] = f"{HEIGHT_NAME}: EMD of heights above the cell's lowest points (m)"
+    ranking = f"{'1 - ' if score == 'ssim' else ''}{NAMES[score]}"
+    each = f"{pooled_confidence(confidence, 2):.1%}"
     text = {"score": f"score: {ranking}, the ranking metric",
-            "lod": f"lod: level of detection of the score ({ranking} of unchanged land at {confidence:.0%})",
-            "significant": f"significant: 1 where the score exceeds its level of detection ({confidence:.0%}), "
-                           "0 where not",
+            "lod": f"lod: level of detection of the score ({ranking} of unchanged land at {each})",
+            "height_lod": f"height_lod: level of detection of {HEIGHT_NAME} (m, unchanged land at {each})",
+            "significant": f"significant: 1 where the score or {HEIGHT_NAME} exceeds its level of detection (the "
+                           f"two at {confidence:.0%} together), 0 where not",
             "points_a": "points of epoch A", "points_b": "points of epoch B",
             "undefined_a": "share of A's points with undefined saliency",
-            "undefined_b": "share of B's points with undefined saliency"}
+            "undefined_b": "share of B's points with undefined saliency",
+            "coverage": "coverage: " + ", ".join(f"{k} {v}" for k, v in COVERAGE.items())
+                        + " (only B covers the cell: appeared; only A: vanished)"}
     return text.get(name) or names[name]

@@ -16,7 +16,7 @@ from ..metrics import METRIC_KEYS, METRIC_NAMES
 from ..progress import step
 from ..signature import Frame, method_differences
 from .cells import CELL_FRAME, SEED, bin_points, cell_table, null_metrics, observed_metrics
-from .density import auto_cell, auto_min_points, density
+from .density import LEAST_DENSITY, MIN_POINTS_FLOOR, RECALL_BELOW, auto_cell, auto_min_points, density
 from .epochs import Epoch, check_same_crs, read_epoch
 from .grid import MAX_CELLS, Grid, check_cell
 from .lod import CONFIDENCE, MIN_CELLS, REPLICATES
@@ -112,6 +112,11 @@ def changes(a, b, *more, cell=AUTO, pipeline=None, min_points=AUTO, score=None, 
     kept = [pipeline.kept(c) if x is None else x.kept for x, c in zip(given, clouds)]
     used = [c.xyz[:, :2] if k is None else c.xyz[k, :2] for c, k in zip(clouds, kept)]
     densities = [density(xy, units.horizontal) for xy in used]
+    sparse = min(range(len(densities)), key=densities.__getitem__)
+    if densities[sparse] < LEAST_DENSITY:
+        notes.append(f"{names[sparse]} holds {densities[sparse]:.2g} points/m²: below {LEAST_DENSITY:g} point/m² the "
+                     f"change map finds fewer than 80% of known changes ({RECALL_BELOW:.0%} at 0.5 points/m² in its "
+                     "benchmark, docs/changes.md), so a cell that is not significant may still have changed")
     if cell is None:
         cell = auto_cell(min(densities))
     if min_points is None:
@@ -127,8 +132,9 @@ def changes(a, b, *more, cell=AUTO, pipeline=None, min_points=AUTO, score=None, 
         filled = np.minimum(counts[k], counts[k + 1])
         if filled.max() < min_points:
             pair = "" if len(clouds) == 2 else f" {names[k]} and {names[k + 1]}"
+            fix = _fewer_points(min_points_rule, min_points)
             raise LidarSigError(f"no cell of {cell:g} m holds {counted(min_points, 'point')} in both "
-                                f"epochs{pair} (at most {amount(filled.max())}); {_fewer_points(min_points_rule)}")
+                                f"epochs{pair} (at most {amount(filled.max())}); {fix}")
     epochs, seconds = [], []
     for cloud, name, epoch, used_points in zip(clouds, names, given, kept):
         start = time.perf_counter()
@@ -147,7 +153,7 @@ def changes(a, b, *more, cell=AUTO, pipeline=None, min_points=AUTO, score=None, 
     maps = []
     for k in range(len(epochs) - 1):
         maps.append(_interval(k, epochs, binned, grid, classes, min_points, cell, render, frame, confidence, seed,
-                              score, method, units, names, min_points_rule))
+                              score, method, units, names, min_points_rule, densities[k:k + 2]))
         cm = maps[-1]
         cm.cell_rule, cm.min_points_rule = cell_rule, min_points_rule
         cm.density = (densities[k], densities[k + 1])
@@ -159,15 +165,15 @@ def changes(a, b, *more, cell=AUTO, pipeline=None, min_points=AUTO, score=None, 
 
 
 def _interval(k, epochs, binned, grid, classes, min_points, cell, render, frame, confidence, seed, score, method,
-              units, names, min_points_rule):
+              units, names, min_points_rule, densities):
     """The ChangeMap of epochs k and k + 1: table, metrics, levels of detection, ranking."""
     pair = binned[k:k + 2]
-    table = cell_table(grid, pair, min_points)
+    table = cell_table(grid, pair, min_points, densities)
     if not table["valid"].any():  # the points are there, their saliency is not
         most = int(np.minimum(table["defined_a"], table["defined_b"]).max())
+        fix = _fewer_points(min_points_rule, min_points)
         raise LidarSigError(f"no cell of {cell:g} m holds {counted(min_points, 'point')} with defined saliency in both "
-                            f"{names[k]} and {names[k + 1]} (at most {most:,}); {_fewer_points(min_points_rule)} "
-                            "or larger scales")
+                            f"{names[k]} and {names[k + 1]} (at most {most:,}); {fix} or larger scales")
     n_valid = int(table["valid"].sum())
     timings = {}
     start = time.perf_counter()
@@ -204,11 +210,17 @@ def _check_overlap(xy_a, xy_b, name_a, name_b):
                             "overlap; give epochs of the same area")
 
 
-def _fewer_points(min_points_rule):
-    """The fix when no cell holds enough points: with --min-points auto, a fifth of a full cell,
-    a larger cell needs more points, so only a smaller one helps."""
+def _fewer_points(min_points_rule, min_points):
+    """The fix when no cell holds enough points. With --min-points auto the minimum is a fifth of
+    a full cell, but never below MIN_POINTS_FLOOR: where the floor holds, the cells are too small
+    for a sparse survey and a larger one holds more points; above it, the cells are larger than
+    what the survey fills and a smaller one needs fewer."""
+    if min_points_rule == AUTO and min_points <= MIN_POINTS_FLOOR:
+        return (f"use a larger cell size (--cell): the automatic minimum is {MIN_POINTS_FLOOR} points or more, "
+                "which small cells of a sparse survey do not hold; or give a smaller minimum (--min-points)")
     if min_points_rule == AUTO:
-        return "use a smaller cell size (--cell) or give a smaller minimum (--min-points)"
+        return ("use a smaller cell size (--cell): the automatic minimum is a fifth of a full cell, which cells "
+                "larger than the survey do not hold; or give a smaller minimum (--min-points)")
     return "use a larger cell size (--cell) or a smaller minimum (--min-points)"
 
 

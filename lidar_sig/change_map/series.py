@@ -74,8 +74,8 @@ class ChangeSeries:
         intervals = []
         for k, m in enumerate(self.maps):
             d = m.to_dict(n)
-            intervals.append({"interval": k + 1, **{key: d[key] for key in ("a", "b", "density", "levels",
-                                                                              "warnings", "top")},
+            intervals.append({"interval": k + 1, **{key: d[key] for key in ("a", "b", "density", "coverage",
+                                                                              "levels", "warnings", "top")},
                               "valid": d["grid"]["valid"], "significant": d["grid"]["significant"]})
         return {"epochs": [e.name for e in self.epochs], **shared, "grid": grid, "intervals": intervals,
                 "when": {"cells": counts, "never_significant": NEVER, "meaning": "the interval (1-based) in which "

@@ -68,7 +68,6 @@ def changes_command(epochs, output, cells, points, cell, min_points, score, conf
                             "epochs of the interval you want them for", path=points)
     _check_outputs(output, png, report, overwrite, cells, points)
     from ..change_map import ChangeSeries, changes
-    from ..metrics import METRIC_NAMES
 
     result = changes(*epochs, cell=cell, pipeline=pipeline, min_points=min_points, score=score,
                      render=render or "smooth", columns=columns, confidence=confidence,
@@ -84,19 +83,20 @@ def changes_command(epochs, output, cells, points, cell, min_points, score, conf
                f"({_rule(first.min_points_rule)}); densities "
                + ", ".join(f"{d:.3g}" for d in _densities(result)) + " points/m²")
     for k, cm in enumerate(maps):
-        valid = int(cm.table["valid"].sum())
         where = f"{result.interval_name(k)}: " if len(maps) > 1 else ""
-        ranking = f"{'1 - ' if cm.score == 'ssim' else ''}{METRIC_NAMES[cm.score]}"
-        click.echo(f"{where}{valid} cells compared, ranked by {ranking}; {cm.n_significant} changed significantly "
-                   f"({cm.confidence:.0%} level of detection), marked *")
+        for line in _header(cm):
+            click.echo(where + line)
         click.echo(f"{'rank':>5} {'x min':>10} {'y min':>11} {'points A':>9} {'points B':>9} {'score':>8} "
-                   f"{'lod':>8}  classes A -> B")
+                   f"{'lod':>8} {'dH (m)':>7} {'lod':>6} {'z':>5}  classes A -> B")
         for item in cm.top(top):
             classes = ", ".join(f"{k} {na:,}->{nb:,}" for k, (na, nb) in item["classes"].items())
             lod = "" if item["lod"] is None else f"{item['lod']:.4f}"
+            height_lod = "" if item["height_lod"] is None else f"{item['height_lod']:.2f}"
+            z = "" if item["z"] is None else f"{item['z']:.1f}"
             mark = "*" if item["significant"] else " "
             click.echo(f"{item['rank']:>4}{mark} {item['bounds'][0]:>10.1f} {item['bounds'][1]:>11.1f} "
-                       f"{item['points_a']:>9,} {item['points_b']:>9,} {item['score']:>8.4f} {lod:>8}  {classes}")
+                       f"{item['points_a']:>9,} {item['points_b']:>9,} {item['score']:>8.4f} {lod:>8} "
+                       f"{item['height']:>7.2f} {height_lod:>6} {z:>5}  {classes}")
     if len(maps) > 1:
         counts = result.to_dict(0)["when"]["cells"]
         click.echo("when: " + ", ".join(f"{counts[str(k)]} cells changed most in interval {k}"
@@ -105,6 +105,20 @@ def changes_command(epochs, output, cells, points, cell, min_points, score, conf
     if not quiet:
         for line in written:
             click.echo(line)
+
+
+def _header(cm):
+    """The lines above a map's table: its cells by coverage state, then what is significant
+    and how the rows are ordered, as :meth:`ChangeMap.ranked` orders them."""
+    counts = cm.coverage()
+    score = f"{'1 - ' if cm.score == 'ssim' else ''}{cm.names[cm.score]}"
+    height = cm.names[cm.tests[1]]
+    return [f"coverage: {counts['compared']} cells compared, {counts['appeared']} appeared (only B covers them), "
+            f"{counts['vanished']} vanished (only A), {counts['too few points']} too few points, "
+            f"{counts['not covered']} not covered",
+            f"{cm.n_significant} changed significantly ({score} or {height} above its level of detection, "
+            f"{cm.confidence:.0%} together), marked *; rows: significant first, then by z (the larger test's, in "
+            "spreads above its level)"]
 
 
 def _densities(result):

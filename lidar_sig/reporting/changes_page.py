@@ -73,43 +73,61 @@ def settings_text(cm):
             f"{page.esc(crs)}; {chosen[cm.cell_rule]}); {valid} of {cm.grid.n_cells} cells hold {cm.min_points:,} "
             f"points with defined saliency or more in both epochs ({chosen[cm.min_points_rule]}; densities "
             f"{density} points/m²) and are compared. Ranked by <b>{page.esc(ranking)}</b>: "
-            f"<b>{cm.n_significant} of {valid} cells changed significantly</b> (their score exceeds the level of "
-            f"detection at {cm.confidence:.0%} confidence), listed first; per-cell signatures in a "
-            f"{cm.frame.size} px frame, {page.esc(cm.render)} rendering; saliency {page.esc(_method(cm.method))}, "
-            "computed on each whole epoch.</p>")
+            f"<b>{cm.n_significant} of {valid} cells changed significantly</b> (their score or their height "
+            f"component exceeds its level of detection, at {cm.confidence:.0%} confidence together), listed "
+            f"first, then the others by z; per-cell signatures in a {cm.frame.size} px frame, {page.esc(cm.render)} rendering; saliency {page.esc(_method(cm.method))}, "
+            "computed on each whole epoch.</p>" + coverage_text(cm))
+
+
+def coverage_text(cm):
+    """The cells by coverage state, and those that only one epoch covers with their bounds."""
+    counts = cm.coverage()
+    text = ("<p>Coverage: " + ", ".join(f"{n} {page.esc(state)}" for state, n in counts.items())
+            + " (appeared: only B covers the cell; vanished: only A; too few points: points of either or both, "
+            f"fewer than {cm.min_points:,} with defined saliency in one of them; not covered: no point).</p>")
+    rows = [[page.esc(state), f"{c['bounds'][0]:.0f} to {c['bounds'][2]:.0f}<br>{c['bounds'][1]:.0f} to "
+             f"{c['bounds'][3]:.0f}", f"{c['points_a']:,} / {c['points_b']:,}"]
+            for state in ("appeared", "vanished") for c in cm.uncompared(state)]
+    if rows:
+        text += page.table(("coverage", "cell x, y", "points A / B"), rows, numeric=(2,))
+    return text
 
 
 def cells_table(cm, top):
     """The most changed cells: rank (* significant), bounds, points, score and its level of
-    detection, other metrics, classes before and after."""
-    from ..metrics import METRIC_NAMES
+    detection, delta_H and its level, z, other metrics, classes before and after."""
+    names = cm.names
 
     rows = []
     for item in cm.top(top):
         x0, y0, x1, y1 = item["bounds"]
         composition = "<br>".join(f"{page.esc(k)}: {a:,} &rarr; {b:,}" for k, (a, b) in item["classes"].items())
         lod = "" if item["lod"] is None else f"{item['lod']:.4f}"
-        also = ", ".join(METRIC_NAMES[k] for k in item["significant_metrics"]) or "none"
+        also = ", ".join(names[k] for k in item["significant_metrics"]) or "none"
         rows.append([f"{item['rank']}{' *' if item['significant'] else ''}", f"{x0:.0f} to {x1:.0f}<br>{y0:.0f} to "
                      f"{y1:.0f}", f"{item['points_a']:,} / {item['points_b']:,}", f"{item['score']:.4f}", lod,
-                     "<br>".join(f"{METRIC_NAMES[k]} {item[k]:.3f}" for k in ("bhattacharyya", "emd_info", "fv", "l1")
+                     f"{item['height']:.2f} / {item['height_lod']:.2f}", f"{item['z']:.1f}",
+                     "<br>".join(f"{names[k]} {item[k]:.3f}" for k in ("bhattacharyya", "emd_info", "fv", "l1")
                                  if item[k] is not None) + f"<br>significant in: {page.esc(also)}", composition])
-    note = ("<p>* changed significantly: the score exceeds its level of detection, the score unchanged land "
-            f"would reach at {cm.confidence:.0%} between these two epochs (sampled as this cell is, surveyed as "
-            "these two surveys differ everywhere).</p>")
-    return note + page.table(("rank", "cell x, y", "points A / B", "score", "level of detection", "other metrics",
-                              "classes A &rarr; B"), rows, numeric=(0, 2, 3, 4))
+    height = cm.names[cm.tests[1]]
+    note = ("<p>* changed significantly: the score or the height component delta_H exceeds its level of "
+            "detection, the value unchanged land would reach between these two epochs (sampled as this cell is, "
+            f"surveyed as these two surveys differ everywhere), the two tests together at {cm.confidence:.0%}. "
+            "Significant cells first, then by z, the larger of the two tests' (spreads above the level).</p>")
+    return note + page.table(("rank", "cell x, y", "points A / B", "score", "level of detection",
+                              f"{height} / level (m)", "z", "other metrics", "classes A &rarr; B"), rows,
+                             numeric=(0, 2, 3, 4, 5, 6))
 
 
 def levels_table(cm):
     """Per metric: the survey part of the level of detection and the cells significant in it."""
-    from ..metrics import METRIC_NAMES
+    names = cm.names
 
     rows = []
     for key, level in cm.levels.items():
         if not np.isfinite(level.mu0).any():
             continue  # undefined (delta_KL and L1 of unlabelled epochs)
-        rows.append([page.esc(METRIC_NAMES[key]), f"{np.exp(level.beta):.3g}", f"{level.tau:.3f}",
+        rows.append([page.esc(names[key]), f"{np.exp(level.beta):.3g}", f"{level.tau:.3f}",
                      f"{int(level.significant.sum())}"])
     return ("<p>For each cell and metric, resamples of each epoch's points give the score of unchanged land "
             "sampled as the cell is; over all cells, the median ratio of the score to it (the survey factor) is "

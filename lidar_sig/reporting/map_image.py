@@ -1,7 +1,8 @@
 """The pictures of a change map (:mod:`lidar_sig.change_map`), made to read like a map: each
 compared cell coloured by its score over a grey top view of one epoch (north up), the cells that
-changed significantly at full colour and outlined, the others faded, cells without data grey,
-the most changed numbered; framed by the CRS coordinates of the cell edges, with a north arrow,
+changed significantly at full colour and outlined, the others faded, cells that only one epoch
+covers (appeared, vanished) in colours of their own, cells with too few points grey, the most
+changed numbered; framed by the CRS coordinates of the cell edges, with a north arrow,
 a scale bar, the CRS name and a legend below. The map of a series' "when" band alike, one colour
 per interval.
 """
@@ -30,6 +31,10 @@ LEFT, BOTTOM, TOP_MARGIN, RIGHT = 84, 34, 12, 16
 ARROW = 34
 _INK = (20, 20, 20)
 _NODATA = (170, 170, 170)
+#: Colours of the cells not compared that one epoch covers: only the later (appeared), only the
+#: earlier (vanished); cells both cover with too few points are grey (docs/changes.md, coverage).
+APPEARED = (33, 113, 181)
+VANISHED = (136, 65, 157)
 #: Colour of the outline of a cell that changed significantly.
 OUTLINE = (20, 20, 20)
 _FONT = 0  # cv2.FONT_HERSHEY_SIMPLEX
@@ -62,8 +67,10 @@ def _layout(w, h):
 
 def change_map_image(change_map, epoch="b", *, display=640, top=TOP):
     """(H, W, 3) uint8 map of the score per cell over a grey top view of epoch ``"a"`` or
-    ``"b"``: significant cells outlined at full colour, others faded, the ``top`` most changed
-    numbered; coordinates, north arrow, scale bar, CRS and legend around it."""
+    ``"b"``: significant cells outlined at full colour, others faded, cells that only one epoch
+    covers in the colour of their state (appeared, vanished), those both cover with too few
+    points grey, the ``top`` most changed numbered; coordinates, north arrow, scale bar, CRS
+    and legend around it."""
     from ..render import ramp
 
     cm = change_map
@@ -74,8 +81,11 @@ def change_map_image(change_map, epoch="b", *, display=640, top=TOP):
     top_value = float(np.nanmax(t["score"][valid])) if valid.any() else 1.0
     colours = ramp(np.nan_to_num(t["score"] / (top_value or 1.0)), SEQUENTIAL).astype(np.float64)
     alpha = np.where(significant, ALPHA, FADED)
-    nodata = ~valid & ((t["points_a"] > 0) | (t["points_b"] > 0))
-    rgb = _paint(rgb, cm.grid, edges, colours, alpha, valid, significant, nodata)
+    state = t["coverage"]
+    for code, colour in ((2, APPEARED), (3, VANISHED)):  # COVERAGE's codes
+        colours[state == code] = colour
+        alpha[state == code] = 0.6
+    rgb = _paint(rgb, cm.grid, edges, colours, alpha, valid | (state == 2) | (state == 3), significant, state == 4)
     _numbers(rgb, cm.grid, edges, cm.ranked(top))
     legend = _score_legend(cm, top_value)
     return _framed(rgb, cm.grid, edges, cm.crs, cm.units, legend)
@@ -84,7 +94,7 @@ def change_map_image(change_map, epoch="b", *, display=640, top=TOP):
 def when_map_image(series, *, display=640):
     """(H, W, 3) uint8 map of a series' "when": each cell that changed significantly in the
     colour of the interval in which it changed most, cells compared but never significant
-    faded, cells without data grey; framed as :func:`change_map_image`."""
+    faded, cells with points but never compared grey; framed as :func:`change_map_image`."""
     last = series.maps[-1]
     e = series.epochs[-1]
     rgb, edges = _backdrop(series.grid, e.used(e.cloud.xyz), e.used(e.saliency.values), display)
@@ -237,7 +247,7 @@ def _score_legend(cm, top_value):
     from ..render import ramp
 
     width = 620
-    legend = np.full((96, width, 3), 255, np.uint8)
+    legend = np.full((118, width, 3), 255, np.uint8)
     x0, x1 = 12, 230
     legend[8:20, x0:x1] = ramp(np.linspace(0.0, 1.0, x1 - x0), SEQUENTIAL)[None]
     cv2.rectangle(legend, (x0, 8), (x1 - 1, 19), (90, 90, 90), 1)
@@ -253,10 +263,17 @@ def _score_legend(cm, top_value):
                 f"{int(cm.table['valid'].sum())} cells", (x0 + 24, 55), _FONT, _SMALL, _INK, 1, cv2.LINE_AA)
     _swatch(legend, x0 + 330, 44, mid, FADED, False)
     cv2.putText(legend, "within the level of detection", (x0 + 354, 55), _FONT, _SMALL, _INK, 1, cv2.LINE_AA)
-    _swatch(legend, x0, 66, _NODATA, 1.0, False)
-    cv2.putText(legend, f"no data (< {counted(cm.min_points, 'defined point')})", (x0 + 24, 77), _FONT, _SMALL,
+    coverage = cm.coverage()
+    _swatch(legend, x0, 66, APPEARED, 0.6, False)
+    cv2.putText(legend, f"appeared (only B covers it): {coverage['appeared']} cells", (x0 + 24, 77), _FONT, _SMALL,
                 _INK, 1, cv2.LINE_AA)
-    cv2.putText(legend, "numbers: most changed first", (x0 + 330, 77), _FONT, _SMALL, _INK, 1, cv2.LINE_AA)
+    _swatch(legend, x0 + 330, 66, VANISHED, 0.6, False)
+    cv2.putText(legend, f"vanished (only A covers it): {coverage['vanished']} cells", (x0 + 354, 77), _FONT,
+                _SMALL, _INK, 1, cv2.LINE_AA)
+    _swatch(legend, x0, 88, _NODATA, 1.0, False)
+    cv2.putText(legend, f"too few points (< {counted(cm.min_points, 'defined point')}): {coverage['too few points']}",
+                (x0 + 24, 99), _FONT, _SMALL, _INK, 1, cv2.LINE_AA)
+    cv2.putText(legend, "numbers: most changed first", (x0 + 330, 99), _FONT, _SMALL, _INK, 1, cv2.LINE_AA)
     return legend
 
 
@@ -276,6 +293,6 @@ def _when_legend(series):
                     _SMALL, _INK, 1, cv2.LINE_AA)
     y = 26 + 22 * n
     _swatch(legend, 12, y, (255, 255, 255), FADED, False)
-    cv2.putText(legend, f"compared, never significant: {int((when == 0).sum())} cells; grey: no data", (36, y + 11),
-                _FONT, _SMALL, _INK, 1, cv2.LINE_AA)
+    cv2.putText(legend, f"compared, never significant: {int((when == 0).sum())} cells; grey: not compared",
+                (36, y + 11), _FONT, _SMALL, _INK, 1, cv2.LINE_AA)
     return legend

@@ -1,0 +1,231 @@
+"""The change map's power beside M3C2 (issue 33): known edits of real survey tiles found, and
+unchanged land flagged, per point density, by the change map and by M3C2 in the same run.
+
+Surveys: the six IGN LiDAR HD tiles of Montpellier joined (../shared/data/ign_lidarhd_montpellier)
+and the two AHN3 crops of Delft joined (../shared/data/ahn3_delft). For each survey:
+
+- **edited pairs**: the block against an edited copy (benchmarks/power_edits.py: a building
+  removed, a building added, trees cut, ground works, new vegetation, each in its own 25 m
+  cell; each pair in other cells);
+- **unchanged pairs**: halves (epoch A takes a point when its draw u < p, epoch B when
+  u >= 1 - p: disjoint while p <= 0.5), and a resampled copy (an independent draw).
+
+Every epoch is thinned to each density (0.1, 0.25, 0.5, 1, 2, 5, 10 points/m²) by a uniform random draw;
+epoch B of the edited pairs and of the copy gets 3 cm of Gaussian noise on x, y, z and is moved
+by (0.3, -0.2, 0.05) m, as another survey would differ. The change map runs with its defaults
+(cell and fewest points chosen from the densities, 95% confidence) on the pairs as they are; a
+cell is flagged when it is significant. M3C2 (py4dgeo, ``pip install lidar-sig[bench]``) runs on
+the same pairs registered (the move taken back, its best case), each in a process of its own on
+one thread (:func:`m3c2_flags`): core points are epoch A's points (at most one per m²), normals and
+cylinders of radius max(1 m, sqrt(10 / (pi d))) so that each holds about ten points,
+cylinders 15 m long each way, registration error 0; a cell is flagged
+when at least :data:`M3C2_SHARE` of its core points (and :data:`M3C2_MIN_CORE` of them or more)
+changed significantly (|distance| above M3C2's level of detection; no distance, no change).
+
+Printed: per density and tool (the change map; *score alone*, the score's own level at 95%, the
+paper's metrics without delta_H; M3C2), the edited cells flagged per kind of edit, all edits,
+and the unchanged cells flagged (of the cells each tool evaluates: compared by the change map, holding
+core points for M3C2); then the same per survey.
+
+    python benchmarks/change_power.py [--quick] [--pairs 4] [--densities 0.1 0.25 0.5 1 2 5 10]
+        [--surveys ign ahn3] [--dump cells.json]
+
+About 9 minutes on a shared 2-core machine; ``--quick`` (densities 0.5, 2 and 10, one edited
+pair per survey) about 2.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import multiprocessing
+import os
+import sys
+import time
+import warnings
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "benchmarks"))
+DATA = ROOT.parent / "shared" / "data"
+SURVEYS = {"ign": ("IGN", DATA / "ign_lidarhd_montpellier", 5),
+           "ahn3": ("AHN3", DATA / "ahn3_delft", 1)}
+DENSITIES = (0.1, 0.25, 0.5, 1.0, 2.0, 5.0, 10.0)
+NOISE, SHIFT = 0.03, (0.3, -0.2, 0.05)
+#: M3C2: a cell is flagged when this share of its core points changed significantly, and it
+#: holds this many core points or more. 15%: the smallest multiple of 5% that flags at most 5%
+#: of IGN's unchanged cells at every density; AHN3's confirm it from 0.25 points/m² up
+#: (docs/changes.md, "Power beside M3C2").
+M3C2_SHARE, M3C2_MIN_CORE = 0.15, 10
+M3C2_LENGTH = 15.0
+NULLS = ("halves", "copy")
+
+
+def thinned(block, xyz, labels, keep, rng=None, name="epoch", moved=False):
+    """The points ``keep`` of ``xyz``, ``labels`` as a PointCloud in ``block``'s CRS; ``moved``:
+    with :data:`NOISE` of Gaussian noise (drawn from ``rng``) and moved by :data:`SHIFT`."""
+    from lidar_sig.cloud import PointCloud
+
+    xyz = xyz[keep]
+    if moved:
+        xyz = xyz + rng.normal(0.0, NOISE, xyz.shape) + np.asarray(SHIFT)
+    return PointCloud(np.round(xyz, 3), labels[keep], path=name, crs=block.crs, units=block.units)
+
+
+def m3c2_shares(a, b, density):
+    """(core points (N, 2) x, y; whether each changed significantly) of M3C2 from A to B."""
+    import py4dgeo
+
+    py4dgeo.set_py4dgeo_logfile(os.devnull)  # it writes py4dgeo.log in the working folder otherwise
+    logging.getLogger("py4dgeo").setLevel(logging.WARNING)  # its KD-tree notes, twice a pair
+    py4dgeo.set_num_threads(1)  # see m3c2_flags
+    rng = np.random.default_rng(0)
+    core = a[rng.random(len(a)) < min(1.0, 1.0 / density)]
+    radius = max(1.0, float(np.sqrt(10.0 / (np.pi * density))))
+    epochs = (py4dgeo.Epoch(a), py4dgeo.Epoch(b))
+    m3c2 = py4dgeo.M3C2(epochs=epochs, corepoints=core, cyl_radius=radius, normal_radii=(radius,),
+                        max_distance=M3C2_LENGTH, registration_error=0.0)
+    distances, uncertainties = m3c2.run()
+    return core[:, :2], np.abs(distances) > uncertainties["lodetection"]  # NaN: no distance, no change
+
+
+def m3c2_flags(pool, a, b, grid, density):
+    """(core points, share of them changed significantly) per flat cell of ``grid``, M3C2 run in
+    a process of its own for each pair, on one thread: py4dgeo 1.2 gave other distances for the
+    same pair once the objects of an earlier M3C2 run in the same process had been freed (up to
+    340 of 27,000 core points changed their verdict; none while they were kept), and with more
+    threads; so the table is the same from one run to the next."""
+    core, changed = pool.submit(m3c2_shares, a, b, density).result()
+    cells = grid.cell_of(core)
+    inside = cells >= 0
+    n = np.bincount(cells[inside], minlength=grid.n_cells)
+    k = np.bincount(cells[inside], weights=changed[inside], minlength=grid.n_cells)
+    return n, np.where(n > 0, k / np.maximum(n, 1), 0.0)
+
+
+def run_pair(pool, epoch_a, b, moved, pipeline, density):
+    """Both tools on one pair: the change map (on B as it is), and M3C2's core points and share
+    of them changed per cell (on B registered: the move taken back)."""
+    import lidar_sig as ls
+
+    cm = ls.changes(epoch_a, b, pipeline=pipeline)
+    registered = b.xyz - np.asarray(SHIFT) if moved else b.xyz
+    n_core, share = m3c2_flags(pool, epoch_a.cloud.xyz, registered, cm.grid, density)
+    return cm, n_core, share
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--quick", action="store_true", help="densities 0.5, 2, 10, one edited pair per survey")
+    parser.add_argument("--pairs", type=int, default=4, help="edited pairs per survey (each in other cells)")
+    parser.add_argument("--densities", type=float, nargs="+", default=list(DENSITIES))
+    parser.add_argument("--surveys", nargs="+", choices=sorted(SURVEYS), default=["ign", "ahn3"])
+    parser.add_argument("--dump", help="write every evaluated cell as JSON (for other thresholds)")
+    args = parser.parse_args()
+    if args.quick:
+        args.densities, args.pairs = [0.5, 2.0, 10.0], 1
+    import lidar_sig as ls
+    from power_edits import EDITS, edit_block
+
+    from lidar_sig.change_map import density as density_of
+    from lidar_sig.change_map import compute_epoch, read_epoch
+    from lidar_sig.errors import LidarSigWarning
+
+    warnings.simplefilter("ignore", LidarSigWarning)
+    pipeline = ls.Pipeline(progress=False)
+    cells = []  # one record per evaluated cell
+    start = time.perf_counter()
+    pool = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"), max_tasks_per_child=1)
+    for key in args.surveys:
+        title, folder, vegetation = SURVEYS[key]
+        block = read_epoch(folder)
+        kept = pipeline.kept(block)
+        xyz, labels = (block.xyz, block.labels) if kept is None else (block.xyz[kept], block.labels[kept])
+        full = density_of(xyz[:, :2])
+        edited = [edit_block(xyz, labels, vegetation=vegetation, rank=r) for r in range(args.pairs)]
+        print(f"{title}: {len(xyz):,} points, {full:.1f} points/m²; edited cells: " + "; ".join(
+            ", ".join(f"{e} {c}" for e, c in edits.items()) for _, _, edits in edited), file=sys.stderr)
+        for d in args.densities:
+            p = d / full
+            if p > 1:
+                print(f"{title}: {d:g} points/m² is more than the survey holds, left out", file=sys.stderr)
+                continue
+            rng = np.random.default_rng([int(d * 100), 1])
+            u = rng.random(len(xyz))
+            a = thinned(block, xyz, labels, u < p, name="A")
+            epoch_a = compute_epoch(a, pipeline)
+            pairs = [("halves", {}, False, thinned(block, xyz, labels, u >= 1 - p, name="B (other half)")),
+                     ("copy", {}, True, thinned(block, xyz, labels, rng.random(len(xyz)) < p, rng, "B (copy)", True))]
+            for r, (e_xyz, e_labels, edits) in enumerate(edited):
+                pairs.append((f"edited {r + 1}", edits, True, thinned(block, e_xyz, e_labels,
+                                                                      rng.random(len(e_xyz)) < p, rng, "B", True)))
+            for kind, edits, moved, b in pairs:
+                t0 = time.perf_counter()
+                cm, n_core, share = run_pair(pool, epoch_a, b, moved, pipeline, d)
+                edit_of = {}
+                for name, (i, j) in edits.items():
+                    centre = np.array([[(i + 0.5) * 25.0, (j + 0.5) * 25.0]])
+                    edit_of[int(cm.grid.cell_of(centre)[0])] = name
+                t = cm.table
+                for c in range(cm.grid.n_cells):
+                    if not (t["valid"][c] or n_core[c] >= M3C2_MIN_CORE or c in edit_of):
+                        continue
+                    rec = {"survey": key, "density": d, "pair": kind, "edit": edit_of.get(c), "cell": c,
+                           "compared": bool(t["valid"][c]), "points": [int(t["points_a"][c]), int(t["points_b"][c])],
+                           "flagged": bool(t["significant"][c]), "alone": bool(cm.levels[cm.score].significant[c]),
+                           "core": int(n_core[c]), "m3c2_share": float(share[c])}
+                    if t["valid"][c]:
+                        rec["levels"] = {k: [float(t[k][c]), float(lv.mu0[c]), float(lv.sigma[c])]
+                                         for k, lv in cm.levels.items()}
+                    cells.append(rec)
+                print(f"{title} {d:g}/m² {kind}: {int(t['valid'].sum())} cells of {cm.cell:g} m (min "
+                      f"{cm.min_points}), {cm.n_significant} significant; {time.perf_counter() - t0:.1f} s",
+                      file=sys.stderr)
+    pool.shutdown()
+    if args.dump:
+        Path(args.dump).write_text(json.dumps(cells))
+    print_tables(cells, args.densities, EDITS, args.surveys)
+    print(f"\n{time.perf_counter() - start:.0f} s in all", file=sys.stderr)
+
+
+def m3c2_flag(rec, share=M3C2_SHARE):
+    return rec["core"] >= M3C2_MIN_CORE and rec["m3c2_share"] >= share
+
+
+def print_tables(cells, densities, edits, surveys):
+    """The table of docs/changes.md: per density and tool, edits found per kind, all edits,
+    unchanged cells flagged; then per survey."""
+    tools = (("change map", lambda r: r["compared"] and r["flagged"], lambda r: r["compared"]),
+             ("score alone", lambda r: r["compared"] and r["alone"], lambda r: r["compared"]),
+             ("M3C2", m3c2_flag, lambda r: r["core"] >= M3C2_MIN_CORE))
+
+    def table(subset, label):
+        print(f"\n{label}")
+        print("| points/m² | tool | " + " | ".join(edits) + " | all edits | unchanged cells flagged |")
+        print("|---|---|" + "---|" * (len(edits) + 2))
+        for d in densities:
+            here = [r for r in subset if r["density"] == d]
+            if not here:
+                continue
+            for name, flag, evaluated in tools:
+                row = []
+                for e in edits:
+                    of = [r for r in here if r["edit"] == e]
+                    row.append(f"{sum(map(flag, of))} / {len(of)}")
+                of = [r for r in here if r["edit"]]
+                row.append(f"{sum(map(flag, of)) / max(len(of), 1):.0%} ({sum(map(flag, of))} / {len(of)})")
+                null = [r for r in here if r["pair"] in NULLS and evaluated(r)]
+                row.append(f"{sum(map(flag, null)) / max(len(null), 1):.1%} ({sum(map(flag, null))} / {len(null)})")
+                print(f"| {d:g} | {name} | " + " | ".join(row) + " |")
+
+    table(cells, "Both surveys")
+    for s in surveys:
+        table([r for r in cells if r["survey"] == s], SURVEYS[s][0])
+
+
+if __name__ == "__main__":
+    main()
