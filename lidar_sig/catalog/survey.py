@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..errors import LidarSigError, a_kind, as_path, counted
+from ..metrics import METRIC
 from .distances import SCREENING, combine, metric_keys, pair_metrics, screening
 from .features import Features, sg_image, signature_features
 
@@ -363,11 +364,9 @@ class Catalog:
                                      self.frame.mask(), wanted)
                     matrix[i, j] = matrix[j, i] = (combine(v, self.spread, wanted) if metric == "distance"
                                                    else v[metric])
-            if metric == "ssim":
-                np.fill_diagonal(matrix, 1.0)
         matrix = np.array(matrix, dtype=np.float64)
-        if metric != "ssim":
-            np.fill_diagonal(matrix, 0.0)
+        # a tile against itself: the metric's value of identical signatures (1 for s_SSIM), 0 for a distance
+        np.fill_diagonal(matrix, METRIC[metric].same if metric in METRIC else 0.0)
         return Distances(self.names, matrix, metric)
 
 

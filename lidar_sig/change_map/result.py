@@ -12,7 +12,7 @@ import numpy as np
 
 from ..crs import crs_name
 from ..errors import LidarSigError, as_path, whole_number
-from ..metrics import METRIC_NAMES, METRICS
+from ..metrics import METRIC, METRIC_NAMES, METRICS
 from ..progress import step
 from ..signature import Frame
 from .cells import CELL_FRAME, CHANGE_KEYS, COVERAGE, cell_signature, epoch_cells
@@ -36,9 +36,14 @@ NAMES = {**METRIC_NAMES, HEIGHT: HEIGHT_NAME}
 
 
 def oriented(values, metric):
-    """A metric's values oriented so that larger means more different: 1 - s_SSIM for
-    ``"ssim"``, the values themselves otherwise."""
-    return 1.0 - values if metric == "ssim" else values
+    """A metric's values oriented so that larger means more different: its distance form
+    (:meth:`lidar_sig.metrics.Metric.distance`: 1 - s_SSIM for s_SSIM), delta_H as it is."""
+    return METRIC[metric].distance(values) if metric in METRIC else values
+
+
+def score_name(key):
+    """The name of the ranking values of ``key``: its distance form's (1 - s_SSIM), delta_H's."""
+    return METRIC[key].distance_name if key in METRIC else NAMES[key]
 
 
 def score_values(table, score):
@@ -167,6 +172,11 @@ class ChangeMap:
     def names(self):
         """{key: name} of everything the map compares: the metrics' names and delta_H."""
         return dict(NAMES)
+
+    @property
+    def score_name(self):
+        """The name of the ranking values (the score's distance form: 1 - s_SSIM for s_SSIM)."""
+        return score_name(self.score)
 
     @property
     def tests(self):
@@ -382,7 +392,7 @@ def _plain(value):
 def _band_description(name, score, confidence=CONFIDENCE):
     names = {m.key: f"{m.name}: {m.short}" for m in METRICS}
     names[HEIGHT] = f"{HEIGHT_NAME}: EMD of heights above the cell's lowest points (m)"
-    ranking = f"{'1 - ' if score == 'ssim' else ''}{NAMES[score]}"
+    ranking = score_name(score)
     each = f"{pooled_confidence(confidence, 2):.1%}"
     text = {"score": f"score: {ranking}, the ranking metric",
             "lod": f"lod: level of detection of the score ({ranking} of unchanged land at {each})",

@@ -12,7 +12,7 @@ import numpy as np
 from ..class_schemes import class_scheme_warnings, merge_classes
 from ..classes import UNLABELED
 from ..errors import LidarSigError, LidarSigWarning, amount, counted, whole_number
-from ..metrics import METRIC_KEYS, METRIC_NAMES
+from ..metrics import METRIC, METRIC_KEYS, METRIC_NAMES
 from ..progress import step
 from ..signature import Frame, method_differences
 from .cells import CELL_FRAME, SEED, bin_points, cell_table, null_metrics, observed_metrics
@@ -101,7 +101,7 @@ def changes(a, b, *more, cell=AUTO, pipeline=None, min_points=AUTO, score=None, 
         bare = ", ".join(n for n, c in zip(names, clouds) if c.labels is None)
         notes.append(f"{bare} has no class labels: the cells are compared by geometry only (ranked by "
                      f"{METRIC_NAMES[score or LABEL_FREE_SCORE]}) and every epoch's points are shown as one class")
-    if score in ("kl", "l1") and not labelled:
+    if score in METRIC and METRIC[score].needs_labels and not labelled:
         raise LidarSigError(f"score {score!r} needs class labels in every epoch; use fv or another geometric metric")
     if class_map and not labelled:
         raise LidarSigError("a class map merges class codes, but not every epoch has class labels; leave out "

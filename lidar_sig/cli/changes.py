@@ -59,20 +59,16 @@ def changes_command(epochs, output, cells, points, cell, min_points, score, conf
     then binned into cells aligned to multiples of the cell size, and the signatures of each
     cell compared between consecutive epochs.
     """
-    if len(epochs) < 2:
-        raise LidarSigError("give at least two epochs (A B), in time order")
     cell = _auto_or(cell, "the cell size (--cell)", _metres)
     min_points = _auto_or(min_points, "the fewest points (--min-points)", _whole)
-    if points and len(epochs) > 2:
-        raise LidarSigError("the points with their cell's change are written for two epochs; run changes on the two "
-                            "epochs of the interval you want them for", path=points)
-    _check_outputs(output, png, report, overwrite, cells, points)
-    from ..change_map import ChangeSeries, changes
+    from ..change_map import ChangeSeries
+    from ..jobs import changes as changes_job
 
-    result = changes(*epochs, cell=cell, pipeline=pipeline, min_points=min_points, score=score,
-                     render=render or "smooth", columns=columns, confidence=confidence,
-                     class_map=list(class_map) or None)
-    written = _write(result, (output, cells, points, png, report), overwrite)
+    done = changes_job(epochs, output=output, cells=cells, points=points, png=png, report=report, overwrite=overwrite,
+                       top=top, cell=cell, pipeline=pipeline, min_points=min_points, score=score,
+                       render=render or "smooth", columns=columns, confidence=confidence,
+                       class_map=list(class_map) or None)
+    result, written = done.changes, done.lines
     if as_json:
         click.echo(json.dumps(result.to_dict(top)))
         return
@@ -111,7 +107,7 @@ def _header(cm):
     """The lines above a map's table: its cells by coverage state, then what is significant
     and how the rows are ordered, as :meth:`ChangeMap.ranked` orders them."""
     counts = cm.coverage()
-    score = f"{'1 - ' if cm.score == 'ssim' else ''}{cm.names[cm.score]}"
+    score = cm.score_name
     height = cm.names[cm.tests[1]]
     return [f"coverage: {counts['compared']} cells compared, {counts['appeared']} appeared (only B covers them), "
             f"{counts['vanished']} vanished (only A), {counts['too few points']} too few points, "
@@ -161,40 +157,3 @@ def _auto_or(text, what, parse):
 
         return AUTO
     return parse(text, what)
-
-
-def _check_outputs(output, png, report, overwrite, cells=None, points=None):
-    """Refuse every output that cannot be written before anything is computed."""
-    from ..io import CLOUD_EXTENSIONS, check_outputs
-    from ..io.geotiff import check_geotiff_output
-    from ..io.styles import style_path
-    from ..reporting import check_report_path
-
-    paths = [p for p in (output, output and style_path(output), cells, points, png, report) if p]
-    check_outputs(paths, overwrite=overwrite)
-    if output:
-        check_geotiff_output(output, overwrite=overwrite)
-    if cells and not cells.lower().endswith(".gpkg"):
-        raise LidarSigError("the cells are written as a GeoPackage: give a .gpkg file", path=cells)
-    if points and not points.lower().endswith(CLOUD_EXTENSIONS):
-        raise LidarSigError(f"the points are written as a point cloud: give one of {', '.join(CLOUD_EXTENSIONS)}",
-                            path=points)
-    if png and not png.lower().endswith(".png"):
-        raise LidarSigError("the map is written as .png", path=png)
-    if report:
-        check_report_path(report, overwrite=overwrite)
-
-
-def _write(result, paths, overwrite):
-    """Write the outputs together (all or none); lines saying what was written."""
-    from ..io import output_group
-    from ..io.styles import style_path
-
-    lines = []
-    with output_group():
-        for path in paths:
-            if path:
-                result.save(path, overwrite=overwrite)
-                lines.append(f"wrote {path}" + (f" (style {style_path(path)})" if path.lower().endswith((".tif", ".tiff"))
-                                                 else ""))
-    return lines

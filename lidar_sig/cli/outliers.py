@@ -1,12 +1,10 @@
 """`lidar-sig outliers`: every tile of a catalogue scored by how unlike it is to its neighbours and
 the survey, highest first; a GeoPackage of the footprints and an HTML report for review."""
 import json
-from pathlib import Path
 
 import click
 
-from ..errors import LidarSigError, counted
-from ..io import check_outputs, output_group
+from ..errors import counted
 from ..progress import settings as progress_settings
 from .group import cli
 from .options import overwrite_option
@@ -29,21 +27,11 @@ def outliers(catalogue, output, report, reach, top, as_json, overwrite, quiet):
     """Score every tile of CATALOGUE by how unlike it is to its spatial neighbours and to the
     survey as a whole, highest first, with the classes that make the difference.
     """
-    from ..catalog import Catalog
-    from ..reporting import check_report_path
+    from ..jobs import outliers as outliers_job
 
-    if output and Path(output).suffix.lower() != ".gpkg":
-        raise LidarSigError("the footprints are written as a GeoPackage (.gpkg)", path=output)
-    check_outputs([p for p in (output, report) if p], overwrite=overwrite)  # before any work
-    if report:
-        check_report_path(report, overwrite=overwrite)
     with progress_settings(enabled=False if quiet else None):
-        found = Catalog(catalogue).outliers(reach=reach)
-        with output_group():  # all outputs or none
-            if output:
-                found.write_geopackage(output, overwrite=overwrite)
-            if report:
-                found.report().save(report, overwrite=overwrite)
+        done = outliers_job(catalogue, output=output, report=report, reach=reach, overwrite=overwrite)
+    found = done.found
     if as_json:
         click.echo(json.dumps(found.to_dict()))
         return
@@ -63,6 +51,5 @@ def outliers(catalogue, output, report, reach, top, as_json, overwrite, quiet):
     if len(found.results) > top:
         click.echo(f"  ... {len(found.results) - top:,} more (--top, --json)")
     click.echo(found.verdict() + (", marked *" if found.standing_out else ""))
-    for path in (output, report):
-        if path:
-            click.echo(f"wrote {path}")
+    for line in done.lines:
+        click.echo(line)

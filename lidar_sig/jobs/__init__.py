@@ -7,9 +7,11 @@ and the QGIS provider only gather options and show the result (docs/python.md, "
 >>> ls.jobs.saliency("big.laz", "big_sal.laz")                          # doctest: +SKIP
 <SaliencyRun complete; wrote big_sal.laz>
 """
-from .catalog import CatalogJob, catalog
+from .catalog import CatalogJob, OutliersRun, catalog, outliers
+from .changes import ChangesRun, changes
 from .compare import CompareRun, compare
 from .saliency import SaliencyRun, saliency
 from .signature import SignatureRun, signature
 
-__all__ = ["CatalogJob", "CompareRun", "SaliencyRun", "SignatureRun", "catalog", "compare", "saliency", "signature"]
+__all__ = ["CatalogJob", "ChangesRun", "CompareRun", "OutliersRun", "SaliencyRun", "SignatureRun", "catalog", "changes",
+           "compare", "outliers", "saliency", "signature"]

@@ -59,3 +59,39 @@ def catalog(inputs: Any, output: Any, *, pipeline: Any = None, execution: Any = 
                  f"{run.execution}: {run.seconds:.1f} s"]
     return CatalogJob(written=[str(output)] if run.n_tiles else [], missing=run.missing, seconds=run.seconds,
                       lines=lines, run=run)
+
+
+@dataclass(repr=False)
+class OutliersRun(JobRun):
+    """What :func:`outliers` did (:class:`JobRun`), with the tiles' scores
+    (:class:`~lidar_sig.catalog.outliers.Outliers`)."""
+
+    found: Any = None
+
+    def to_dict(self) -> dict[str, Any]:
+        return {**self.found.to_dict(), "written": list(self.written)}
+
+
+def outliers(catalogue: Any, *, output: Any = None, report: Any = None, reach: float | None = None,
+             overwrite: bool = False) -> OutliersRun:
+    """Every tile of ``catalogue`` scored by how unlike it is to its neighbours and the survey
+    (:meth:`lidar_sig.Catalog.outliers`), the footprints written as the GeoPackage ``output`` and
+    the review page as ``report``: both checked before any work, written together or not at all."""
+    from ..catalog import Catalog
+    from ..io import check_outputs, output_group
+    from ..io.formats import VECTOR, check_format
+    from ..reporting import check_report_path
+
+    if output:
+        check_format(output, VECTOR, said="the footprints")
+    check_outputs([p for p in (output, report) if p], overwrite=overwrite)  # before any work
+    if report:
+        check_report_path(report, overwrite=overwrite)
+    found = Catalog(catalogue).outliers(reach=reach)
+    with output_group():  # all outputs or none
+        if output:
+            found.write_geopackage(output, overwrite=overwrite)
+        if report:
+            found.report().save(report, overwrite=overwrite)
+    written = [str(p) for p in (output, report) if p]
+    return OutliersRun(found=found, written=written, lines=[f"wrote {p}" for p in written])

@@ -62,13 +62,11 @@ def changes_report(change_map, *, top=TOP):
 
 def settings_text(cm):
     """The grid, the rules that chose it, the ranking and how many cells changed significantly."""
-    from ..metrics import METRIC_NAMES
-
     valid = int(cm.table["valid"].sum())
     chosen = {"auto": "chosen from the epochs' densities", "given": "given"}
     density = " and ".join(f"{d:.3g}" for d in cm.density)
     crs = cm.settings()["crs"] or "the coordinates (no CRS)"
-    ranking = f"{'1 - ' if cm.score == 'ssim' else ''}{METRIC_NAMES[cm.score]}"
+    ranking = cm.score_name
     return (f"<p>Cells of {cm.cell:g} m ({cm.grid.rows} x {cm.grid.cols}, aligned to multiples of the cell size in "
             f"{page.esc(crs)}; {chosen[cm.cell_rule]}); {valid} of {cm.grid.n_cells} cells hold {cm.min_points:,} "
             f"points with defined saliency or more in both epochs ({chosen[cm.min_points_rule]}; densities "

@@ -243,7 +243,6 @@ def _swatch(legend, x, y, colour, alpha, outlined):
 def _score_legend(cm, top_value):
     import cv2
 
-    from ..metrics import METRIC_NAMES
     from ..render import ramp
 
     width = 620
@@ -255,7 +254,7 @@ def _score_legend(cm, top_value):
     text = f"{top_value:.3g}"
     (tw, _), _ = cv2.getTextSize(text, _FONT, _SMALL, 1)
     cv2.putText(legend, text, (x1 - tw, 34), _FONT, _SMALL, _INK, 1, cv2.LINE_AA)
-    name = f"{'1 - ' if cm.score == 'ssim' else ''}{METRIC_NAMES[cm.score]}"
+    name = cm.score_name
     cv2.putText(legend, f"score: {name} per {cm.cell:g} m cell", (x1 + 12, 18), _FONT, _SMALL, _INK, 1, cv2.LINE_AA)
     mid = tuple(SEQUENTIAL[5])
     _swatch(legend, x0, 44, mid, ALPHA, True)

@@ -1,0 +1,73 @@
+"""A change map made and written (``lidar-sig changes``; docs/commands/changes.md): every output
+checked before any work, then all written together or none."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from ..errors import LidarSigError
+from .common import JobRun
+
+
+@dataclass(repr=False)
+class ChangesRun(JobRun):
+    """What :func:`changes` did (:class:`JobRun`): the ChangeMap (two epochs) or ChangeSeries
+    (more) and the files written (``lines`` say so)."""
+
+    changes: Any = None
+    top: int = 10
+
+    def to_dict(self) -> dict[str, Any]:
+        return {**self.changes.to_dict(self.top), "written": list(self.written)}
+
+
+def changes(epochs: Any, *, output: Any = None, cells: Any = None, points: Any = None, png: Any = None,
+            report: Any = None, overwrite: bool = False, top: int = 10, **options: Any) -> ChangesRun:
+    """The change map of ``epochs`` (two or more, in time order; :func:`lidar_sig.changes`, which
+    takes ``options``: cell, min_points, score, confidence, class_map, pipeline, render,
+    columns) written as the GeoTIFF ``output`` (with its QGIS style beside it), the cells'
+    GeoPackage ``cells``, the later epoch's points with their cell's change ``points`` (two
+    epochs), the map ``png`` and the HTML ``report``; ``top`` cells in its JSON."""
+    from ..change_map import changes as change_map
+    from ..io import output_group
+    from ..io.styles import style_path
+
+    epochs = list(epochs)
+    if len(epochs) < 2:
+        raise LidarSigError("give at least two epochs (A B), in time order")
+    if points and len(epochs) > 2:
+        raise LidarSigError("the points with their cell's change are written for two epochs; run changes on the two "
+                            "epochs of the interval you want them for", path=points)
+    check_outputs(output, png, report, overwrite, cells, points)
+    result = change_map(*epochs, **options)
+    done = ChangesRun(changes=result, top=top)
+    with output_group():  # all or none
+        for path in (output, cells, points, png, report):
+            if path:
+                result.save(path, overwrite=overwrite)
+                done.written.append(str(path))
+                style = style_path(path) if str(path).lower().endswith((".tif", ".tiff")) else None
+                done.lines.append(f"wrote {path}" + (f" (style {style})" if style else ""))
+    return done
+
+
+def check_outputs(output, png, report, overwrite, cells=None, points=None):
+    """Refuse every output of a change map that cannot be written, before anything is computed."""
+    from ..io import check_outputs as check_paths
+    from ..io.formats import IMAGE, POINTS, VECTOR, check_format
+    from ..io.geotiff import check_geotiff_output
+    from ..io.styles import style_path
+    from ..reporting import check_report_path
+
+    paths = [p for p in (output, output and style_path(output), cells, points, png, report) if p]
+    check_paths(paths, overwrite=overwrite)
+    if output:
+        check_geotiff_output(output, overwrite=overwrite)
+    if cells:
+        check_format(cells, VECTOR, said="the cells")
+    if points:
+        check_format(points, POINTS, said="the points with their cell's change")
+    if png:
+        check_format(png, IMAGE, said="the map")
+    if report:
+        check_report_path(report, overwrite=overwrite)
