@@ -41,10 +41,10 @@ class Side:
     tiled: bool = False  # computed as a set of tiles (a folder, or a file over the memory budget)
 
     @property
-    def kind(self):
+    def kind(self) -> str:
         return "cloud" if self.result is not None else "set of tiles" if self.tiled else "archive"
 
-    def summary(self):
+    def summary(self) -> dict[str, Any]:
         """The side's facts for people and JSON: points, undefined, capped, duplicates, withheld
         or noise points left out (excluded), scales, units."""
         m = self.signature.metadata
@@ -93,7 +93,7 @@ class Comparison(dict):
     def __reduce__(self):
         return (type(self), (self.a, self.b, dict(self), self.render, self.method, self.warnings))
 
-    def to_dict(self):
+    def to_dict(self) -> dict[str, Any]:
         """Everything as plain JSON-able values: the metrics at the top level (as before),
         ``a`` and ``b`` with each side's facts, ``method``, ``render``, ``warnings`` and each
         metric placed on the project's reference values (``scale``, :meth:`Metric.scale`)."""
@@ -102,7 +102,7 @@ class Comparison(dict):
                    warnings=list(self.warnings), scale=metric_scales(self.metrics))
         return out
 
-    def report(self):
+    def report(self) -> Report:
         """The HTML report of this comparison (:class:`lidar_sig.reporting.Report`): shown in
         a notebook, ``.save("report.html")`` writes it."""
         from .reporting import comparison_report

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -84,7 +85,7 @@ class Frame:
         np.clip(xy, 0, self.size - 1, out=xy)
         return xy[:, 1], xy[:, 0]
 
-    def mask(self):
+    def mask(self) -> np.ndarray:
         """(size, size) bool: pixels that touch the triangle (centre within half a diagonal)."""
         return _triangle_mask(self).copy()  # computed once per frame; a copy the caller may change
 
@@ -210,7 +211,7 @@ class Signature:
                 f"{self.frame.size} px" + (f", {method}" if method else "")
                 + (f", from {m['source']}" if m.get("source") else "") + ">")
 
-    def summary(self):
+    def summary(self) -> dict[str, Any]:
         """The signature's facts as plain JSON-able values: points, undefined, class totals by
         name, frame, class table and the method that made it."""
         m = self.metadata
@@ -234,26 +235,26 @@ class Signature:
                     image=self.sas("smooth"), width=180, note="Sas: line-type top, point-type left, surface-type right")
 
     @property
-    def n_points(self):
+    def n_points(self) -> int:
         """Points in the signature (undefined ones excluded)."""
         return int(self.counts.sum())
 
     @property
-    def class_counts(self):
+    def class_counts(self) -> np.ndarray:
         """(C,) points per class."""
         return self.counts.sum(axis=(1, 2))
 
     @property
-    def total(self):
+    def total(self) -> np.ndarray:
         """(H, W) points per pixel, all classes."""
         return self.counts.sum(axis=0)
 
-    def sg(self, mode="smooth"):
+    def sg(self, mode: str = "smooth") -> np.ndarray:
         """Geometric signature Sg, (H, W) float64 in [0, 1] (SPEC 5); ``mode`` one of
         :data:`RENDERINGS` (module docstring)."""
         return self.render(mode)[0]
 
-    def sas(self, mode="smooth"):
+    def sas(self, mode: str = "smooth") -> np.ndarray:
         """Augmented semantic signature Sas, (H, W, 3) float64 RGB in [0, 1] (SPEC 5).
 
         Each pixel shows the count-weighted mean colour of its classes (no class hides another
@@ -261,7 +262,7 @@ class Signature:
         """
         return self.render(mode)[1]
 
-    def render(self, mode="smooth"):
+    def render(self, mode: str = "smooth") -> tuple[np.ndarray, np.ndarray]:
         """(Sg, Sas) in one pass; see :meth:`sg` and :meth:`sas`."""
         if mode not in RENDERINGS:
             raise LidarSigError(f"unknown rendering {mode!r}; use one of {', '.join(RENDERINGS)}")
@@ -284,7 +285,7 @@ class Signature:
             sas = 1.0 - sg[..., None] * (1.0 - mean)
         return sg, sas
 
-    def check_comparable(self, other):
+    def check_comparable(self, other: Signature) -> None:
         """Raise LidarSigError unless frames, class tables and Egeom bins agree (SPEC 5)."""
         if self.frame != other.frame:
             raise LidarSigError(f"signatures have different frames ({self.frame} and {other.frame}); "

@@ -19,13 +19,18 @@ that make the difference.
 """
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..errors import LidarSigError, positive_metres
 from .distances import combine, screening
 from .footprint import neighbours as spatial_neighbours
+
+if TYPE_CHECKING:
+    from ..reporting import Report
 
 #: Default reach of spatial neighbours, as a share of the median tile side.
 REACH_SHARE = 0.25
@@ -57,11 +62,11 @@ class Outliers:
     threshold: float = OUTLIER_SCORE
 
     @property
-    def standing_out(self):
+    def standing_out(self) -> list[dict[str, Any]]:
         """The results whose score reaches :data:`OUTLIER_SCORE`, highest first."""
         return [r for r in self.results if r["outlier"]]
 
-    def verdict(self):
+    def verdict(self) -> str:
         """One line: how many tiles stand out, or that none does."""
         found = self.standing_out
         if not found:
@@ -74,23 +79,23 @@ class Outliers:
         top = ", ".join(f"{r['name']} {r['score']:.2f}" for r in self.results[:3])
         return f"<Outliers of {len(self.results)} tiles within {self.reach:.3g} m; highest {top}>"[:300]
 
-    def to_dict(self):
+    def to_dict(self) -> dict[str, Any]:
         """The JSON shape of ``lidar-sig outliers --json``."""
         return {"results": [{k: v for k, v in r.items() if k != "row"} for r in self.results], "reach_m": self.reach, "metrics": list(self.metrics),
                 "distance": "screening distance: mean of " + ", ".join(self.metrics) + ", each over its spread",
                 "threshold": self.threshold, "standing_out": len(self.standing_out), "verdict": self.verdict(),
                 "notes": list(self.notes)}
 
-    def names(self):
+    def names(self) -> list[str]:
         return [r["name"] for r in self.results]
 
-    def embedding(self):
+    def embedding(self) -> np.ndarray:
         """(N, 2) classical MDS of the distance matrix, catalogue order."""
         from .embedding import classical_mds
 
         return classical_mds(self.distances)
 
-    def write_geopackage(self, path, *, overwrite=False):
+    def write_geopackage(self, path: str | os.PathLike[str], *, overwrite: bool = False) -> None:
         """The tiles' footprints with every score and metric as a GeoPackage (one layer per CRS),
         with a spatial index and a default style: the tiles that stand out filled red and
         labelled with their rank, the others shaded by score."""
@@ -107,7 +112,7 @@ class Outliers:
             layers.setdefault(crs, []).append((cat.columns["hull"][i], fields))
         write_geopackage(path, tile_layers(layers, style=tiles_style()), overwrite=overwrite)
 
-    def report(self, *, top=None):
+    def report(self, *, top: int | None = None) -> Report:
         """The HTML report (:func:`lidar_sig.reporting.outliers_report`)."""
         from ..reporting import outliers_report
 

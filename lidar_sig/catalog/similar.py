@@ -23,6 +23,7 @@ from __future__ import annotations
 import os
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -52,12 +53,12 @@ class Similar:
         best = ", ".join(f"{r['name']} {r['distance']:.3g}" for r in self.results[:3])
         return f"<Similar to {self.query.get('name')}: {len(self.results)} tiles by {self.metric}; {best}>"[:300]
 
-    def to_dict(self):
+    def to_dict(self) -> dict[str, Any]:
         """The JSON shape of ``lidar-sig similar --json``."""
         return {"results": [dict(r) for r in self.results], "query": dict(self.query), "metric": self.metric,
                 "shortlist": dict(self.shortlist), "spread": dict(self.spread)}
 
-    def names(self):
+    def names(self) -> list[str]:
         return [r["name"] for r in self.results]
 
 

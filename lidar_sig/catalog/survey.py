@@ -51,11 +51,11 @@ class Distances:
     def __repr__(self):
         return f"<Distances {len(self.names)} x {len(self.names)} tiles, {self.metric}>"
 
-    def at(self, a, b):
+    def at(self, a: str, b: str) -> float:
         """The value between the tiles named ``a`` and ``b``."""
         return float(self.values[self.names.index(a), self.names.index(b)])
 
-    def to_dict(self):
+    def to_dict(self) -> dict[str, Any]:
         return {"metric": self.metric, "names": list(self.names), "values": self.values.tolist()}
 
 
@@ -113,16 +113,16 @@ class Catalog:
                     header=("tile", "points", "area m²", "points/m²"), rows=rows, numeric=(1, 2, 3), note=more)
 
     @property
-    def names(self):
+    def names(self) -> list[str]:
         """The tiles' file names, in the catalogue's order."""
         return list(self.columns["name"])
 
     @property
-    def paths(self):
+    def paths(self) -> list[str]:
         return list(self.columns["path"])
 
     @property
-    def method(self):
+    def method(self) -> dict[str, Any]:
         """The method every tile's signature was made with (as :meth:`Pipeline.method`)."""
         return dict(self.header["method"])
 
@@ -149,7 +149,7 @@ class Catalog:
         unlabelled)."""
         return metric_keys(self.labelled)
 
-    def summary(self):
+    def summary(self) -> list[str]:
         """Lines describing the catalogue, for `lidar-sig info` (it was checked when opened)."""
         from ..crs import crs_name
 
@@ -172,7 +172,7 @@ class Catalog:
         """Tile ``i``'s CRS as WKT, or None."""
         return self.header["crs"][int(self.columns["crs"][i])] or None
 
-    def tile(self, i):
+    def tile(self, i: int) -> dict[str, Any]:
         """Tile ``i``'s facts (by row, name or path): name, path, SHA-256, CRS name, points,
         density, bounds, area."""
         from ..crs import crs_name
@@ -184,7 +184,7 @@ class Catalog:
                 "undefined": int(c["n_undefined"][i]), "density": float(c["density"][i]),
                 "area_m2": float(c["area"][i]), "bounds": [float(v) for v in c["bounds"][i]]}
 
-    def index(self, name):
+    def index(self, name: str) -> int:
         """The row of the tile given by file name, stem or path; None when none matches; a
         LidarSigError when a name matches several tiles."""
         if isinstance(name, (int, np.integer)) and not isinstance(name, bool):
@@ -251,7 +251,7 @@ class Catalog:
 
     # -- queries -------------------------------------------------------------------------
 
-    def query(self, query, *, columns=None):
+    def query(self, query: Any, *, columns: Any = None) -> Query:
         """A :class:`Query` from a tile of the catalogue (name, stem or path), a point-cloud file
         (computed with the catalogue's method), an archive (.h5, made with the same method), a
         PointCloud or a Signature."""

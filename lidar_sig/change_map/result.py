@@ -5,8 +5,10 @@ later epoch's points with their cell's change, PNG, HTML)."""
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -20,6 +22,10 @@ from .epochs import Epoch
 from .grid import Grid
 from .heights import HEIGHT, HEIGHT_NAME
 from .lod import CONFIDENCE, level_of_detection, pooled_confidence
+
+if TYPE_CHECKING:
+    from ..reporting import Report
+    from ..signature import Signature
 
 #: Metric that ranks the cells by default (docs/changes.md): delta_KL of the class distributions
 #: where both epochs are labelled in overlapping class schemes, else LABEL_FREE_SCORE.
@@ -122,7 +128,7 @@ class ChangeMap:
                 f"{int(self.table['valid'].sum())} compared, {self.n_significant} significant by {self.score} "
                 f"({self.confidence:.0%}); {self.a.name} -> {self.b.name}>")
 
-    def thumbnail(self, size=240):
+    def thumbnail(self, size: int = 240) -> np.ndarray:
         """(H, W, 3) RGB picture of the map, about ``size`` pixels on its longer side: cells
         compared shaded from white (least changed) to orange (most) by their rank, those that
         changed significantly red, the others grey (row 0 north)."""
@@ -153,7 +159,7 @@ class ChangeMap:
                     note="red: changed significantly; orange to white: compared, most to least changed; grey: not "
                          "compared")
 
-    def rank_by(self, score):
+    def rank_by(self, score: str) -> None:
         """Fill the table's ranking fields from metric ``score`` and delta_H, the two tests of
         a cell (:meth:`tests`): ``score``, its level ``lod`` and delta_H's ``height_lod`` at the
         confidence of each of the two tests (:func:`~lidar_sig.change_map.lod.pooled_confidence`),
@@ -169,29 +175,29 @@ class ChangeMap:
             t["significant"] = t["valid"] & ((t["score"] > t["lod"]) | (t[HEIGHT] > t["height_lod"]))
 
     @property
-    def names(self):
+    def names(self) -> dict[str, str]:
         """{key: name} of everything the map compares: the metrics' names and delta_H."""
         return dict(NAMES)
 
     @property
-    def score_name(self):
+    def score_name(self) -> str:
         """The name of the ranking values (the score's distance form: 1 - s_SSIM for s_SSIM)."""
         return score_name(self.score)
 
     @property
-    def tests(self):
+    def tests(self) -> tuple[str, ...]:
         """The metrics whose levels of detection decide a cell's significance: the score (what
         the cell is made of) and delta_H (how high it is), each at the confidence that keeps
         the map's (docs/changes.md, "Significance")."""
         return (self.score, HEIGHT)
 
     @property
-    def n_significant(self):
+    def n_significant(self) -> int:
         """Cells whose score exceeds its level of detection."""
         return int(self.table["significant"].sum())
 
     @property
-    def transform(self):
+    def transform(self) -> Any:
         """The grid's affine transform: an ``affine.Affine`` when affine (installed with
         rasterio) is present, else the 6-tuple (a, b, c, d, e, f) in rasterio's order (see
         :attr:`Grid.transform`)."""
@@ -201,14 +207,14 @@ class ChangeMap:
             return self.grid.transform
         return Affine(*self.grid.transform)
 
-    def raster(self, name):
+    def raster(self, name: str) -> np.ndarray:
         """(rows, cols) float64 raster of the table's field ``name``, row 0 north; NaN where
         the cell has no data (for metrics and the score)."""
         if not isinstance(name, str) or name not in self.table.dtype.names:
             raise LidarSigError(f"the change map has no field {name!r}; use one of {', '.join(self.table.dtype.names)}")
         return np.asarray(self.table[name], dtype=np.float64).reshape(self.grid.rows, self.grid.cols)
 
-    def ranked(self, n=None):
+    def ranked(self, n: int | None = None) -> np.ndarray:
         """Flat indices of the valid cells, most changed first: the significant cells first,
         then by z (how far the score lies above what unchanged land gives, in spreads), ties by
         score; the first ``n``."""
@@ -220,7 +226,7 @@ class ChangeMap:
         order = valid[np.lexsort((-t["score"], -z, ~t["significant"]))]
         return order if n is None else order[:n]
 
-    def signatures(self, flat):
+    def signatures(self, flat: int) -> tuple[Signature, Signature]:
         """(Signature of A, Signature of B) of cell ``flat``, as the metrics saw them."""
         if isinstance(flat, bool) or not isinstance(flat, (int, np.integer)) or not 0 <= flat < self.grid.n_cells:
             raise LidarSigError(f"no cell {flat!r} in a grid of {self.grid.n_cells:,} cells; give a flat cell index "
@@ -229,7 +235,7 @@ class ChangeMap:
         return tuple(cell_signature(e, np.flatnonzero(epoch_cells(e, self.grid) == flat),
                                     self.class_table, labelled, self.frame) for e in (self.a, self.b))
 
-    def to_pandas(self):
+    def to_pandas(self) -> Any:
         """The table as a pandas DataFrame (needs pandas)."""
         try:
             import pandas as pd
@@ -237,13 +243,13 @@ class ChangeMap:
             raise LidarSigError("to_pandas needs pandas: pip install pandas") from None
         return pd.DataFrame(self.table)
 
-    def composition(self, flat):
+    def composition(self, flat: int) -> dict[str, tuple[int, int]]:
         """{class name: [points in A, points in B]} of cell ``flat``, classes present in either."""
         names = self.class_table.class_names
         a, b = self.classes_a[flat], self.classes_b[flat]
         return {names[k]: [int(a[k]), int(b[k])] for k in np.flatnonzero((a > 0) | (b > 0))}
 
-    def top(self, n=10):
+    def top(self, n: int = 10) -> list[dict[str, Any]]:
         """The ``n`` most changed cells as plain dicts (rank, bounds, counts, score, its level
         of detection and significance, metrics, the metrics in which the cell changed
         significantly, classes)."""
@@ -264,13 +270,13 @@ class ChangeMap:
             out.append(item)
         return out
 
-    def coverage(self):
+    def coverage(self) -> dict[str, int]:
         """{state: cells} of every coverage state (:data:`~lidar_sig.change_map.cells.COVERAGE`):
         compared, appeared, vanished, too few points, not covered."""
         codes = np.bincount(self.table["coverage"].astype(np.int64), minlength=len(COVERAGE))
         return {name: int(codes[code]) for code, name in COVERAGE.items()}
 
-    def uncompared(self, state):
+    def uncompared(self, state: str) -> list[dict[str, Any]]:
         """The cells in coverage ``state`` ("appeared", "vanished", ...) as plain dicts: row,
         col, bounds, the points of each epoch."""
         code = next(k for k, v in COVERAGE.items() if v == state)
@@ -280,7 +286,7 @@ class ChangeMap:
                  "points_a": int(t["points_a"][c]), "points_b": int(t["points_b"][c])}
                 for c in np.flatnonzero(t["coverage"] == code)]
 
-    def settings(self):
+    def settings(self) -> dict[str, Any]:
         """The grid and settings as plain values (``to_dict`` without the cells)."""
         a, b, c, d, e, f = self.grid.transform
         return {"a": self.a.name, "b": self.b.name, "cell_m": self.cell, "cell_rule": self.cell_rule,
@@ -298,7 +304,7 @@ class ChangeMap:
                            if np.isfinite(v.mu0).any()},
                 "warnings": list(self.warnings), "method": self.method}
 
-    def to_dict(self, n=10):
+    def to_dict(self, n: int = 10) -> dict[str, Any]:
         """Everything a ``--json`` user needs: the grid, the settings, each metric's survey part
         and significant cells, and the ``n`` top cells (all compared cells when ``n`` is at
         least their number)."""
@@ -328,7 +334,7 @@ class ChangeMap:
             rasters.append(r)
         return rasters, [prefix + _band_description(n, self.score, self.confidence) for n in names]
 
-    def save(self, path, *, overwrite=False):
+    def save(self, path: str | os.PathLike[str], *, overwrite: bool = False) -> None:
         """Write by extension: ``.tif``/``.tiff`` a Cloud-Optimized GeoTIFF of the score, its
         level of detection, significance and every metric (needs rasterio: ``pip install
         lidar-sig[geo]``) with its QGIS style beside it (``.qml``: the score as a colour ramp),
@@ -376,7 +382,7 @@ class ChangeMap:
             raise LidarSigError(f"cannot write a change map as {ext or '(no extension)'!r}; use .tif, .gpkg, "
                                 ".png, .html or a point-cloud format (.laz, .las, .ply, .csv, ...)", path=path)
 
-    def report(self):
+    def report(self) -> Report:
         """The HTML report: the map over a top view of both epochs and the signatures of the top
         cells side by side (:class:`lidar_sig.reporting.Report`)."""
         from ..reporting import changes_report

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import time
 import warnings
+from typing import TYPE_CHECKING, Any, overload
 
 import numpy as np
 
@@ -23,12 +24,32 @@ from .lod import CONFIDENCE, MIN_CELLS, REPLICATES
 from .result import LABEL_FREE_SCORE, SCORE, ChangeMap, metric_levels
 from .series import ChangeSeries
 
+if TYPE_CHECKING:
+    from ..pipeline import Pipeline
+
 #: The value of ``cell`` and ``min_points`` that chooses them from the epochs' densities.
 AUTO = "auto"
 
 
-def changes(a, b, *more, cell=AUTO, pipeline=None, min_points=AUTO, score=None, render="smooth",
-            frame=CELL_FRAME, columns=None, confidence=CONFIDENCE, class_map=None, seed=SEED):
+@overload
+def changes(a: Any, b: Any, /, *, cell: float | str = AUTO, pipeline: Pipeline | None = None,
+            min_points: int | str = AUTO, score: str | None = None, render: str = "smooth", frame: Frame = CELL_FRAME,
+            columns: Any = None, confidence: float = CONFIDENCE, class_map: Any = None, seed: int = SEED) -> ChangeMap:
+    ...
+
+
+@overload
+def changes(a: Any, b: Any, c: Any, /, *more: Any, cell: float | str = AUTO, pipeline: Pipeline | None = None,
+            min_points: int | str = AUTO, score: str | None = None, render: str = "smooth", frame: Frame = CELL_FRAME,
+            columns: Any = None, confidence: float = CONFIDENCE, class_map: Any = None,
+            seed: int = SEED) -> ChangeSeries:
+    ...
+
+
+def changes(a: Any, b: Any, *more: Any, cell: float | str = AUTO, pipeline: Pipeline | None = None,
+            min_points: int | str = AUTO, score: str | None = None, render: str = "smooth", frame: Frame = CELL_FRAME,
+            columns: Any = None, confidence: float = CONFIDENCE, class_map: Any = None,
+            seed: int = SEED) -> ChangeMap | ChangeSeries:
     """Per-cell change map between epochs of the same area (registration-free), with a level of
     detection per cell and metric.
 

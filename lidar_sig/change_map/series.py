@@ -2,13 +2,19 @@
 each epoch's saliency computed once) and, per cell, the interval in which it changed most."""
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..errors import LidarSigError, as_path
 from ..progress import step
+
+if TYPE_CHECKING:
+    from ..reporting import Report
+    from .grid import Grid
 
 #: Value of the "when" band in a cell compared in some interval but never significant.
 NEVER = 0
@@ -36,19 +42,19 @@ class ChangeSeries:
         return "".join(m._repr_html_() for m in self.maps)
 
     @property
-    def grid(self):
+    def grid(self) -> Grid:
         return self.maps[0].grid
 
     @property
-    def score(self):
+    def score(self) -> str:
         return self.maps[0].score
 
-    def interval_name(self, k):
+    def interval_name(self, k: int) -> str:
         """``"interval 1 (E1 -> E2)"`` for ``k`` = 0, with the epochs' file names."""
         a, b = (Path(e.name).name for e in (self.epochs[k], self.epochs[k + 1]))
         return f"interval {k + 1} ({a} -> {b})"
 
-    def when(self):
+    def when(self) -> np.ndarray:
         """(cells,) float: the interval (1-based) in which each cell changed most, i.e. the one
         of largest z among the intervals where it changed significantly; :data:`NEVER` (0)
         where it was compared but never significant; NaN where it was never compared."""
@@ -58,11 +64,11 @@ class ChangeSeries:
         out = np.where(significant.any(axis=0), np.argmax(z, axis=0) + 1.0, float(NEVER))
         return np.where(valid.any(axis=0), out, np.nan)
 
-    def raster(self):
+    def raster(self) -> np.ndarray:
         """(rows, cols) raster of :meth:`when`, row 0 north."""
         return self.when().reshape(self.grid.rows, self.grid.cols)
 
-    def to_dict(self, n=10):
+    def to_dict(self, n: int = 10) -> dict[str, Any]:
         """One entry per interval (its settings, survey parts and ``n`` top cells, as
         :meth:`ChangeMap.to_dict`), and the cells per value of "when"."""
         when = self.when()
@@ -81,7 +87,7 @@ class ChangeSeries:
                 "when": {"cells": counts, "never_significant": NEVER, "meaning": "the interval (1-based) in which "
                          "the cell changed most; 0 compared but never significant"}}
 
-    def save(self, path, *, overwrite=False):
+    def save(self, path: str | os.PathLike[str], *, overwrite: bool = False) -> None:
         """Write by extension: ``.tif``/``.tiff`` every interval's bands (as a change map's,
         described "interval k (Ek -> Ek+1): ...") then "when", with its QGIS style beside it
         (``.qml``: "when" in one colour per interval); ``.gpkg`` the cells of each interval, a
@@ -134,7 +140,7 @@ class ChangeSeries:
             raise LidarSigError(f"cannot write a change series as {ext or '(no extension)'!r}; use .tif, .gpkg, "
                                 ".png or .html", path=path)
 
-    def report(self):
+    def report(self) -> Report:
         """The HTML report: each interval's map and most changed cells, and the map of "when"."""
         from ..reporting import series_report
 
