@@ -1,4 +1,4 @@
-"""Class tables: semantic codes -> class name and colour, for augmented signatures (SPEC 5)."""
+"""Class tables: semantic codes -> class name and colour, for augmented signatures (docs/method.md, "Signatures")."""
 from __future__ import annotations
 
 import os

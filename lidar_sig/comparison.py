@@ -1,4 +1,4 @@
-"""Comparing two clouds, or their archives, with one method (SPEC 6): `lidar-sig compare`, and
+"""Comparing two clouds, or their archives, with one method (docs/method.md, "Metrics"): `lidar-sig compare`, and
 the report of one input or of two compared (:func:`report`).
 
 Both sides must be made the same way: two clouds are computed with one pipeline (the same k, or
@@ -190,7 +190,7 @@ def side_of(x, pipeline=None, columns=None):
 
 def compare_sources(a: Any, b: Any, pipeline: Any = None, *, render: str | None = None, columns: Any = None,
                     method_given: Any = (), execution: Any = None, color_bins: int = 8) -> Comparison:
-    """Compare two point clouds or signature archives, in any mix (SPEC 6).
+    """Compare two point clouds or signature archives, in any mix (docs/method.md, "Metrics").
 
     Parameters
     ----------

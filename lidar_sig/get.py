@@ -1,4 +1,4 @@
-"""The 2D gradient energy tensor (GET) of the height field z(x, y) (SPEC 3, T3DVT-GET).
+"""The 2D gradient energy tensor (GET) of the height field z(x, y) (docs/descriptors.md, "T3DVT-GET", T3DVT-GET).
 
 Derivatives come from a least-squares operator over cylindrical neighbourhoods, applied three
 times: to z (first derivatives), to those (second) and to those again (third). Then
@@ -36,7 +36,7 @@ def _operator(rxx, ryy, rxy):
 
 @njit(cache=True, parallel=True)
 def first_pass(xy, z, rows, ptr, nbr, counts, out):
-    """(f_x, f_y) of z at each row and scale into out[row, s, 0:2] (SPEC 3, step 1).
+    """(f_x, f_y) of z at each row and scale into out[row, s, 0:2] (docs/descriptors.md, "T3DVT-GET", step 1).
 
     f_x = sum (dx ryy - dy rxy) / Dt (f_h - f_i), f_y = sum (dy rxx - dx rxy) / Dt (f_h - f_i).
     """
@@ -93,7 +93,7 @@ def second_pass(xy, rows, ptr, nbr, counts, d1, out):
 
 @njit(cache=True)
 def get_line_saliency(gx, gy, hxx, hxy, hyy, tx, ty, magnitude_scale, threshold):
-    """cl_GET of one GET (SPEC 3, steps 2-3), NaN where undefined.
+    """cl_GET of one GET (docs/descriptors.md, "T3DVT-GET", steps 2-3), NaN where undefined.
 
     GET = H H - (g t^T + t g^T)/2; with eigenvalues m0 >= m1: if m0 > 0, m1 = max(m1, 0) and
     cl_GET = (m0 - m1)/(m0 + m1). Undefined where m0 <= 0 or m0 * magnitude_scale < threshold.

@@ -14,8 +14,8 @@ k-nearest rows come sorted by distance. A search for scales up to k lists the k 
 one past the k-th tells whether points tied with the k-th run on, and only the rare row where
 they do lists more (:func:`nearest`). Spherical rows are grouped by scale, each group in no
 particular order: the neighbours of scale s are a prefix of those of scale s + 1, which is all
-the descriptors need (SPEC 2), at O(n) instead of a sort's O(n log n). :func:`count_within`
-counts the neighbours within given squared distances, :func:`count_ties` those within a factor
+the descriptors need (docs/method.md, "Neighbourhoods and scales"), at O(n) instead of a sort's
+O(n log n). :func:`count_within` counts the neighbours within given squared distances, :func:`count_ties` those within a factor
 of each row's k-th; :mod:`lidar_sig.neighbors` decides which (the tie rule). The k-nearest
 search counts its own rows' scales the same way while each row is at hand (:func:`nearest`).
 """

@@ -4,8 +4,8 @@ it import it where they compute, so that listing commands or reading an archive 
 
 Each per-neighbour kernel walks the distance-sorted neighbour list of a query point once, keeps
 running sums, and reads off every scale when the walk reaches that scale's neighbour count
-(SPEC 2: smaller scales are prefixes of the largest). Work is spread over the cores with
-``prange``.
+(docs/method.md, "Neighbourhoods and scales": smaller scales are prefixes of the largest). Work
+is spread over the cores with ``prange``.
 """
 import numpy as np
 from numba import njit, prange
@@ -146,7 +146,7 @@ def voting_eigenvalues(xyz, rows, idx, counts, sigma, weights):
 
     T = sum_q mu (I - u u^T) / sum_q mu over the neighbours q != x_i (zero-length offsets
     skipped), u = (q - x_i)/d, mu = w_q exp(-d^2 / sigma^2) with sigma the scale's radius
-    (SPEC 3) and w_q the neighbour's weight (``weights``, or 1 when empty).
+    (docs/descriptors.md, "T3DVT") and w_q the neighbour's weight (``weights``, or 1 when empty).
     T is accumulated as I - M / W with W = sum mu, M = sum (mu / d^2) v v^T, so eig(T) =
     1 - eig(M / W). NaN where the scale is undefined (count 0) or no vote was cast.
     """
@@ -215,7 +215,8 @@ def order_eigenvalues(ev, out, round_off):
 @njit(cache=True, parallel=True)
 def saliency_rows(ev, out):
     """(Cl, Cs, Cp) of each row of sorted eigenvalues ``ev`` (M, 3) into ``out`` (M, 3); NaN
-    where their sum is not positive (SPEC 1; :func:`lidar_sig.saliency.saliency_from_eigenvalues`)."""
+    where their sum is not positive (docs/method.md, "Saliency map";
+    :func:`lidar_sig.saliency.saliency_from_eigenvalues`)."""
     for i in prange(ev.shape[0]):
         l0, l1, l2 = ev[i, 0], ev[i, 1], ev[i, 2]
         total = l0 + l1 + l2
@@ -230,7 +231,8 @@ def saliency_rows(ev, out):
 @njit(cache=True, parallel=True)
 def entropy_rows(sal, out, upper):
     """Egeom of each saliency row of ``sal`` (M, 3) into ``out`` (M,), clipped to [0, ``upper``]
-    (ln 3) against round-off; NaN rows stay NaN (SPEC 1; :func:`lidar_sig.saliency.geometric_entropy`)."""
+    (ln 3) against round-off; NaN rows stay NaN (docs/method.md, "Saliency map";
+    :func:`lidar_sig.saliency.geometric_entropy`)."""
     for i in prange(sal.shape[0]):
         e = 0.0
         for j in range(3):
@@ -246,7 +248,7 @@ def entropy_rows(sal, out, upper):
 @njit(cache=True, parallel=True, error_model="numpy")
 def mean_over_scales(per_scale, out):
     """Mean of ``per_scale`` (M, S, C) over the scales where a value is defined into ``out``
-    (M, C); NaN where none is (SPEC 4, Multiscale). numpy.nanmean's sum and count, in its order
+    (M, C); NaN where none is (docs/method.md, "Strategies", Multiscale). numpy.nanmean's sum and count, in its order
     (undefined values as +0.0, scales in turn), without its four temporary copies."""
     for i in prange(per_scale.shape[0]):
         for c in range(per_scale.shape[2]):

@@ -1,4 +1,4 @@
-"""Comparison metrics between two signatures (SPEC 6); pure functions returning floats.
+"""Comparison metrics between two signatures (docs/method.md, "Metrics"); pure functions returning floats.
 
 Distances are 0 for identical inputs; SSIM is 1. Image work (colour histograms, the SSIM's
 Gaussian window) goes through OpenCV, imported on first use so that computing saliency alone
@@ -162,7 +162,7 @@ def _as_counts(p, q):
 
 
 def symmetric_kl(p, q, *, alpha=KL_ALPHA):
-    """delta_KL = sum_c (p_c - q_c) ln(p_c / q_c) of two class-count vectors (SPEC 6).
+    """delta_KL = sum_c (p_c - q_c) ln(p_c / q_c) of two class-count vectors (docs/method.md, "Metrics").
 
     Counts are normalized to distributions. Classes empty in both clouds are dropped; the
     others get ``alpha`` added to every count before normalizing so that a class present in
@@ -185,7 +185,7 @@ def l1_distance(p, q):
 
 
 def emd_info(hist_a, hist_b, *, upper=LN3):
-    """d_EMD-Info: EMD between two Egeom histograms over [0, ``upper``] nats (SPEC 6).
+    """d_EMD-Info: EMD between two Egeom histograms over [0, ``upper``] nats (docs/method.md, "Metrics").
 
     Ground distance |c_i - c_j| between bin centres; in one dimension the EMD equals the
     Wasserstein-1 distance, sum_i |F_a(i) - F_b(i)| * bin width of the cumulative
@@ -197,7 +197,7 @@ def emd_info(hist_a, hist_b, *, upper=LN3):
 
 
 def ssim(img_a, img_b, mask=None, *, sigma=1.5, k1=0.01, k2=0.03, data_range=1.0):
-    """s_SSIM: mean structural similarity of two grayscale images over ``mask`` (SPEC 6).
+    """s_SSIM: mean structural similarity of two grayscale images over ``mask`` (docs/method.md, "Metrics").
 
     Wang et al. (2004) with a Gaussian window (sigma 1.5 px, truncated at 3.5 sigma as
     scikit-image does), population covariances, K1 0.01, K2 0.03. In [-1, 1]; 1 = identical.
@@ -247,7 +247,7 @@ def color_histogram(rgb, mask=None, *, bins=8):
 
 def bhattacharyya(hist_a, hist_b):
     """d_BD-Img of two histograms, normalized here: sqrt(1 - sum sqrt(h_a h_b)), in [0, 1]
-    (SPEC 6; OpenCV HISTCMP_BHATTACHARYYA).
+    (docs/method.md, "Metrics"; OpenCV HISTCMP_BHATTACHARYYA).
 
     Computed as sqrt(1/2 sum (sqrt h_a - sqrt h_b)^2), equal in exact arithmetic for
     normalized histograms (the squares expand to 1 + 1 - 2 sum sqrt(h_a h_b)): a sum of
@@ -267,7 +267,7 @@ def color_bin_centres(bins=8):
 
 
 def emd_img(hist_a, hist_b, *, bins=8):
-    """d_EMD-Img: EMD between two colour histograms (SPEC 6), ground distance the Euclidean
+    """d_EMD-Img: EMD between two colour histograms (docs/method.md, "Metrics"), ground distance the Euclidean
     distance between bin centres in RGB scaled to [0, 1]; in [0, sqrt(3)].
 
     Only bins occupied in either histogram enter the transport problem (the others carry no
@@ -317,7 +317,7 @@ FV_GRID = 8
 
 
 def fisher_vector(positions, weights, *, grid=FV_GRID):
-    """Fisher vector of weighted 2D positions in the unit triangle (SPEC 6, delta_FV; there the
+    """Fisher vector of weighted 2D positions in the unit triangle (docs/method.md, "Metrics", delta_FV; there the
     positions are a signature's occupied pixel centres, weighted by their counts).
 
     The mixture is fixed: Gaussians of equal weight centred on a regular ``grid`` x ``grid``
@@ -423,7 +423,7 @@ def _pixel_positions(frame, rows, cols):
 
 
 def fv_distance(a, b, *, grid=FV_GRID):
-    """delta_FV = ||FV_a - FV_b||_2 of two signatures, in [0, 2] (SPEC 6).
+    """delta_FV = ||FV_a - FV_b||_2 of two signatures, in [0, 2] (docs/method.md, "Metrics").
 
     The positions are the occupied pixels' centres weighted by their counts
     (:func:`triangle_positions`), not each point's own barycentric position: half a pixel
@@ -471,7 +471,7 @@ class Operand:
 
 
 def compare(a, b, *, render="smooth", color_bins=8):
-    """Every metric between two signatures, as a dict of floats (SPEC 6).
+    """Every metric between two signatures, as a dict of floats (docs/method.md, "Metrics").
 
     Keys: ``bhattacharyya`` (d_BD-Img), ``ssim`` (s_SSIM), ``emd_info`` (d_EMD-Info, nats),
     ``emd_img`` (d_EMD-Img), ``fv`` (delta_FV), ``kl`` (delta_KL) and ``l1`` (L1); the metrics

@@ -1,4 +1,4 @@
-"""Neighbourhoods (SPEC 2): one query at the largest scale, in blocks of points.
+"""Neighbourhoods (docs/method.md, "Neighbourhoods and scales"): one query at the largest scale, in blocks of points.
 
 Every scale of a run is a prefix of the neighbour list of its largest scale, so one search per
 block of points serves them all. The search runs on a voxel grid (:mod:`lidar_sig.grid`); the
@@ -168,7 +168,7 @@ class NeighborIndex:
     scales : (S,) array
         Radii in coordinate units, or k values; ascending.
     max_neighbors : int
-        Cap of a spherical neighbourhood (nearest first), SPEC 2; default 512.
+        Cap of a spherical neighbourhood (nearest first), docs/method.md, "Neighbourhoods and scales"; default 512.
     min_neighbors : int
         A scale holding fewer neighbours (x_i included) gets count 0: undefined saliency.
     weights : {"none", "area"}

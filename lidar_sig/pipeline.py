@@ -52,7 +52,7 @@ class Pipeline:
         robust to the scan pattern and to thinning, see :mod:`lidar_sig.neighbors`) or equally
         (the paper's plain means).
     max_neighbors : int
-        Cap of a spherical neighbourhood, nearest first (SPEC 2); default 512.
+        Cap of a spherical neighbourhood, nearest first (docs/method.md, "Neighbourhoods and scales"); default 512.
     min_neighbors : int
         Fewest neighbours (x_i included) for a defined saliency at a scale; default 3.
     classes : str or ClassTable

@@ -1,4 +1,4 @@
-"""Images for people, drawn with OpenCV: Sas and Sg in their triangle (SPEC 5), the difference
+"""Images for people, drawn with OpenCV: Sas and Sg in their triangle (docs/method.md, "Signatures"), the difference
 of two signatures, a top view of a cloud coloured by its saliency, PNG encoding.
 
 Every picture is an (H, W, 3) uint8 RGB array; :func:`encode_png` makes it PNG bytes and

@@ -1,4 +1,4 @@
-"""Saliency map (SPEC 1): eigenvalues -> (Cl, Cs, Cp), geometric uncertainty Egeom, class."""
+"""Saliency map (docs/method.md, "Saliency map"): eigenvalues -> (Cl, Cs, Cp), geometric uncertainty Egeom, class."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -11,7 +11,7 @@ GEOM_CLASSES = {0: "undefined", 1: "line", 2: "surface", 3: "point"}
 
 
 def saliency_from_eigenvalues(ev):
-    """(Cl, Cs, Cp) from eigenvalues sorted l0 >= l1 >= l2 >= 0 on the last axis (SPEC 1).
+    """(Cl, Cs, Cp) from eigenvalues sorted l0 >= l1 >= l2 >= 0 on the last axis (docs/method.md, "Saliency map").
 
     Cl = (l0 - l1)/S, Cs = 2 (l1 - l2)/S, Cp = 3 l2/S with S = l0 + l1 + l2; they sum to 1.
     NaN where S = 0 or the eigenvalues are NaN (undefined saliency).
@@ -25,7 +25,7 @@ def saliency_from_eigenvalues(ev):
 
 
 def geometric_entropy(sal):
-    """Egeom = -(Cl ln Cl + Cs ln Cs + Cp ln Cp), 0 ln 0 = 0; in [0, ln 3] nats (SPEC 1).
+    """Egeom = -(Cl ln Cl + Cs ln Cs + Cp ln Cp), 0 ln 0 = 0; in [0, ln 3] nats (docs/method.md, "Saliency map").
 
     NaN where the saliency is undefined.
     """

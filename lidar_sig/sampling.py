@@ -1,4 +1,4 @@
-"""Resilience of a signature to sampling (SPEC 7): every metric between a cloud and uniform
+"""Resilience of a signature to sampling (docs/commands/resilience.md): every metric between a cloud and uniform
 random subsamples of it, against the fraction of points kept.
 
 The paper claims the signature barely changes down to about 60% of the points; this measures

@@ -1,4 +1,5 @@
-"""Scales of a run: k-nearest counts or spherical radii, metric or normalized (SPEC 2).
+"""Scales of a run: k-nearest counts or spherical radii, metric or normalized (docs/method.md,
+"Neighbourhoods and scales").
 
 Metric radii are metres (a survey in feet is converted, see :mod:`lidar_sig.crs`). Normalized
 radii are the paper's: r_n times half the longest side of the cloud's axis-aligned bounding box.
@@ -78,7 +79,7 @@ class Scales:
         metres as float64, k as int64.
 
         A normalized radius r_n becomes r_n times half the longest bounding-box side
-        (paper, footnote on scales; SPEC 2).
+        (paper, footnote on scales; docs/method.md, "Neighbourhoods and scales").
         """
         if self.kind == "knn":
             return np.asarray(self.values, dtype=np.int64)

@@ -1,4 +1,4 @@
-"""Signatures (SPEC 5): the barycentric frame, count rasters, Sg and Sas renderings.
+"""Signatures (docs/method.md, "Signatures"): the barycentric frame, count rasters, Sg and Sas renderings.
 
 A signature's lossless core is ``counts[class, y, x]``, the number of points of each semantic
 class whose saliency map falls in each pixel of a fixed reference triangle; every rendering and
@@ -46,7 +46,7 @@ SMOOTH_FLOOR = 1e-6
 
 @dataclass(frozen=True)
 class Frame:
-    """Reference triangle of a signature image (SPEC 5), in pixel coordinates.
+    """Reference triangle of a signature image (docs/method.md, "Signatures"), in pixel coordinates.
 
     Equilateral, line vertex V_l at the top, point vertex V_p bottom-left, surface vertex V_s
     bottom-right, ``margin`` pixels from the left and right borders, centred vertically.
@@ -107,7 +107,7 @@ def _triangle_mask(frame):
 
 
 def point_codes(sal, class_index, frame, *, egeom=None, egeom_bins=EGEOM_BINS):
-    """Per-point codes of a signature's rasters (SPEC 5): ``pixel`` = (class index x size + row)
+    """Per-point codes of a signature's rasters (docs/method.md, "Signatures"): ``pixel`` = (class index x size + row)
     x size + col of the point's place in ``frame``, and ``egeom_bin`` its bin of the Egeom
     histogram over [0, ln 3] (bins of equal width, the last closed, as ``np.histogram``); both
     (N,) int64, -1 where the saliency is undefined (the bin also outside [0, ln 3])."""
@@ -149,7 +149,7 @@ class Signature:
     frame : Frame
     classes : ClassTable
     egeom_counts : (bins,) int64
-        Histogram of Egeom over [0, ln 3] nats (SPEC 6, d_EMD-Info).
+        Histogram of Egeom over [0, ln 3] nats (docs/method.md, "Metrics", d_EMD-Info).
     n_undefined : int
         Points left out because their saliency is undefined at every scale (withheld and noise
         points left out of the run are not among them: ``metadata["n_excluded"]`` counts those).
@@ -250,12 +250,12 @@ class Signature:
         return self.counts.sum(axis=0)
 
     def sg(self, mode: str = "smooth") -> np.ndarray:
-        """Geometric signature Sg, (H, W) float64 in [0, 1] (SPEC 5); ``mode`` one of
+        """Geometric signature Sg, (H, W) float64 in [0, 1] (docs/method.md, "Signatures"); ``mode`` one of
         :data:`RENDERINGS` (module docstring)."""
         return self.render(mode)[0]
 
     def sas(self, mode: str = "smooth") -> np.ndarray:
-        """Augmented semantic signature Sas, (H, W, 3) float64 RGB in [0, 1] (SPEC 5).
+        """Augmented semantic signature Sas, (H, W, 3) float64 RGB in [0, 1] (docs/method.md, "Signatures").
 
         Each pixel shows the count-weighted mean colour of its classes (no class hides another
         by drawing order), over a white background; ``mode`` as for :meth:`sg`.
@@ -286,7 +286,7 @@ class Signature:
         return sg, sas
 
     def check_comparable(self, other: Signature) -> None:
-        """Raise LidarSigError unless frames, class tables and Egeom bins agree (SPEC 5)."""
+        """Raise LidarSigError unless frames, class tables and Egeom bins agree (docs/method.md, "Signatures")."""
         if self.frame != other.frame:
             raise LidarSigError(f"signatures have different frames ({self.frame} and {other.frame}); "
                                 "make both with the same image size")

@@ -2,7 +2,7 @@
 
 - **Screening metrics** (``SCREENING``: d_BD-Img, d_EMD-Info, delta_FV, delta_KL, L1) come from
   the tiles' vectors (:mod:`lidar_sig.catalog.features`): a query against N tiles, or all N^2
-  pairs, is a few array operations. The values are the metrics' own (SPEC 6), equal to
+  pairs, is a few array operations. The values are the metrics' own (docs/method.md, "Metrics"), equal to
   :func:`lidar_sig.metrics.compare`'s to rounding (a sum taken in another order); a test checks
   every pair of its catalogue.
 - **Image metrics** (``IMAGE``: s_SSIM of Sg, d_EMD-Img of the Sas colour histograms) need an

@@ -3,7 +3,7 @@ of detection per cell that says which cells changed significantly.
 
 The paper compares two clouds as wholes and names the price: the signature "does not preserve
 the spatial contextual information" (Sreevalsan-Nair & Mohapatra, Sec. 6). Signatures are
-additive count rasters (SPEC 5), so a regular grid of cells in the survey's CRS gives one
+additive count rasters (docs/method.md, "Signatures"), so a regular grid of cells in the survey's CRS gives one
 signature per cell per epoch from the per-point saliency, with no point-to-point matching: a
 shift of a few decimetres between the epochs moves a few points across a cell edge, nothing more.
 

@@ -15,7 +15,7 @@ from ..errors import LidarSigError, a_kind
 
 @dataclass
 class Epoch:
-    """One epoch of a change map: its name, cloud, per-point saliency (SPEC 1), the run's
+    """One epoch of a change map: its name, cloud, per-point saliency (docs/method.md, "Saliency map"), the run's
     statistics (with the method that computed it) and the points the run used (``kept``,
     :meth:`Pipeline.kept`; None for all)."""
 

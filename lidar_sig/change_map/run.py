@@ -65,7 +65,7 @@ def changes(a: Any, b: Any, *more: Any, cell: float | str = AUTO, pipeline: Pipe
         Cell side in metres (converted to the CRS unit); ``"auto"`` (default) chooses it from
         the smallest density of the epochs (:mod:`~lidar_sig.change_map.density`).
     pipeline : Pipeline, optional
-        The method of the saliency; default ``Pipeline()`` (SPEC 1-4).
+        The method of the saliency; default ``Pipeline()`` (docs/method.md).
     min_points : int or "auto"
         Fewest points with defined saliency a cell must hold in each epoch to be compared;
         ``"auto"`` (default): a fifth of a full cell at the smallest density, at least 30.

@@ -1,5 +1,6 @@
-"""The per-point outputs every format writes (SPEC 8): their values by name, the names they are
-written under beside a user's own attributes, and the header comment that lists them.
+"""The per-point outputs every format writes (docs/method.md, "Point-cloud output"): their values
+by name, the names they are written under beside a user's own attributes, and the header comment
+that lists them.
 
 LAS/LAZ keeps them as extra dimensions (:mod:`lidar_sig.io.las`), PLY, PCD and text as
 attributes or columns (:mod:`lidar_sig.io.table`); every writer takes :class:`Fields` (from

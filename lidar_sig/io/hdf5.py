@@ -1,4 +1,4 @@
-"""HDF5 signature archives (SPEC 8): signature, renderings, histograms, per-point saliency.
+"""HDF5 signature archives (docs/archive.md): signature, renderings, histograms, per-point saliency.
 
 Self-describing: every dataset carries ``description`` and, where it has one, ``units``;
 the root attributes say which program, version, descriptor, strategy and scales made it and

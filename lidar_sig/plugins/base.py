@@ -7,12 +7,13 @@ from ..errors import LidarSigError
 from ..saliency import saliency_from_eigenvalues
 
 #: Negative eigenvalues down to this share of a tensor's largest eigenvalue (in magnitude) are
-#: round-off, set to 0 (SPEC 1); a more negative one is an error of the descriptor.
+#: round-off, set to 0 (docs/method.md, "Saliency map"); a more negative one is an error of the descriptor.
 ROUND_OFF = 1e-6
 
 
 class Descriptor:
-    """Local geometric descriptor: a neighbourhood batch -> per-scale saliency (SPEC 3).
+    """Local geometric descriptor: a neighbourhood batch -> per-scale saliency (docs/method.md,
+    "C3DCM", and docs/descriptors.md).
 
     Subclasses set ``name`` and ``summary`` and give either ``eigenvalues(batch)``, returning
     the (B, S, 3) eigenvalues (in any order, >= 0 up to round-off, NaN where undefined) of the
@@ -44,7 +45,7 @@ class Descriptor:
 
     def saliency(self, batch):
         """(B, S, 3) saliency maps (Cl, Cs, Cp) per scale; NaN rows where undefined. The
-        eigenvalues are sorted descending and round-off negatives set to 0 first (SPEC 1)."""
+        eigenvalues are sorted descending and round-off negatives set to 0 first (docs/method.md, "Saliency map")."""
         return saliency_from_eigenvalues(descending(self.eigenvalues(batch), self.name))
 
     def params(self):
@@ -64,7 +65,7 @@ class Descriptor:
 
 
 class Strategy:
-    """Scale strategy: per-scale saliency maps -> one saliency map per point (SPEC 4).
+    """Scale strategy: per-scale saliency maps -> one saliency map per point (docs/method.md, "Strategies").
 
     ``chooses_scale`` says whether :meth:`combine` picks one scale per point (an output of the
     run, e.g. Optimal-scale's OptimalScale); ``kernels`` as for :class:`Descriptor`.
@@ -85,7 +86,7 @@ class Strategy:
 
 
 def descending(ev, name):
-    """Eigenvalues (..., 3) sorted l0 >= l1 >= l2 with round-off negatives set to 0 (SPEC 1);
+    """Eigenvalues (..., 3) sorted l0 >= l1 >= l2 with round-off negatives set to 0 (docs/method.md, "Saliency map");
     LidarSigError naming descriptor ``name`` when they are not (..., 3) or clearly negative
     (below -ROUND_OFF times the tensor's largest magnitude). NaN rows stay NaN."""
     ev = np.asarray(ev, dtype=np.float64)
@@ -102,5 +103,5 @@ def descending(ev, name):
         row = np.sort(rows[wrong])[::-1]
         raise LidarSigError(f"descriptor {name!r} gave a negative eigenvalue ({row[2]:.6g} where the "
                             f"largest is {np.abs(row).max():.6g}): a tensor's eigenvalues must be >= 0 "
-                            "(SPEC 1); fix the descriptor's eigenvalues()")
+                            "(docs/method.md, "Saliency map"); fix the descriptor's eigenvalues()")
     return out

@@ -37,7 +37,7 @@ def _png(fig):
 
 
 def egeom_pdfs(signatures, names):
-    """Pdfs of Egeom (nats) of each signature, overlaid (SPEC 6, d_EMD-Info compares them)."""
+    """Pdfs of Egeom (nats) of each signature, overlaid (docs/method.md, "Metrics", d_EMD-Info compares them)."""
     fig = _figure(7.5, 3.2)
     ax = fig.subplots()
     for sig, name, colour in zip(signatures, names, SIDE_COLOURS):

@@ -228,7 +228,7 @@ class TiledResult(Result):
 
 
 def sum_signatures(run):
-    """The set's signature: the sum of its tiles' (count rasters are additive, SPEC 5), with the
+    """The set's signature: the sum of its tiles' (count rasters are additive, docs/method.md, "Signatures"), with the
     set's metadata."""
     plan = run.plan
     counts = None

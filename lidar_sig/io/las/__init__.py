@@ -4,7 +4,7 @@ Written files are LAS 1.4 (the version whose specification defines extra dimensi
 input keeps every original point record byte, VLR/EVLR and the CRS; an older input (1.0-1.3) is
 converted to the matching 1.4 point format with every dimension's values kept
 (:mod:`~lidar_sig.io.las.upgrade`). A COPC input is written as plain LAZ
-(:mod:`~lidar_sig.io.las.copc`). The saliency dimensions of SPEC 8 are added; those of an
+(:mod:`~lidar_sig.io.las.copc`). The saliency dimensions (docs/method.md, "LAS/LAZ output") are added; those of an
 earlier run are replaced, a user's own dimension of the same name never is
 (:mod:`~lidar_sig.io.las.dims`).
 """

@@ -1,4 +1,4 @@
-"""The saliency's extra dimensions (SPEC 8): their LAS types and descriptions, how a later run
+"""The saliency's extra dimensions (docs/method.md, "LAS/LAZ output"): their LAS types and descriptions, how a later run
 recognises the ones an earlier run wrote, adding them to a LasData, and the min and max each
 extra-bytes record declares.
 """

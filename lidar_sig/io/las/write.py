@@ -1,5 +1,5 @@
-"""Writing a cloud with its saliency as a LAS 1.4 file (SPEC 8), whole or chunk by chunk, atomically;
-a failed write (a full disk) is reported as such."""
+"""Writing a cloud with its saliency as a LAS 1.4 file (docs/method.md, "LAS/LAZ output"), whole or
+chunk by chunk, atomically; a failed write (a full disk) is reported as such."""
 from __future__ import annotations
 
 import contextlib
@@ -21,7 +21,7 @@ from .dims import add_fields, extend_ranges, set_extra_bytes_ranges
 
 def write_las(path, cloud, fields, *, overwrite=False):
     """Write the cloud with its per-point ``fields`` (:class:`lidar_sig.io.fields.Fields`) as
-    extra dimensions (SPEC 8) to ``path`` (.las or .laz), LAS 1.4, as every point-cloud writer
+    extra dimensions (docs/method.md, "LAS/LAZ output") to ``path`` (.las or .laz), LAS 1.4, as every point-cloud writer
     takes them.
 
     The saliency's: Cl, Cs, Cp, Egeom as float32 (NaN where undefined), GeomClass as uint16 (0

@@ -1,1 +1,1 @@
-"""Built-in local geometric descriptors (SPEC 3)."""
+"""Built-in local geometric descriptors (docs/method.md, "C3DCM", and docs/descriptors.md)."""

@@ -1,4 +1,4 @@
-"""C3DCM: the covariance tensor of a neighbourhood (SPEC 3)."""
+"""C3DCM: the covariance tensor of a neighbourhood (docs/method.md, "C3DCM")."""
 from ..base import Descriptor
 
 

@@ -1,4 +1,4 @@
-"""T3DVT: tensor voting with ball tensors, then anisotropic diffusion (SPEC 3)."""
+"""T3DVT: tensor voting with ball tensors, then anisotropic diffusion (docs/descriptors.md, "T3DVT")."""
 import numpy as np
 
 from ...errors import LidarSigError

@@ -11,7 +11,7 @@ GET_THRESHOLD = 1.0
 
 
 class T3DVTGET(T3DVT):
-    """T3DVT whose saliency becomes a corner (cl_GET, 0, cp_GET) where GET says so (SPEC 3).
+    """T3DVT whose saliency becomes a corner (cl_GET, 0, cp_GET) where GET says so (docs/descriptors.md, "T3DVT-GET").
 
     GET is computed on cylindrical neighbourhoods (horizontal distance <= r, or the k nearest in
     plan view) at the run's scales; its line/corner saliency cl_GET is combined over the scales
@@ -62,7 +62,7 @@ class T3DVTGET(T3DVT):
             cl = np.take_along_axis(per_scale, np.maximum(pick, 0)[:, None], axis=1)[:, 0]
             cl[pick < 0] = np.nan
         # cp_GET > cl_GET (False where GET is undefined), and only where the voting saliency is
-        # defined: a point with too few neighbours in its spheres stays undefined (SPEC 1)
+        # defined: a point with too few neighbours in its spheres stays undefined (docs/method.md, "Saliency map")
         corner = ((1.0 - cl) > cl) & ~np.isnan(saliency).any(axis=1)
         out = saliency.copy()
         out[corner] = np.column_stack([cl[corner], np.zeros(int(corner.sum())), 1.0 - cl[corner]])

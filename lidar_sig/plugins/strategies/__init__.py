@@ -1,1 +1,1 @@
-"""Built-in scale strategies (SPEC 4)."""
+"""Built-in scale strategies (docs/method.md, "Strategies")."""

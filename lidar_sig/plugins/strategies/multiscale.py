@@ -1,4 +1,4 @@
-"""Multiscale: the average of the per-scale saliency maps (SPEC 4)."""
+"""Multiscale: the average of the per-scale saliency maps (docs/method.md, "Strategies")."""
 import numpy as np
 
 from ...scales import knn

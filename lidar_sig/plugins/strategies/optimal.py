@@ -1,4 +1,4 @@
-"""Optimal-scale: per point, the scale of minimum geometric entropy (SPEC 4)."""
+"""Optimal-scale: per point, the scale of minimum geometric entropy (docs/method.md, "Strategies")."""
 import numpy as np
 
 from ...saliency import geometric_entropy
