@@ -103,5 +103,5 @@ def descending(ev, name):
         row = np.sort(rows[wrong])[::-1]
         raise LidarSigError(f"descriptor {name!r} gave a negative eigenvalue ({row[2]:.6g} where the "
                             f"largest is {np.abs(row).max():.6g}): a tensor's eigenvalues must be >= 0 "
-                            "(docs/method.md, "Saliency map"); fix the descriptor's eigenvalues()")
+                            "(docs/method.md, Saliency map); fix the descriptor's eigenvalues()")
     return out
