@@ -125,3 +125,63 @@ def test_round_off_negative_eigenvalues_are_zero_and_clearly_negative_ones_refus
     np.testing.assert_allclose(Negative(1e-12).saliency(batch), saliency_from_eigenvalues(zero), atol=1e-12)
     with pytest.raises(ls.LidarSigError, match="'negative'.*negative eigenvalue"):
         Negative(0.1).saliency(batch)
+
+
+KERNEL_PLUGIN = '''
+"""A third-party descriptor with a compiled kernel of its own, declared as a built-in's are."""
+import numba
+import numpy as np
+
+from lidar_sig.plugins import Descriptor
+from lidar_sig.plugins.descriptors.c3dcm import C3DCM
+
+
+@numba.njit(cache=True)
+def square(values):
+    out = np.empty_like(values)
+    for i in range(values.size):
+        out[i] = values[i] * values[i]
+    return out
+
+
+class KernelSquared(Descriptor):
+    name = "demo-kernel"
+    summary = "squared covariance eigenvalues, squared by a kernel (test plugin)"
+    kernels = C3DCM.kernels + (("lidar_sig_demo_kernel", ("square",)),)
+
+    def eigenvalues(self, batch):
+        ev = np.ascontiguousarray(C3DCM().eigenvalues(batch))
+        return square(ev.reshape(-1)).reshape(ev.shape)
+'''
+
+
+def test_a_plugin_of_another_distribution_runs_in_tiles_and_is_warmed_up_like_a_built_in(tmp_path):
+    (tmp_path / "lidar_sig_demo_kernel.py").write_text(KERNEL_PLUGIN)
+    info = tmp_path / "lidar_sig_demo_kernel-0.1.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: lidar-sig-demo-kernel\nVersion: 0.1\n")
+    (info / "entry_points.txt").write_text("[lidar_sig.descriptors]\ndemo-kernel = lidar_sig_demo_kernel:KernelSquared\n")
+    from lidar_sig.tiling.memory import MIB, block_bytes
+
+    small = f"{(block_bytes(41_507) - 1) // MIB}MiB"  # just below what the sample needs as one block
+    one, tiled = tmp_path / "one.laz", tmp_path / "tiled.laz"
+    done = _run(tmp_path, "-m", "lidar_sig", "saliency", SAMPLES / "epoch1.laz", "-o", one, "--descriptor",
+                "demo-kernel")
+    assert done.returncode == 0, done.stderr
+    done = _run(tmp_path, "-m", "lidar_sig", "saliency", SAMPLES / "epoch1.laz", "-o", tiled, "--descriptor",
+                "demo-kernel", "--memory", small)
+    assert done.returncode == 0 and "memory budget as one block: processed in" in done.stdout, done.stdout + done.stderr
+    a, b = laspy.read(one), laspy.read(tiled)
+    for dim in ("Cl", "Cs", "Cp"):  # the same values from tiles, to float32 round-off (test_memory_budget)
+        np.testing.assert_allclose(np.asarray(a[dim]), np.asarray(b[dim]), rtol=0, atol=1e-6)
+    code = textwrap.dedent("""
+        import lidar_sig as ls
+        from lidar_sig.compile import kernels_cached
+        pipe = ls.Pipeline("demo-kernel")
+        names = [n for module, names in pipe.kernels() for n in names]
+        thread = pipe._warm_up()
+        print("square" in names, kernels_cached(pipe.kernels()), thread is not None)
+    """)
+    warm = _run(tmp_path, "-c", code)
+    assert warm.returncode == 0, warm.stderr
+    assert warm.stdout.split() == ["True", "True", "True"]  # its kernel listed, cached after a run, warmed up
