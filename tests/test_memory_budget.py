@@ -117,9 +117,13 @@ def test_python_runs_a_file_over_the_budget_in_tiles_and_writes_the_commands_fil
     cli = tmp_path / "cli.laz"
     assert lidar_sig_cli("saliency", EPOCH1, "-o", cli, "--memory", SMALL, "-q").returncode == 0
     work = tmp_path / "work"
+    work.mkdir()
     result = ls.Pipeline(progress=False).run(EPOCH1, execution=ls.Execution(memory=SMALL, work_dir=work))
     assert result.tiled and "in tiles" in repr(result) and len(repr(result)) <= 300
-    assert work.is_dir()  # the per-point values wait there, not in memory
+    assert result.work.parent == work and result.work.is_dir()  # the per-point values wait there, not in memory
+    other = ls.Pipeline(progress=False).run(EPOCH1, execution=ls.Execution(memory=SMALL, work_dir=work))
+    assert other.work.parent == work and other.work != result.work  # two results never share a folder
+    other.close()
     result.write(tmp_path / "py.laz")
     got_cli, _ = saliency_of(cli)
     got_py, _ = saliency_of(tmp_path / "py.laz")
@@ -134,10 +138,10 @@ def test_python_runs_a_file_over_the_budget_in_tiles_and_writes_the_commands_fil
     with pytest.raises(LidarSigError, match="LAS/LAZ only.*memory"):
         result.write(tmp_path / "out.ply")
     result.close()
-    assert not work.exists()
+    assert list(work.iterdir()) == []
     with pytest.raises(LidarSigError, match="closed"):
         result.write(tmp_path / "again.laz")
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["cli.laz", "py.laz", "s.h5"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["cli.laz", "py.laz", "s.h5", "work"]
 
 
 def test_a_result_in_tiles_removes_its_temporary_work_folder_when_collected(tmp_path, monkeypatch):

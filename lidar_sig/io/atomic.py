@@ -153,12 +153,24 @@ def exclusive_output(path, doing):
     time added. The lock is the file ``.NAME.lock`` beside ``path``, locked (``flock``, released
     by the system when a process ends, even killed) and removed at the end; a second run is
     refused, naming the process that holds it (``doing``: what it does, for the message)."""
+    fd = hold(path, doing)
+    try:
+        yield Path(path)
+    finally:
+        release(path, fd)
+
+
+def hold(path, doing, errors=None):
+    """Lock ``path`` for this run (:func:`exclusive_output`) until :func:`release`: the file
+    descriptor of its lock ``.NAME.lock`` beside it; a run holding it already is named in a
+    LidarSigError (``doing``: what that run does with it). ``errors``: the context that turns
+    a file-system error into a LidarSigError (default :func:`os_errors`, for an output)."""
     import fcntl
 
     path = Path(path)
     lock = path.parent / f".{path.name}.lock"
     while True:
-        with os_errors(path):
+        with (errors or os_errors)(path):
             fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o644)
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -176,13 +188,17 @@ def exclusive_output(path, doing):
             if os.path.samestat(os.fstat(fd), os.stat(lock)):
                 break
         os.close(fd)
-    try:
-        os.ftruncate(fd, 0)
-        os.write(fd, f"process {os.getpid()} on {socket.gethostname()}, since {time.strftime('%H:%M:%S')}".encode())
-        yield path
-    finally:
-        with contextlib.suppress(OSError):
-            os.unlink(lock)
+    os.ftruncate(fd, 0)
+    os.write(fd, f"process {os.getpid()} on {socket.gethostname()}, since {time.strftime('%H:%M:%S')}".encode())
+    return fd
+
+
+def release(path, fd):
+    """Let go of ``path``, held by :func:`hold` as ``fd`` (its lock file removed)."""
+    path = Path(path)
+    with contextlib.suppress(OSError):
+        os.unlink(path.parent / f".{path.name}.lock")
+    with contextlib.suppress(OSError):
         os.close(fd)
 
 

@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..bounds import bounds
-from ..errors import LidarSigError, positive_metres
+from ..errors import LidarSigError, arg, positive_metres
 from ..neighbors import NeighborIndex, area_cap, radius_reach, unique_points
 
 #: Relative margin kept between a needed distance and the halo's edge (round-off of the tests).
@@ -187,7 +187,8 @@ def check_tileable(pipeline):
     pass over the whole cloud before the blocks)."""
     if not pipeline.descriptor.tileable:
         raise LidarSigError(f"the {pipeline.descriptor.name} descriptor needs the whole cloud at once "
-                            "(its prepare step) and cannot run in tiles; process each file alone")
+                            "(its prepare step) and cannot run in tiles; process each file alone, without "
+                            f"{arg('tile_size')}, {arg('workers')} or {arg('scheduler')}")
 
 
 def first_halo(pipeline, ctx, *, weights_known=False):

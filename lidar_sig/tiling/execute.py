@@ -71,7 +71,7 @@ def _died(exc):
     """Why a worker process died, for the user: too little memory, or a script whose top-level
     code starts the job again in every worker (a worker imports the main script)."""
     why = (f"a worker process died ({exc}); too little memory? use a smaller {arg('tile_size')} or fewer "
-           f"{arg('workers')}, then {arg('resume', True)}")
+           f"{arg('workers')}, then run it again")
     main = sys.modules.get("__main__")
     script = getattr(main, "__file__", None)
     if script and getattr(getattr(main, "__spec__", None), "name", None) is None:

@@ -158,7 +158,7 @@ class TiledResult(Result):
         self.memory = memory
         self.work = Path(work)
         self.metadata = {**run.signature.metadata, "source": self.source.path, "tiling": run.tiling_record()}
-        self._cloud = None
+        self._cloud = self._saliency = None
         self._closed = weakref.finalize(self, remove, self.work)
 
     @property
@@ -178,9 +178,11 @@ class TiledResult(Result):
     @property
     def saliency(self):
         """Per-point Saliency of the whole file, in its point order (gathered from the tiles
-        into memory when asked for)."""
-        self._check_open()
-        return self.run.saliency_of(self.source)
+        into memory when first asked for, then kept)."""
+        if self._saliency is None:
+            self._check_open()
+            self._saliency = self.run.saliency_of(self.source)
+        return self._saliency
 
     def summary_lines(self):
         """What the tiles were (:meth:`SetRun.summary`)."""
@@ -192,30 +194,32 @@ class TiledResult(Result):
         datasets (``points=True`` is refused: they would not fit the budget), a .png is Sas.
         Other point-cloud formats are refused: they are written whole."""
         from ..errors import as_path
-        from ..io import CLOUD_EXTENSIONS, HDF5_EXTENSIONS, LAS_EXTENSIONS, check_output, write_archive
+        from ..io import check_output, write_archive
+        from ..io.formats import IMAGE, POINTS, SIGNATURE, format_of
         from ..io.png import write_signature_png
         from .memory import exceed
 
         path = as_path(path, "write")
-        ext = path.suffix.lower()
+        fmt = format_of(path)
+        holds = set(fmt.holds) if fmt is not None else set()
         self._check_open()
-        if ext in LAS_EXTENSIONS:
+        if fmt is not None and fmt.streamed:
             check_output(path, overwrite=overwrite)
             self.run.write_points(self.source, path, overwrite=overwrite)
-        elif ext in HDF5_EXTENSIONS:
+        elif SIGNATURE in holds:
             if points:
                 raise LidarSigError(f"{exceed(self.over, self.memory)}: its archive holds the signature without "
                                     f"per-point datasets; leave out {arg('points', True)}, or write the points as "
                                     "LAS/LAZ", path=path)
             write_archive(path, self.signature, sources=self.run.source_records(), render=render,
                           overwrite=overwrite, tiling=self.run.tiling_record())
-        elif ext == ".png":
+        elif IMAGE in holds:
             write_signature_png(path, self.signature, mode=render, overwrite=overwrite)
-        elif ext in CLOUD_EXTENSIONS:
+        elif POINTS in holds:
             raise LidarSigError(f"{exceed(self.over, self.memory)}; tiles write per-point results to LAS/LAZ only: "
                                 f"give a .las or .laz name, or raise {arg('memory')}", path=path)
         else:
-            raise LidarSigError(f"cannot write {ext or 'files without extension'}; use a point-cloud "
+            raise LidarSigError(f"cannot write {path.suffix.lower() or 'files without extension'}; use a point-cloud "
                                 "format, .h5 or .png", path=path)
 
     def close(self):

@@ -198,18 +198,26 @@ def run_in_tiles(pipeline, source, execution, *, n_points, work=None, outputs=()
     """One LAS/LAZ file whose ``n_points`` points one block would hold above the memory budget
     of ``execution``, processed in tiles (:func:`run_set`) into a
     :class:`~lidar_sig.tiling.results.TiledResult`, which keeps the per-point values in the
-    work folder: ``work``, else the execution's ``work_dir``, else a new temporary folder. The
-    folder goes with the result (:meth:`TiledResult.close`), or at once when the run fails or
-    lacks a point (LidarSigError naming what is missing)."""
-    ours = work is None and execution.work_dir is None
-    work = Path(tempfile.mkdtemp(prefix="lidar-sig-work-")) if ours else Path(work or execution.work_dir)
+    work folder: ``work`` (a job's, beside its output), else a new folder of its own in the
+    execution's ``work_dir`` or the temporary folder (a result kept in Python: two results never
+    share one). The folder goes with the result (:meth:`TiledResult.close`), or at once when the
+    run fails or lacks a point (LidarSigError naming what is missing)."""
+    ours = work is None
+    if ours:
+        base = execution.work_dir
+        if base is not None and not Path(base).is_dir():
+            raise LidarSigError(f"{arg('work_dir')} must be a folder that exists (each result in tiles makes its own "
+                                "folder in it)", path=base)
+        work = Path(tempfile.mkdtemp(prefix="lidar-sig-work-", dir=base))
+    work = Path(work)
     remove = discard_work if ours else remove_work
     try:
         with execution.backend() as backend:
             run = run_set(pipeline, [source], work=work, tile_size=execution.tile_size, backend=backend,
                           outputs=outputs, memory=execution.memory)
         if not run.complete:
-            raise LidarSigError("could not be processed in tiles: " + "; ".join(run.missing), path=source)
+            shown = run.missing[:3] + ([f"and {len(run.missing) - 3} more"] if len(run.missing) > 3 else [])
+            raise LidarSigError("could not be processed in tiles: " + "; ".join(shown), path=source)
     except BaseException:
         remove(work)
         raise

@@ -53,8 +53,8 @@ def expand(inputs):
             files += found
         elif p.is_file():
             if p.suffix.lower() not in LAS_EXTENSIONS:
-                raise LidarSigError("a set of tiles is read from LAS/LAZ files only; convert it, or give "
-                                    "it alone", path=p)
+                raise LidarSigError("a set of tiles is read from LAS/LAZ files only; convert it, or give it alone "
+                                    f"without {arg('tile_size')}, {arg('workers')} or {arg('scheduler')}", path=p)
             files.append(p)
         elif special_file(p):
             raise LidarSigError(f"is {special_file(p)}, not a regular file; give LAS/LAZ files or folders", path=p)

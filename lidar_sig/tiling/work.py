@@ -11,12 +11,15 @@ import shutil
 from pathlib import Path
 
 from ..errors import LidarSigError, arg
-from ..io.atomic import keeping_work
+from ..io.atomic import hold, keeping_work, release
 
 #: File that marks a folder as a work folder of ours (only such a folder is ever removed).
 WORK_MARK = "LIDAR_SIG_WORK"
 #: File of the set's area-weight cap, for a resumed run.
 AREA_CAP_FILE = "area_cap.json"
+# Work folders this process holds (path -> the descriptor of its lock): one run at a time
+# works in a folder; the system lets go of the lock when the process ends, however it ends.
+_HELD = {}
 
 
 def prepare_work(work, resume, keep=()):
@@ -37,21 +40,27 @@ def prepare_work(work, resume, keep=()):
     if not work.parent.is_dir():
         raise LidarSigError(f"cannot be the work folder: its parent folder does not exist; create it first, or "
                             f"give {arg('work_dir')} another folder", path=given)
-    with _work_errors(given):
-        if work.exists() and any(work.iterdir()) and not (work / WORK_MARK).is_file():
-            raise LidarSigError(f"is not empty and not a lidar_sig work folder; give {arg('work_dir')} a new or "
-                                "empty folder", path=given)
-        if work.exists() and not resume:
-            shutil.rmtree(work)
-        made = not work.exists()
-        try:
-            work.mkdir(exist_ok=True)
-            (work / WORK_MARK).write_text("scratch files of a tiled lidar_sig run; safe to delete\n")
-        except OSError:
-            if made:
-                with contextlib.suppress(OSError):
-                    shutil.rmtree(work)
-            raise
+    if str(work) not in _HELD:  # another run working there would lose its tiles, or read ours
+        _HELD[str(work)] = hold(work, "working in", errors=lambda _: _work_errors(given))
+    try:
+        with _work_errors(given):
+            if work.exists() and any(work.iterdir()) and not (work / WORK_MARK).is_file():
+                raise LidarSigError(f"is not empty and not a lidar_sig work folder; give {arg('work_dir')} a new "
+                                    "or empty folder", path=given)
+            if work.exists() and not resume:
+                shutil.rmtree(work)
+            made = not work.exists()
+            try:
+                work.mkdir(exist_ok=True)
+                (work / WORK_MARK).write_text("scratch files of a tiled lidar_sig run; safe to delete\n")
+            except OSError:
+                if made:
+                    with contextlib.suppress(OSError):
+                        shutil.rmtree(work)
+                raise
+    except BaseException:
+        let_go(work)
+        raise
     keeping_work(work)
     return work
 
@@ -70,17 +79,27 @@ def _work_errors(work):
 
 
 def remove_work(work):
-    """Remove a work folder of ours (after a complete run)."""
+    """Remove a work folder of ours (after a complete run), and let go of it."""
     if (Path(work) / WORK_MARK).is_file():
         shutil.rmtree(work, ignore_errors=True)
-    keeping_work(Path(work).resolve(), kept=False)
+    let_go(work)
+
+
+def let_go(work):
+    """Let another run use the work folder ``work``, which this run held (it stays on disk,
+    for a resumed run, unless removed)."""
+    work = Path(work).resolve()
+    keeping_work(work, kept=False)
+    fd = _HELD.pop(str(work), None)
+    if fd is not None:
+        release(work, fd)
 
 
 def discard_work(work):
     """Remove a temporary work folder made for one run (all of it: it was made new and holds
     nothing else)."""
     shutil.rmtree(work, ignore_errors=True)
-    keeping_work(Path(work).resolve(), kept=False)
+    let_go(work)
 
 
 def saved_area_cap(work, key):
