@@ -11,7 +11,6 @@ import lidar_sig as ls
 from command_line import run
 from conftest import IGN, need_data
 from lidar_sig.errors import LidarSigWarning
-from lidar_sig.io import write_cloud
 
 open3d = pytest.importorskip("open3d", reason="PLY/PCD need open3d: pip install -e '.[formats]'")
 

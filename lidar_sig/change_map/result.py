@@ -342,10 +342,12 @@ class ChangeMap:
         a point-cloud extension (``.laz``, ``.las``, ``.ply``, ``.csv``, ...) the later epoch's
         points with their saliency and their cell's change (ChangeScore, ChangeLoD,
         ChangeSignificant), ``.png`` the map, ``.html`` the report."""
-        from ..io import CLOUD_EXTENSIONS, output_group
+        from ..io import output_group
+        from ..io.formats import IMAGE, POINTS, RASTER, REPORT, VECTOR, format_of
 
-        ext = as_path(path, "saving a change map").suffix.lower()
-        if ext in (".tif", ".tiff"):
+        fmt = format_of(as_path(path, "saving a change map"))
+        holds = set(fmt.holds) if fmt is not None else set()
+        if RASTER in holds:
             from ..io.geotiff import write_geotiff
             from ..io.styles import style_path, write_style
             from .layers import score_style
@@ -355,13 +357,13 @@ class ChangeMap:
                 write_geotiff(path, rasters, descriptions, self.grid.transform, self.crs, overwrite=overwrite,
                               tags=self.metadata_tags())
                 write_style(style_path(path), score_style(self), overwrite=overwrite)
-        elif ext == ".gpkg":
+        elif VECTOR in holds:
             from ..io.geopackage import write_geopackage
             from .layers import cells_layer
 
             with step(f"writing {Path(path).name}", cells=int(self.table["valid"].sum())):
                 write_geopackage(path, [cells_layer(self)], overwrite=overwrite)
-        elif ext in CLOUD_EXTENSIONS:
+        elif POINTS in holds:
             from ..io import write_cloud
             from .layers import point_change
 
@@ -370,15 +372,16 @@ class ChangeMap:
                 write_cloud(path, e.cloud, e.saliency, scale_kind=e.metadata.get("scale_kind"),
                             scale_values=e.metadata.get("scale_values"), overwrite=overwrite,
                             extra=point_change(self))
-        elif ext == ".png":
+        elif IMAGE in holds:
             from ..io.png import write_png
             from ..reporting import change_map_image
 
             with step(f"writing {Path(path).name}"):
                 write_png(path, change_map_image(self), overwrite=overwrite)
-        elif ext in (".html", ".htm"):
+        elif REPORT in holds:
             self.report().save(path, overwrite=overwrite)
         else:
+            ext = Path(path).suffix.lower()
             raise LidarSigError(f"cannot write a change map as {ext or '(no extension)'!r}; use .tif, .gpkg, "
                                 ".png, .html or a point-cloud format (.laz, .las, .ply, .csv, ...)", path=path)
 

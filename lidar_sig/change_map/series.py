@@ -18,6 +18,9 @@ if TYPE_CHECKING:
 
 #: Value of the "when" band in a cell compared in some interval but never significant.
 NEVER = 0
+#: Why a series writes no points with their cell's change (the job refuses it before the work).
+POINTS_OF_TWO = ("the points with their cell's change are written for two epochs; run changes on the two epochs "
+                 "of the interval you want them for")
 
 
 @dataclass(repr=False)
@@ -93,13 +96,14 @@ class ChangeSeries:
         (``.qml``: "when" in one colour per interval); ``.gpkg`` the cells of each interval, a
         layer each (``cells_1``, ``cells_2``, ...); ``.png`` the map of "when"; ``.html`` the
         report with each interval's map."""
-        from ..io import CLOUD_EXTENSIONS, output_group
+        from ..io import output_group
+        from ..io.formats import IMAGE, POINTS, RASTER, REPORT, VECTOR, format_of
 
-        ext = as_path(path, "saving a change series").suffix.lower()
-        if ext in CLOUD_EXTENSIONS:
-            raise LidarSigError("the points with their cell's change are written for two epochs; run changes on "
-                                "the two epochs of the interval you want them for", path=path)
-        if ext == ".gpkg":
+        fmt = format_of(as_path(path, "saving a change series"))
+        holds = set(fmt.holds) if fmt is not None else set()
+        if POINTS in holds:
+            raise LidarSigError(POINTS_OF_TWO, path=path)
+        if VECTOR in holds:
             from ..io.geopackage import write_geopackage
             from .layers import cells_layer
 
@@ -107,7 +111,7 @@ class ChangeSeries:
                 write_geopackage(path, [cells_layer(m, f"cells_{k + 1}") for k, m in enumerate(self.maps)],
                                  overwrite=overwrite)
             return
-        if ext in (".tif", ".tiff"):
+        if RASTER in holds:
             from ..io.geotiff import write_geotiff
             from ..io.styles import style_path, write_style
             from .layers import when_style
@@ -128,15 +132,16 @@ class ChangeSeries:
                 write_geotiff(path, rasters, descriptions, self.grid.transform, self.maps[0].crs,
                               overwrite=overwrite, tags=tags)
                 write_style(style_path(path), when_style(self, len(rasters)), overwrite=overwrite)
-        elif ext == ".png":
+        elif IMAGE in holds:
             from ..io.png import write_png
             from ..reporting import when_map_image
 
             with step(f"writing {Path(path).name}"):
                 write_png(path, when_map_image(self), overwrite=overwrite)
-        elif ext in (".html", ".htm"):
+        elif REPORT in holds:
             self.report().save(path, overwrite=overwrite)
         else:
+            ext = Path(path).suffix.lower()
             raise LidarSigError(f"cannot write a change series as {ext or '(no extension)'!r}; use .tif, .gpkg, "
                                 ".png or .html", path=path)
 

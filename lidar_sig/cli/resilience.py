@@ -3,7 +3,7 @@ import json
 
 import click
 
-from ..errors import LidarSigError, counted
+from ..errors import counted
 from ..io import check_output, read
 from .group import cli
 from .options import (Default, columns_option, not_empty, number_list, overwrite_option, pipeline_options,
@@ -39,8 +39,9 @@ def resilience_command(source, fractions, repeats, seed, as_json, plot, render, 
 
     values = check_fractions(number_list(fractions, "--fractions"), "--fractions")
     if plot:
-        if not plot.lower().endswith(".png"):
-            raise LidarSigError("the plot is written as .png", path=plot)
+        from ..io.formats import IMAGE, check_format
+
+        check_format(plot, IMAGE, said="the plot")
         check_output(plot, overwrite=overwrite)
     result = resilience(read(source, columns=columns), pipeline, fractions=values, repeats=repeats, seed=seed,
                         render=render or "smooth", progress=False if quiet else None)

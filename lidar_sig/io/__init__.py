@@ -18,7 +18,7 @@ from ..progress import step
 if TYPE_CHECKING:
     from ..cloud import PointCloud
 from .atomic import atomic_output, check_output, check_outputs, output_group
-from .formats import (CLOUD_EXTENSIONS, HDF5_EXTENSIONS, LAS_EXTENSIONS, OPEN3D_EXTENSIONS, POINTS, SIGNATURE,
+from .formats import (CLOUD_EXTENSIONS, HDF5_EXTENSIONS, LAS_EXTENSIONS, POINTS, SIGNATURE,
                       TEXT_EXTENSIONS, format_of)
 
 # name -> the module of this package that defines it, loaded on first use
@@ -86,10 +86,8 @@ def check_cloud_output(path, cloud):
     """Refuse, before any work, a cloud that the format of ``path`` cannot hold (see
     :func:`lidar_sig.io.las.check_las_output`)."""
     fmt = format_of(path)
-    if fmt is not None and fmt.streamed:  # LAS/LAZ: its scale must hold the coordinates
-        from .las import check_las_output
-
-        check_las_output(cloud, path)
+    if fmt is not None and fmt.check is not None:  # LAS/LAZ: its scale must hold the coordinates
+        fmt.load("check")(cloud, path)
 
 
 def write_cloud(path, cloud, saliency, *, scale_kind=None, scale_values=None, overwrite=False, extra=None):

@@ -1,7 +1,8 @@
 """The file formats lidar_sig reads and writes, one :class:`Format` each: its name, extensions,
-what it holds, and where its reader and writer are. Known without loading any format's module or
-library (laspy, h5py, Open3D), so that the command line checks its output names first; every
-check of a path's format asks this table (:func:`format_of`, :func:`check_format`).
+what it holds, where its reader, writer and check of a cloud are, whether results stream into it.
+Known without loading any format's module or library (laspy, h5py, Open3D), so that a job checks
+its output names before any work; the code asks this table (:func:`format_of`, :func:`holds`,
+:func:`check_format`) what a path is rather than testing extensions itself.
 """
 from __future__ import annotations
 
@@ -21,8 +22,9 @@ POINTS, SIGNATURE, IMAGE, RASTER, VECTOR, REPORT = "points", "signature", "image
 class Format:
     """A file format: ``name``, ``extensions`` (lower case), what it ``holds`` (point clouds with
     per-point outputs, signatures, images, rasters, vector layers, reports), its ``reader`` and
-    ``writer`` of point clouds as ``"module:function"`` (loaded when first used), and whether
-    the per-point results of a run in tiles can be ``streamed`` into it chunk by chunk."""
+    ``writer`` of point clouds as ``"module:function"`` (loaded when first used), its ``check``
+    of a cloud before any work (``check(cloud, path)`` refuses one the format cannot hold), and
+    whether the per-point results of a run in tiles can be ``streamed`` into it chunk by chunk."""
 
     name: str
     extensions: tuple[str, ...]
@@ -32,9 +34,10 @@ class Format:
     streamed: bool = False
     #: Keyword options the reader takes (text files: ``columns``).
     options: tuple[str, ...] = ()
+    check: str | None = None
 
     def load(self, which: str) -> Callable[..., Any]:
-        """The format's ``"reader"`` or ``"writer"`` function, its module imported now."""
+        """The format's ``"reader"``, ``"writer"`` or ``"check"`` function, its module imported now."""
         where = getattr(self, which)
         if where is None:
             raise LidarSigError(f"{self.name} files have no point-cloud {which} here")
@@ -44,7 +47,7 @@ class Format:
 
 FORMATS = (
     Format("LAS/LAZ", (".las", ".laz"), (POINTS,), "lidar_sig.io.las:read_las", "lidar_sig.io.las:write_las",
-           streamed=True),
+           streamed=True, check="lidar_sig.io.las:check_las_output"),
     Format("PLY/PCD", (".ply", ".pcd"), (POINTS,), "lidar_sig.io.open3d:read_open3d",
            "lidar_sig.io.open3d:write_open3d"),
     Format("text", (".xyz", ".txt", ".pts", ".csv"), (POINTS,), "lidar_sig.io.text:read_text",
@@ -76,10 +79,10 @@ def holds(path: Any, what: str) -> bool:
 
 def check_format(path: Any, what: str, *, said: str | None = None) -> Format:
     """The format of ``path``, which must hold ``what``; else a LidarSigError naming the path and
-    the extensions that do (``said``: how the message calls what is written)."""
+    the extensions that do (``said``: what is written, for the message)."""
     f = format_of(path)
     if f is None or what not in f.holds:
-        raise LidarSigError(f"{said or 'this output'} is written as {', '.join(extensions(what))}", path=path)
+        raise LidarSigError(f"give {' or '.join(extensions(what))} for {said or 'this output'}", path=path)
     return f
 
 

@@ -157,8 +157,9 @@ def write_geopackage(path, layers, *, overwrite=False):
     """Write ``layers`` to the GeoPackage ``path``: a list of :class:`Layer`, or {CRS (WKT or
     None): [(ring (K, 2), {field: value}), ...]}, one layer per CRS, named "tiles" (with one CRS)
     or "tiles_<EPSG code>" (:func:`tile_layers`)."""
-    if not str(path).lower().endswith(".gpkg"):
-        raise LidarSigError("a GeoPackage is written as .gpkg", path=path)
+    from .formats import VECTOR, check_format
+
+    check_format(path, VECTOR, said="a GeoPackage")
     if isinstance(layers, dict):
         layers = tile_layers(layers)
     with atomic_output(path, overwrite=overwrite) as tmp:

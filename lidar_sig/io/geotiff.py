@@ -11,7 +11,6 @@ A viewer then reads any part at any zoom without reading the whole file, also ov
 """
 from __future__ import annotations
 
-from pathlib import Path
 
 import numpy as np
 
@@ -22,7 +21,6 @@ from .atomic import atomic_output, check_output
 NODATA = -9999.0
 #: Tile side in pixels of the COG, and the size of its smallest overview.
 TILE = 256
-GEOTIFF_EXTENSIONS = (".tif", ".tiff")
 
 
 def rasterio_module():
@@ -37,8 +35,9 @@ def rasterio_module():
 def check_geotiff_output(path, *, overwrite=False):
     """Refuse, before any work, a GeoTIFF output that cannot be written: wrong extension, no
     rasterio, existing file (unless ``overwrite``), missing or read-only folder."""
-    if Path(path).suffix.lower() not in GEOTIFF_EXTENSIONS:
-        raise LidarSigError("the change map is written as a GeoTIFF: give a .tif file", path=path)
+    from .formats import RASTER, check_format
+
+    check_format(path, RASTER, said="the change map (a GeoTIFF)")
     rasterio_module()
     check_output(path, overwrite=overwrite)
 

@@ -13,25 +13,27 @@ def write_result(result, path, *, overwrite=False, points=True, render="smooth")
     cloud with per-point saliency (.las/.laz extra dimensions, .ply/.pcd attributes,
     .xyz/.txt/.pts/.csv columns), a signature archive (.h5/.hdf5, with per-point datasets unless
     ``points=False``) or an image of Sas (.png); images are rendered as ``render``."""
-    from . import CLOUD_EXTENSIONS, HDF5_EXTENSIONS, write_archive, write_cloud
+    from . import write_archive, write_cloud
+    from .formats import IMAGE, POINTS, SIGNATURE, format_of
     from .png import write_signature_png
 
     path = as_path(path, "write")
     if not isinstance(overwrite, bool):
         raise LidarSigError(f"overwrite must be True or False, got {overwrite!r}")
-    ext = path.suffix.lower()
+    fmt = format_of(path)
+    holds = set(fmt.holds) if fmt is not None else set()
     with step(f"writing {path.name}", points=len(result.cloud)):
-        if ext in CLOUD_EXTENSIONS:
+        if POINTS in holds:
             write_cloud(path, result.cloud, result.saliency, scale_kind=result.metadata["scale_kind"],
                         scale_values=result.metadata["scale_values"], overwrite=overwrite)
-        elif ext in HDF5_EXTENSIONS:
+        elif SIGNATURE in holds:
             cloud = result.cloud
             sources = [cloud.path] if cloud.path and Path(cloud.path).is_file() else []
             write_archive(path, result.signature, saliency=result.saliency if points else None,
                           labels=cloud.labels if points else None, sources=sources,
                           render=render, overwrite=overwrite)
-        elif ext == ".png":
+        elif IMAGE in holds:
             write_signature_png(path, result.signature, mode=render, overwrite=overwrite)
         else:
-            raise LidarSigError(f"cannot write {ext or 'files without extension'}; use a point-cloud "
-                                "format, .h5 or .png", path=path)
+            raise LidarSigError(f"cannot write {path.suffix.lower() or 'files without extension'}; use a "
+                                "point-cloud format, .h5 or .png", path=path)

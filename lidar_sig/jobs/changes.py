@@ -32,12 +32,13 @@ def changes(epochs: Any, *, output: Any = None, cells: Any = None, points: Any =
     from ..io import output_group
     from ..io.styles import style_path
 
-    epochs = list(epochs)
+    epochs = list(epochs) if isinstance(epochs, (list, tuple)) else [epochs]
     if len(epochs) < 2:
         raise LidarSigError("give at least two epochs (A B), in time order")
     if points and len(epochs) > 2:
-        raise LidarSigError("the points with their cell's change are written for two epochs; run changes on the two "
-                            "epochs of the interval you want them for", path=points)
+        from ..change_map.series import POINTS_OF_TWO
+
+        raise LidarSigError(POINTS_OF_TWO, path=points)
     check_outputs(output, png, report, overwrite, cells, points)
     result = change_map(*epochs, **options)
     done = ChangesRun(changes=result, top=top)

@@ -13,8 +13,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ..errors import LidarSigError
-from ..io import CLOUD_EXTENSIONS, LAS_EXTENSIONS, check_cloud_output, check_output, read
+from ..errors import LidarSigError, arg, as_path
+from ..io import CLOUD_EXTENSIONS, check_cloud_output, check_output, read
+from ..io.formats import POINTS, format_of, holds
 from .common import JobRun, as_sources, is_set, work_folder
 
 
@@ -24,6 +25,12 @@ class SaliencyRun(JobRun):
     set; a closed :class:`~lidar_sig.tiling.results.TiledResult` for one run in tiles)."""
 
     result: Any = None
+
+    def to_dict(self) -> dict[str, Any]:
+        out = super().to_dict()
+        if self.result is not None:
+            out["run"] = self.result.to_dict()
+        return out
 
 
 def saliency(sources: Any, output: str | Path, *, pipeline: Any = None, execution: Any = None,
@@ -56,13 +63,16 @@ def saliency(sources: Any, output: str | Path, *, pipeline: Any = None, executio
     pipeline = pipeline_or_default(pipeline)
     execution = as_execution(execution)
     sources = as_sources(sources)
-    output = Path(output)
-    one_output = (len(sources) == 1 and Path(sources[0]).is_file() and not resume
-                  and output.suffix.lower() in CLOUD_EXTENSIONS)  # one file in, one file out
+    output = as_path(output, "saliency's output")
+    one_output = len(sources) == 1 and Path(sources[0]).is_file() and holds(output, POINTS)  # one file in, one out
+    if resume and one_output:
+        raise LidarSigError(f"{arg('resume', True)} continues a set's run from its kept work folder, and one file in "
+                            f"tiles keeps none (it starts over); leave out {arg('resume', True)}, or give a folder as "
+                            "output to run the file as a set", path=output)
     if is_set(sources, execution, resume) and not one_output:
         return _of_set(sources, output, pipeline, execution, overwrite, resume)
     source = sources[0]
-    if output.suffix.lower() not in CLOUD_EXTENSIONS:
+    if not holds(output, POINTS):
         raise LidarSigError(f"output must be a point cloud: {', '.join(CLOUD_EXTENSIONS)}", path=output)
     check_output(output, overwrite=overwrite)
     start = time.perf_counter()
@@ -91,10 +101,11 @@ def check_las_output(output: Path, over: int | None, execution: Any) -> None:
     from ..errors import arg
     from ..tiling.memory import exceed
 
-    if output.suffix.lower() not in LAS_EXTENSIONS:
-        what = f"{exceed(over, int(execution.memory))}; tiles" if over else "a file processed in tiles"
+    fmt = format_of(output)
+    if fmt is None or not fmt.streamed:
+        what = f"{exceed(over, int(execution.memory))}; tiles" if over else "a file processed in tiles: tiles"
         fix = f"raise {arg('memory')}" if over else f"leave out {arg('tile_size')}, {arg('workers')} and {arg('scheduler')}"
-        raise LidarSigError(f"{what} write per-point results to LAS/LAZ only: give a .las or .laz name, or {fix}",
+        raise LidarSigError(f"{what} stream per-point results to LAS/LAZ only: give a .las or .laz name, or {fix}",
                             path=output)
 
 
@@ -102,7 +113,8 @@ def output_name(outdir: Path, source: Any) -> Path:
     """Per-point output of one input file of a set: its name, in ``outdir`` (LAS stays LAS,
     LAZ LAZ)."""
     p = Path(source.path)
-    return outdir / (p.name if p.suffix.lower() in LAS_EXTENSIONS else p.stem + ".laz")
+    fmt = format_of(p)
+    return outdir / (p.name if fmt is not None and fmt.streamed else p.stem + ".laz")
 
 
 def _of_set(sources, outdir, pipeline, execution, overwrite, resume):
@@ -112,7 +124,7 @@ def _of_set(sources, outdir, pipeline, execution, overwrite, resume):
 
     start = time.perf_counter()
     files = expand(sources)  # the inputs first: an empty folder is named, not the output
-    if outdir.suffix.lower() in CLOUD_EXTENSIONS or (outdir.exists() and not outdir.is_dir()):
+    if holds(outdir, POINTS) or (outdir.exists() and not outdir.is_dir()):
         raise LidarSigError("a set of tiles writes one file per input: give a folder as output", path=outdir)
     outputs = {s.path: output_name(outdir, s) for s in scan(files)}
     inputs = {Path(p).resolve(): p for p in outputs}

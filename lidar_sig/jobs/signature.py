@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import LidarSigError, arg
-from ..io import HDF5_EXTENSIONS, check_outputs, output_group, read
+from ..io import check_outputs, output_group, read
 from .common import JobRun, as_sources, is_set, work_folder
 
 
@@ -63,17 +63,19 @@ def signature(sources: Any, output: str | Path | None = None, *, png: str | Path
         raise LidarSigError(f"{exceed(over, int(execution.memory))}; {arg('report')} and {arg('plots')} need the whole "
                             f"cloud in memory: raise {arg('memory')}, or write the archive", path=sources[0])
     if tiled and (report or plots):
-        raise LidarSigError(f"{arg('report')} and {arg('plots')} are made from one cloud; for a set of tiles write "
-                            "the archive and compare it")
+        raise LidarSigError(f"{arg('report')} and {arg('plots')} are made from one cloud: give one file without "
+                            f"{arg('tile_size')}, {arg('workers')} or {arg('scheduler')}; for a set of tiles write the "
+                            "archive and compare it")
     if output is None and not (report or plots):
         raise LidarSigError(f"give an output: an .h5 or .png file, and/or a {arg('report')} or {arg('plots')}")
-    ext = Path(output).suffix.lower() if output else None
-    if output and ext not in HDF5_EXTENSIONS + (".png",):
+    from ..io.formats import IMAGE, SIGNATURE, check_format, holds
+
+    if output and not (holds(output, SIGNATURE) or holds(output, IMAGE)):
         raise LidarSigError("the signature is written as .h5 (archive) or .png (image)", path=output)
+    ext = "image" if output and holds(output, IMAGE) else "archive" if output else None
     images = [p for p in (png, sg) if p]
     for path in images:
-        if Path(path).suffix.lower() != ".png":
-            raise LidarSigError("signature images are written as .png", path=path)
+        check_format(path, IMAGE, said="a signature's image")
     outputs = [str(p) for p in ([output] if output else []) + images]
     check_outputs(outputs + ([str(report)] if report else []), overwrite=overwrite)  # all of them, before any work
     if report or plots:
@@ -118,7 +120,7 @@ def _write(sig, output, ext, png, sg, render, overwrite, *, archive):
     render=)`` writes the .h5 of the run."""
     from ..io.png import write_signature_png
 
-    if ext == ".png":
+    if ext == "image":
         write_signature_png(output, sig, kind="sas", mode=render, overwrite=overwrite)
     elif output:
         archive(output, overwrite=overwrite, render=render)
