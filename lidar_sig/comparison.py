@@ -137,8 +137,10 @@ def compare(a: Any, b: Any, *, pipeline: Any = None, render: str | None = None, 
     >>> ls.compare("epoch1.laz", "epoch2.laz")["l1"]                              # doctest: +SKIP
     0.1558...
     """
+    # a pipeline given is the whole method the caller means: an archive made otherwise is refused
+    given = ("pipeline",) if pipeline is not None else ()
     return compare_sources(a, b, pipeline, render=render, columns=columns, execution=execution,
-                           color_bins=color_bins)
+                           color_bins=color_bins, method_given=given)
 
 
 def metric_scales(values):
@@ -169,7 +171,8 @@ def report(a: Any, b: Any = None, pipeline: Any = None, *, render: str | None = 
     if isinstance(a, Comparison):
         return comparison_report(a)
     if b is not None:
-        return comparison_report(compare_sources(a, b, pipeline, render=render, columns=columns))
+        given = ("pipeline",) if pipeline is not None else ()
+        return comparison_report(compare_sources(a, b, pipeline, render=render, columns=columns, method_given=given))
     return signature_report(side_of(a, pipeline, columns), render=render or "smooth")
 
 
@@ -318,14 +321,17 @@ def _archive_pipeline(signature, pipeline, method_given, name):
     from .pipeline import Pipeline
 
     recorded = {k: signature.metadata[k] for k in signature.metadata if k in pipeline.method()}
-    if "classes" in method_given and signature.classes.names and pipeline.classes != signature.classes:
+    whole = "pipeline" in method_given  # Python: the pipeline given, all of it
+    if (whole or "classes" in method_given) and signature.classes.names and pipeline.classes != signature.classes:
         raise LidarSigError(f"{name} is an archive made with class table {signature.classes.name!r}, not "
-                            f"{pipeline.classes.name!r}; leave out {arg('classes')} or make the archive again with it")
+                            f"{pipeline.classes.name!r}; leave out {arg('pipeline' if whole else 'classes')} or make "
+                            "the archive again with it")
     if set(method_given) - {"classes"}:
         differ = method_differences(recorded, pipeline.method())
         if differ:
             raise LidarSigError(f"{name} is an archive made with another method (" + "; ".join(differ)
-                                + "); leave out the method options to compute the cloud the archive's way")
+                                + f"); leave out {arg('pipeline') if whole else 'the method options'} to compute "
+                                "the cloud the archive's way")
     return Pipeline.from_method(recorded, classes=signature.classes, frame=signature.frame,
                                 progress=pipeline.progress)
 

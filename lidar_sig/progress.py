@@ -22,8 +22,9 @@ Progress takes one of two forms (docs/scripting.md):
 Which form, if any: an explicit ``enabled`` wins (False: none; True: lines if the environment
 variable ``LIDAR_SIG_PROGRESS`` says ``lines``, else bars); else the setting of the enclosing
 :func:`settings` block (the command line's ``--quiet`` is False); else ``LIDAR_SIG_PROGRESS``:
-``auto`` (the default: bars when stderr is a terminal, lines otherwise), ``lines``, ``bars`` or
-``none``. tqdm is imported when a bar is first made or a line said above one (not when the
+``auto`` (the default: bars when stderr is a terminal; otherwise lines from the command line, a
+program reading its stderr, and nothing from Python, a script or a notebook), ``lines``, ``bars``
+or ``none``. tqdm is imported when a bar is first made or a line said above one (not when the
 command line starts).
 """
 from __future__ import annotations
@@ -37,7 +38,7 @@ import threading
 import time
 from collections.abc import Iterator
 
-from .errors import LidarSigError
+from .errors import FACE, LidarSigError
 
 log = logging.getLogger("lidar_sig")
 
@@ -76,7 +77,9 @@ def form(enabled=None):
     setting = environment_setting()
     if enabled is None:
         if setting == "auto":
-            return "bars" if sys.stderr.isatty() else "lines"
+            if sys.stderr.isatty():
+                return "bars"
+            return "lines" if FACE.get() == "cli" else None  # a program reads the command's stderr
         return None if setting == "none" else setting
     return "lines" if setting == "lines" else "bars"  # asked for explicitly
 

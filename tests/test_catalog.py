@@ -280,7 +280,7 @@ def test_a_dask_cluster_makes_the_same_catalogue(tmp_path):
         finally:
             backend.close()
     assert on_dask.complete and on_dask.execution.startswith("Dask")
-    here = build_catalog([tiles], tmp_path / "here.h5")
+    build_catalog([tiles], tmp_path / "here.h5")
     a, b = ls.Catalog(tmp_path / "dask.h5"), ls.Catalog(tmp_path / "here.h5")
     for name in ("a.laz", "b.laz"):  # every count and vector as in this process
         assert np.array_equal(a.signature(name).counts, b.signature(name).counts)

@@ -5,7 +5,6 @@ detection and the must-show figures on real data: tests/test_change_lod.py."""
 import importlib.util
 import json
 import re
-import shutil
 import subprocess
 import sys
 import warnings

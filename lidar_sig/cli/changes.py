@@ -70,7 +70,7 @@ def changes_command(epochs, output, cells, points, cell, min_points, score, conf
                        class_map=list(class_map) or None)
     result, written = done.changes, done.lines
     if as_json:
-        click.echo(json.dumps(result.to_dict(top)))
+        click.echo(json.dumps(done.to_dict()))
         return
     maps = result.maps if isinstance(result, ChangeSeries) else [result]
     first = maps[0]

@@ -35,7 +35,7 @@ def compare(a, b, as_json, report, plots, render, overwrite, columns, execution,
     for note in result.warnings:
         click.echo(f"lidar-sig: warning: {note}", err=True)
     if as_json:
-        click.echo(json.dumps(result.to_dict()))
+        click.echo(json.dumps(done.to_dict()))
         return
     for label, side in (("A", result.a), ("B", result.b)):
         line = side.result.summary(side.name) if side.result is not None else archive_summary_line(side)

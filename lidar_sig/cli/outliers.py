@@ -33,7 +33,7 @@ def outliers(catalogue, output, report, reach, top, as_json, overwrite, quiet):
         done = outliers_job(catalogue, output=output, report=report, reach=reach, overwrite=overwrite)
     found = done.found
     if as_json:
-        click.echo(json.dumps(found.to_dict()))
+        click.echo(json.dumps(done.to_dict()))
         return
     if quiet:
         return

@@ -1,14 +1,17 @@
 """`lidar-sig sample`: the embedded sample's files written into a folder."""
+import json
+
 import click
 
 from .group import cli
-from .options import overwrite_option
+from .options import json_option, overwrite_option
 
 
 @cli.command()
 @click.argument("folder")
 @overwrite_option
-def sample(folder, overwrite):
+@json_option
+def sample(folder, overwrite, as_json):
     """Write the embedded sample, a synthetic two-epoch urban scene, into FOLDER: epoch1.laz,
     epoch2.laz (turned by 20 degrees) and epoch2_aligned.laz (epoch 2 on epoch 1's ground).
 
@@ -17,6 +20,11 @@ def sample(folder, overwrite):
     """
     from ..data import write_sample
 
-    for f in write_sample(folder, overwrite=overwrite):
+    files = write_sample(folder, overwrite=overwrite)
+    if as_json:
+        click.echo(json.dumps({"files": [{"path": str(f.path), "points": f.points, "written": f.written}
+                                         for f in files]}))
+        return
+    for f in files:
         click.echo(f"{'wrote' if f.written else 'kept'} {f.path} ({f.points:,} points"
                    + ("" if f.written else ", already there and the same") + ")")

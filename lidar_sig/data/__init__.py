@@ -60,8 +60,11 @@ def write_sample(folder: str | Path, *, overwrite: bool = False) -> list[SampleF
             raise LidarSigError(f"exists and is not the sample's file; pass {arg('overwrite', True)} to "
                                 "replace it, or give another folder", path=path)
         todo[name] = data
+    from ..io.atomic import os_errors
+
     created = not folder.exists()
-    folder.mkdir(exist_ok=True)
+    with os_errors(folder):
+        folder.mkdir(exist_ok=True)
     try:
         with output_group():
             for name, data in todo.items():

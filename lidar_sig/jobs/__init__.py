@@ -10,8 +10,9 @@ and the QGIS provider only gather options and show the result (docs/python.md, "
 from .catalog import CatalogJob, OutliersRun, catalog, outliers
 from .changes import ChangesRun, changes
 from .compare import CompareRun, compare
+from .info import Description, info
 from .saliency import SaliencyRun, saliency
 from .signature import SignatureRun, signature
 
-__all__ = ["CatalogJob", "ChangesRun", "CompareRun", "OutliersRun", "SaliencyRun", "SignatureRun", "catalog", "changes",
-           "compare", "outliers", "saliency", "signature"]
+__all__ = ["CatalogJob", "ChangesRun", "CompareRun", "Description", "OutliersRun", "SaliencyRun", "SignatureRun",
+           "catalog", "changes", "compare", "info", "outliers", "saliency", "signature"]

@@ -104,7 +104,8 @@ def cells_table(cm, top):
         also = ", ".join(names[k] for k in item["significant_metrics"]) or "none"
         rows.append([f"{item['rank']}{' *' if item['significant'] else ''}", f"{x0:.0f} to {x1:.0f}<br>{y0:.0f} to "
                      f"{y1:.0f}", f"{item['points_a']:,} / {item['points_b']:,}", f"{item['score']:.4f}", lod,
-                     f"{item['height']:.2f} / {item['height_lod']:.2f}", f"{item['z']:.1f}",
+                     f"{item['height']:.2f} / " + ("" if item["height_lod"] is None else f"{item['height_lod']:.2f}"),
+                     "" if item["z"] is None else f"{item['z']:.1f}",
                      "<br>".join(f"{names[k]} {item[k]:.3f}" for k in ("bhattacharyya", "emd_info", "fv", "l1")
                                  if item[k] is not None) + f"<br>significant in: {page.esc(also)}", composition])
     height = cm.names[cm.tests[1]]

@@ -13,7 +13,6 @@ import shutil
 import signal
 import subprocess
 import sys
-import time
 
 import h5py
 import laspy
@@ -22,8 +21,8 @@ import pytest
 
 import lidar_sig as ls
 from command_line import run, run_process
-from conftest import DATA, SAMPLES, airborne_like, need_data
-from robustness.helpers import assert_one_line_error, digests, fill, leftovers, mounted_tmpfs, write_las
+from conftest import DATA, airborne_like, need_data
+from robustness.helpers import assert_one_line_error, digests, fill, mounted_tmpfs, write_las
 
 #: An offset that puts the synthetic scene in Lambert-93 coordinates.
 OFFSET = np.array([770500.0, 6277500.0, 0.0])
