@@ -217,24 +217,20 @@ def compare_sources(a: Any, b: Any, pipeline: Any = None, *, render: str | None 
     from .pipeline import pipeline_or_default
     from .result import Result
     from .tiling.execution import as_execution
-    from .tiling.memory import one_block_note, points_over_budget
 
     pipeline = pipeline_or_default(pipeline)
     execution = as_execution(execution)
     names = [input_name(x) for x in (a, b)]
     as_set = execution.tiles_asked
-    memory = int(execution.memory)
-    over = [points_over_budget(x, memory) if not as_set else None for x in (a, b)]
-    loaded = [load_input(x, columns, as_set or bool(n), what) for x, n, what in zip((a, b), over, "ab")]
+    # archives first: an archive's method is the one its other side is computed with, and that
+    # method decides whether a large LAS/LAZ file runs in tiles (execution.over_budget)
+    loaded = [load_input(x, what=what) if _holds_signature(x) else x for x, what in zip((a, b), "ab")]
     sigs = [x for x in loaded if isinstance(x, Signature)]
     if sigs:
         reference = sigs[0]
         pipeline = _archive_pipeline(reference, pipeline, method_given, names[loaded.index(reference)])
-    for i, n in enumerate(over):
-        if n and not pipeline.descriptor.tileable:  # a descriptor that needs the whole cloud: one block after all
-            warnings.warn(one_block_note(names[i], n, memory, pipeline.descriptor.name), LidarSigWarning,
-                          stacklevel=2)
-            loaded[i] = load_input(loaded[i], columns)
+    over = [None if as_set else execution.over_budget(x, pipeline) for x in loaded]
+    loaded = [load_input(x, columns, as_set or bool(n), what) for x, n, what in zip(loaded, over, "ab")]
     # a set's labels are known once it is run: with an unlabelled cloud or archive on the other
     # side, it is run without them straight away (see geometry_only below)
     unlabelled = (any(not x.classes.names for x in sigs)
@@ -313,6 +309,15 @@ def load_input(x, columns=None, as_set=False, what="the input"):
             return load_signature(x)
         return read(x, columns=columns)
     raise LidarSigError(f"{what} is {a_kind(x)}: give a file path, a PointCloud, a Signature or a Result to compare")
+
+
+def _holds_signature(x):
+    """Whether ``x`` is a signature, a result or an archive file (.h5) rather than points."""
+    from .io import HDF5_EXTENSIONS
+    from .result import Result
+
+    return (isinstance(x, (Signature, Result))
+            or isinstance(x, (str, Path)) and not Path(x).is_dir() and Path(x).suffix.lower() in HDF5_EXTENSIONS)
 
 
 def _archive_pipeline(signature, pipeline, method_given, name):
@@ -396,22 +401,20 @@ def _unlabelled(pipeline):
 
 def _signature_of_set(folder, pipeline, execution, over=None):
     """The signature of a folder of LAS/LAZ tiles (or one LAS/LAZ file) processed as one set,
-    with scratch files in the execution's work folder or a temporary one (``TMPDIR``), removed
-    after the run, and whether its points are labelled; refuses an incomplete set. ``over``: the
+    with scratch files in a new folder inside the execution's ``work_dir`` or the temporary
+    folder (``TMPDIR``), removed after the run, and whether its points are labelled; refuses an incomplete set. ``over``: the
     points of one file processed in tiles because of the memory budget (a note says so)."""
-    import tempfile
-
     from .tiling.memory import exceed
     from .tiling.run import run_set
-    from .tiling.work import remove_work
+    from .tiling.work import discard_work, fresh_work
 
-    with execution.backend() as backend, tempfile.TemporaryDirectory(prefix="lidar-sig-") as tmp:
-        work = Path(execution.work_dir) if execution.work_dir is not None else Path(tmp) / "work"
-        try:
+    work = fresh_work(execution.work_dir)
+    try:
+        with execution.backend() as backend:
             run = run_set(pipeline, [folder], work=work, tile_size=execution.tile_size, backend=backend,
                           memory=execution.memory)
-        finally:
-            remove_work(work)
+    finally:
+        discard_work(work)
     if not run.complete:
         raise LidarSigError("the set is incomplete, its signature would lack points: " + "; ".join(run.missing),
                             path=folder)

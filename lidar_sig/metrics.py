@@ -40,9 +40,9 @@ class Metric:
     and another city ({case: (low, high)}, the 7 references of docs/comparison.md's ordering
     benchmark with the defaults; a rotated copy gives ``same``); how it is computed (``of``,
     from two :class:`Operand`), whether it ``needs_labels`` (None when a cloud has none), and
-    whether it comes ``from_vectors`` of each signature alone (colour histogram, Egeom
-    histogram, Fisher vector, class totals: a catalogue screens every pair with it) rather
-    than from images or a transport problem per pair."""
+    its form over ``rows`` of vectors when it comes from each signature's vectors alone (colour
+    histogram, Egeom histogram, Fisher vector, class totals: a catalogue screens every pair
+    with it) rather than from images or a transport problem per pair."""
 
     key: str
     name: str
@@ -54,7 +54,14 @@ class Metric:
     references: dict = None
     of: Callable[[Any, Any], float] = None
     needs_labels: bool = False
-    from_vectors: bool = True
+    rows: Callable[[Any, Any], np.ndarray] | None = None
+
+    @property
+    def from_vectors(self):
+        """Whether the metric has a row-wise form (:attr:`rows`: every row of one set of
+        signature vectors against every row of another, a (Q, N) array), so that a catalogue
+        screens all its pairs with a few array operations."""
+        return self.rows is not None
 
     @property
     def distance_name(self):
@@ -113,32 +120,37 @@ METRICS = (
            "Bhattacharyya distance of Sas colour histograms",
            "which semantic classes cover how much of the signature (the colours of Sas), not where",
            _references((0.0381, 0.1967), (0.2187, 0.5872), (0.6450, 0.7772)),
-           of=lambda a, b: bhattacharyya(a.color, b.color)),
+           of=lambda a, b: bhattacharyya(a.color, b.color),
+           rows=lambda a, b: bhattacharyya_rows(a.color, b.color)),
     Metric("ssim", "s_SSIM", "-1 to 1", 1.0, False, "structural similarity of Sg images",
            "the shape of the geometric signature Sg: where in the triangle the points lie, locally",
            _references((0.9192, 0.9765), (0.8998, 0.9656), (0.6825, 0.8607)),
-           of=lambda a, b: ssim(a.sg, b.sg, a.mask), from_vectors=False),
+           of=lambda a, b: ssim(a.sg, b.sg, a.mask)),
     Metric("emd_info", "d_EMD-Info", "0 to ln 3 (1.10) nats", 0.0, True, "EMD of Egeom histograms (nats)",
            "how mixed the local geometry is (Egeom): e.g. more vegetation or clutter raises it",
            _references((0.0052, 0.0424), (0.0131, 0.1154), (0.0401, 0.3044)),
-           of=lambda a, b: emd_info(a.egeom, b.egeom)),
+           of=lambda a, b: emd_info(a.egeom, b.egeom),
+           rows=lambda a, b: emd_info_rows(a.egeom, b.egeom)),
     Metric("emd_img", "d_EMD-Img", "0 to 1.73", 0.0, True, "EMD of Sas colour histograms (RGB in [0, 1])",
            "the colours of Sas like d_BD-Img, but a change to a similar colour counts less",
            _references((0.0080, 0.0341), (0.0500, 0.1611), (0.1751, 0.3291)),
-           of=lambda a, b: emd_img(a.color, b.color, bins=a.color_bins), from_vectors=False),
+           of=lambda a, b: emd_img(a.color, b.color, bins=a.color_bins)),
     Metric("fv", "delta_FV", "0 to 2", 0.0, True, "distance of Fisher vectors of saliency positions",
            "shifts of the points' distribution in the triangle (line-, surface- or point-type), "
            "at the scale of an eighth of its side",
            _references((0.0175, 0.2054), (0.0928, 0.5503), (0.3935, 0.7881)),
-           of=lambda a, b: float(np.linalg.norm(a.fv - b.fv))),
+           of=lambda a, b: float(np.linalg.norm(a.fv - b.fv)),
+           rows=lambda a, b: _cdist(a.fv, b.fv, "euclidean")),
     Metric("kl", "delta_KL", "0 to infinity", 0.0, True, "symmetric KL divergence of class distributions",
            "changes in class shares, strongly where a class is rare in one cloud",
            _references((0.0000, 0.0002), (0.0150, 0.5972), (1.7644, 7.0806)),
-           of=lambda a, b: symmetric_kl(a.totals, b.totals), needs_labels=True),
+           of=lambda a, b: symmetric_kl(a.totals, b.totals), needs_labels=True,
+           rows=lambda a, b: symmetric_kl_rows(a.totals, b.totals)),
     Metric("l1", "L1", "0 to 2", 0.0, True, "L1 distance of class distributions",
            "changes in class shares: twice the share of points that would have to change class",
            _references((0.0006, 0.0114), (0.1057, 0.6154), (0.6531, 1.1463)),
-           of=lambda a, b: l1_distance(a.totals, b.totals), needs_labels=True),
+           of=lambda a, b: l1_distance(a.totals, b.totals), needs_labels=True,
+           rows=lambda a, b: _cdist(_shares(a.totals), _shares(b.totals), "cityblock")),
 )
 #: Keys of the metrics (of :func:`compare`'s dict), in the order of METRICS: the order of every
 #: table of metrics and of the change map's GeoTIFF bands.
@@ -149,6 +161,52 @@ SEMANTIC_KEYS = tuple(m.key for m in METRICS if m.needs_labels)
 METRIC_NAMES = {m.key: m.name for m in METRICS}
 #: Each metric by key.
 METRIC = {m.key: m for m in METRICS}
+
+
+def _shares(counts):
+    """Each row of ``counts`` (N, C) divided by its total (rows of zeros stay zeros)."""
+    counts = np.asarray(counts, dtype=np.float64)
+    return counts / np.maximum(counts.sum(axis=1, keepdims=True), 1e-300)
+
+
+def _cdist(a, b, kind):
+    from scipy.spatial.distance import cdist
+
+    return cdist(a, b, kind)
+
+
+def bhattacharyya_rows(p, q):
+    """d_BD-Img of every histogram of ``p`` (M, B) against every one of ``q`` (N, B): (M, N)."""
+    return np.sqrt(np.maximum(0.0, 1.0 - np.sqrt(_shares(p)) @ np.sqrt(_shares(q)).T))
+
+
+def emd_info_rows(p, q, *, upper=LN3):
+    """d_EMD-Info (nats) of every Egeom histogram of ``p`` (M, B) against every one of ``q``
+    (N, B), bins of equal width over [0, ``upper``]: (M, N)."""
+    cp, cq = np.cumsum(_shares(p), axis=1), np.cumsum(_shares(q), axis=1)
+    return _cdist(cp[:, :-1], cq[:, :-1], "cityblock") * (upper / np.shape(p)[1])
+
+
+def symmetric_kl_rows(p, q, *, alpha=KL_ALPHA, chunk=64):
+    """delta_KL of every class count vector of ``p`` (M, C) against every one of ``q`` (N, C):
+    (M, N), with :func:`symmetric_kl`'s rule (classes empty in both dropped, ``alpha`` added to
+    every other count of a pair where a class is empty in one cloud only); ``chunk`` rows of
+    ``p`` at a time bound the (chunk, N, C) arrays."""
+    p, q = np.asarray(p, np.float64), np.asarray(q, np.float64)
+    return np.concatenate([_kl_block(p[r:r + chunk], q, alpha) for r in range(0, len(p), chunk)]
+                          ).reshape(len(p), len(q))
+
+
+def _kl_block(p, q, alpha):
+    p, q = p[:, None, :], q[None, :, :]
+    keep = (p > 0) | (q > 0)
+    smooth = (keep & ((p == 0) | (q == 0))).any(axis=2, keepdims=True)
+    p = np.where(keep, p + alpha * smooth, 0.0)
+    q = np.where(keep, q + alpha * smooth, 0.0)
+    p, q = p / p.sum(axis=2, keepdims=True), q / q.sum(axis=2, keepdims=True)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        terms = np.where(keep, (p - q) * np.log(p / q), 0.0)
+    return terms.sum(axis=2)
 
 
 def _as_counts(p, q):

@@ -192,6 +192,22 @@ def test_compare_computes_an_input_over_the_budget_in_tiles_with_the_same_metric
         assert "set of tiles" in (t["a"]["kind"], t["b"]["kind"]) and t["warnings"] == w["warnings"]
 
 
+def test_python_compare_of_a_file_over_the_budget_with_an_archive_runs_it_in_tiles_in_a_folder_of_its_own(tmp_path):
+    # the archive's method is read first; it decides that the LAS file runs in tiles, in a new
+    # folder inside the given work folder (which holds the user's file and keeps it)
+    archive = tmp_path / "epoch2.h5"
+    ls.Pipeline(progress=False).run(SAMPLES / "epoch2.laz").write(archive)
+    work = tmp_path / "work"
+    work.mkdir()
+    (work / "mine.txt").write_text("the user's")
+    whole = ls.compare(EPOCH1, archive)
+    with pytest.warns(ls.LidarSigWarning, match="memory budget as one block: processed in"):
+        tiled = ls.compare(EPOCH1, archive, execution=ls.Execution(memory=SMALL, work_dir=work))
+    assert sorted(p.name for p in work.iterdir()) == ["mine.txt"]
+    for key, value in whole.metrics.items():
+        assert tiled.metrics[key] == pytest.approx(value, rel=1e-12, abs=1e-12), key
+
+
 def test_a_tiled_run_that_fails_or_is_interrupted_leaves_nothing(tmp_path, monkeypatch):
     from lidar_sig.tiling import run as tiling_run
 

@@ -18,8 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..metrics import KL_ALPHA, METRIC, METRIC_KEYS, METRICS, SEMANTIC_KEYS
-from ..saliency import LN3
+from ..metrics import METRIC, METRIC_KEYS, METRICS, SEMANTIC_KEYS
 
 #: Metrics computed from per-tile vectors for every pair (screening), in METRICS' order.
 SCREENING = tuple(m.key for m in METRICS if m.from_vectors)
@@ -44,42 +43,10 @@ def metric_keys(labelled):
 
 def screening(query, tiles, labelled=True):
     """Screening metrics between each row of ``query`` (Features, Q rows) and each tile of
-    ``tiles`` (Features, N rows): a dict key -> (Q, N) float64 array."""
-    from scipy.spatial.distance import cdist
-
-    out = {}
-    hq, ht = _shares(query.color), _shares(tiles.color)
-    out["bhattacharyya"] = np.sqrt(np.maximum(0.0, 1.0 - np.sqrt(hq) @ np.sqrt(ht).T))
-    width = LN3 / query.egeom.shape[1]
-    cq, ct = np.cumsum(_shares(query.egeom), axis=1), np.cumsum(_shares(tiles.egeom), axis=1)
-    out["emd_info"] = cdist(cq[:, :-1], ct[:, :-1], "cityblock") * width
-    out["fv"] = cdist(query.fv, tiles.fv, "euclidean")
-    if labelled:
-        out["kl"] = np.concatenate([_kl_rows(query.totals[r:r + 64], tiles.totals)
-                                    for r in range(0, len(query), 64)]).reshape(len(query), len(tiles))
-        out["l1"] = cdist(_shares(query.totals), _shares(tiles.totals), "cityblock")
-    return {k: out[k] for k in SCREENING if k in out}
-
-
-def _shares(counts):
-    counts = np.asarray(counts, dtype=np.float64)
-    return counts / np.maximum(counts.sum(axis=1, keepdims=True), 1e-300)
-
-
-def _kl_rows(p, q, alpha=KL_ALPHA):
-    """delta_KL of each count vector of ``p`` (M, C) against each row of ``q`` (N, C): (M, N),
-    with the rule of :func:`lidar_sig.metrics.symmetric_kl`: classes empty in both dropped,
-    ``alpha`` added to every other count of a pair where one of them is empty in one cloud only."""
-    p = np.asarray(p, np.float64)[:, None, :]
-    q = np.asarray(q, np.float64)[None, :, :]
-    keep = (p > 0) | (q > 0)
-    smooth = (keep & ((p == 0) | (q == 0))).any(axis=2, keepdims=True)
-    p = np.where(keep, p + alpha * smooth, 0.0)
-    q = np.where(keep, q + alpha * smooth, 0.0)
-    p, q = p / p.sum(axis=2, keepdims=True), q / q.sum(axis=2, keepdims=True)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        terms = np.where(keep, (p - q) * np.log(p / q), 0.0)
-    return terms.sum(axis=2)
+    ``tiles`` (Features, N rows), by each metric's row-wise form
+    (:attr:`lidar_sig.metrics.Metric.rows`): a dict key -> (Q, N) float64 array."""
+    return {m.key: m.rows(query, tiles) for m in METRICS
+            if m.from_vectors and (labelled or not m.needs_labels)}
 
 
 def pair_metrics(a, b, sg_a, sg_b, mask, keys):

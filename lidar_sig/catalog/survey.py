@@ -72,8 +72,9 @@ class Catalog:
 
         self.path = as_path(path, "Catalog")
         self.header, self.columns = read_catalog(self.path)
-        c = self.columns
-        self.features = Features(c["fv"], c["color"], c["egeom"], c["class_totals"], c["n_signature"])
+        columns = self.columns  # named by the archive's layout (docs/archive.md)
+        self.features = Features(columns["fv"], columns["color"], columns["egeom"], columns["class_totals"],
+                                 columns["n_signature"])
         self._sg = {}
 
     @classmethod

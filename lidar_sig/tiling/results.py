@@ -144,8 +144,8 @@ class TiledResult(Result):
     """The :class:`~lidar_sig.result.Result` of one LAS/LAZ file that one block would hold
     above the memory budget, run in tiles with halos (the same values as one block): its
     per-point values stay in the run's work folder, in tiles, until they are asked for
-    (``saliency``, ``cloud``, a point cloud written other than as LAS/LAZ, which hold them all
-    in memory); ``write`` streams them into a LAS/LAZ file chunk by chunk. The work folder is
+    (``saliency`` and ``cloud`` read them all into memory); ``write`` streams them into a
+    LAS/LAZ file chunk by chunk and refuses other point formats, which would hold them all. The work folder is
     removed by :meth:`close`, by leaving a ``with`` block, or when the result is collected.
     """
 

@@ -23,7 +23,6 @@ from __future__ import annotations
 import json
 import math
 import os
-import tempfile
 import time
 from pathlib import Path
 from typing import Any
@@ -40,7 +39,8 @@ from .memory import DEFAULT_MEMORY, budget_bytes, tile_points
 from .results import SetRun, TiledResult, sum_signatures
 from .sources import Cells, cell_files, densest, expand, scan, staged, tile_side_for
 from .tasks import Plan, second_paths, second_task, stage_task, tile_task
-from .work import discard_work, forget_area_cap, prepare_work, remove_work, save_area_cap, saved_area_cap
+from .work import (discard_work, forget_area_cap, fresh_work, prepare_work, remove_work, save_area_cap,
+                   saved_area_cap)
 
 #: Staging cells per tile side.
 CELLS_PER_TILE = 4
@@ -203,13 +203,7 @@ def run_in_tiles(pipeline, source, execution, *, n_points, work=None, outputs=()
     share one). The folder goes with the result (:meth:`TiledResult.close`), or at once when the
     run fails or lacks a point (LidarSigError naming what is missing)."""
     ours = work is None
-    if ours:
-        base = execution.work_dir
-        if base is not None and not Path(base).is_dir():
-            raise LidarSigError(f"{arg('work_dir')} must be a folder that exists (each result in tiles makes its own "
-                                "folder in it)", path=base)
-        work = Path(tempfile.mkdtemp(prefix="lidar-sig-work-", dir=base))
-    work = Path(work)
+    work = fresh_work(execution.work_dir) if ours else Path(work)
     remove = discard_work if ours else remove_work
     try:
         with execution.backend() as backend:

@@ -95,6 +95,19 @@ def let_go(work):
         release(work, fd)
 
 
+def fresh_work(base):
+    """A new, empty work folder of one run inside ``base`` (the execution's ``work_dir``, a
+    folder that must exist) or, with None, the temporary folder (``TMPDIR``): two runs of one
+    process or of two never share one. :func:`discard_work` removes it."""
+    import tempfile
+
+    if base is not None and not Path(base).is_dir():
+        raise LidarSigError(f"{arg('work_dir')} must be a folder that exists (each run in tiles makes its own "
+                            "folder in it)", path=base)
+    with _work_errors(Path(base) if base is not None else Path(tempfile.gettempdir())):
+        return Path(tempfile.mkdtemp(prefix="lidar-sig-work-", dir=base))
+
+
 def discard_work(work):
     """Remove a temporary work folder made for one run (all of it: it was made new and holds
     nothing else)."""
