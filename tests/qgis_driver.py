@@ -144,6 +144,8 @@ def algorithms(args):
             "algorithms": sorted(a.id() for a in algs),
             "parameters": {a.id(): [p.name() for p in a.parameterDefinitions()] for a in algs},
             "help": {a.id(): bool(a.shortHelpString()) for a in algs},
+            "choices": {f"{a.id()}:{p.name()}": p.options() for a in algs for p in a.parameterDefinitions()
+                        if p.type() == "enum"},
             "groups": sorted({a.group() for a in algs})}
 
 
@@ -235,7 +237,7 @@ def jobs(args):
     out = Path(args["out"])
     runs = {
         "saliency": ("lidarsig:saliency", {"INPUT": args["cloud"], "OUTPUT": str(out / "cloud_sal.laz"),
-                                           "STRATEGY": 1}),
+                                           "STRATEGY": "optimal"}),
         "signature": ("lidarsig:signature", {"INPUT": args["cloud"], "OUTPUT": str(out / "cloud.h5"),
                                              "PNG": str(out / "cloud.png")}),
         "catalog": ("lidarsig:catalog", {"INPUT": args["folder"], "OUTPUT": str(out / "survey.h5"), "WORKERS": 1}),

@@ -177,6 +177,11 @@ def test_the_provider_loads_and_lists_one_algorithm_per_job(qgis):
     assert {"EPOCH_A", "EPOCH_B", "OUTPUT", "CELLS", "POINTS", "REPORT", "OPTIONS"} <= \
         set(found["parameters"]["lidarsig:changes"])
     assert "METRICS" in found["parameters"]["lidarsig:compare"]
+    # the names offered are the installed command's (a plugin's too), not a list of the provider's
+    offered = json.loads(run("plugins", "--json").stdout)
+    assert found["choices"]["lidarsig:saliency:DESCRIPTOR"] == list(offered["descriptors"])
+    assert found["choices"]["lidarsig:saliency:STRATEGY"] == list(offered["strategies"])
+    assert found["choices"]["lidarsig:changes:SCORE"] == list(offered["metrics"])
 
 
 def test_changes_in_qgis_loads_the_map_and_the_cells_in_their_styles(qgis, epochs, tmp_path):

@@ -27,8 +27,24 @@ HTML = "HTML files (*.html)"
 #: A destination that is no file: a provider's URI ("ogr:dbname=...", "postgres:...", "memory:"; a
 #: Windows drive is one letter).
 NOT_A_FILE = re.compile(r"^[A-Za-z]{2,}:|dbname=")
-#: The metrics' keys in the command's order, for the tables.
-METRIC_KEYS = ("bhattacharyya", "ssim", "emd_info", "emd_img", "fv", "kl", "l1")
+
+
+def offered(kind):
+    """The names of the ``kind`` ("descriptors", "strategies" or "metrics") that the lidar-sig
+    run by the provider offers, in its order (:func:`command.listing`): a plugin installed
+    beside lidar_sig shows up here; [] when lidar-sig cannot be run (a job's run says why)."""
+    try:
+        executable = command.find_executable(executable_setting())
+    except command.CommandError:
+        return []
+    return list(command.listing(executable).get(kind, {}))
+
+
+def choice(name, description, options):
+    """A parameter that picks one of ``options`` by name (a script gives the name, e.g.
+    ``"STRATEGY": "optimal"``), not set by default: the command then uses its own default."""
+    return QgsProcessingParameterEnum(name, description, options, allowMultiple=False, defaultValue=None,
+                                      optional=True, usesStaticStrings=True)
 
 
 class DefaultStyle(QgsProcessingLayerPostProcessorInterface):
@@ -201,25 +217,23 @@ class SaliencyAlgorithm(LidarSigAlgorithm):
     help = ("<p>Per-point saliency: how line-like (Cl), surface-like (Cs) and point-like (Cp) each point's "
             "surroundings are, their entropy Egeom and the geometric class, written with every attribute of the "
             "input (LAS extra dimensions; PLY and CSV scalar fields, named for CloudCompare).</p>")
-    DESCRIPTORS = ("c3dcm", "t3dvt", "t3dvt-get")
-    STRATEGIES = ("multiscale", "optimal")
 
     def parameters(self):
         self.add_file("INPUT", "Point cloud")
-        self.addParameter(QgsProcessingParameterEnum("DESCRIPTOR", "Descriptor", list(self.DESCRIPTORS),
-                                                     defaultValue=0))
-        self.addParameter(QgsProcessingParameterEnum("STRATEGY", "Scales combined by", list(self.STRATEGIES),
-                                                     defaultValue=0))
-        self.addParameter(QgsProcessingParameterString("K", "Neighbourhood sizes k (empty: the strategy's default, "
-                                                       "20,30,40 for multiscale)", optional=True))
+        self.addParameter(choice("DESCRIPTOR", "Descriptor (not set: lidar-sig's default)", offered("descriptors")))
+        self.addParameter(choice("STRATEGY", "Scales combined by (not set: lidar-sig's default)",
+                                 offered("strategies")))
+        self.addParameter(QgsProcessingParameterString("K", "Neighbourhood sizes k, e.g. 20,30,40 (empty: the "
+                                                       "strategy's default)", optional=True))
         self.addParameter(QgsProcessingParameterFileDestination("OUTPUT", "Point cloud with saliency",
                                                                 CLOUD_OUTPUTS))
 
     def arguments(self, parameters, context):
         args = ["saliency", self.path(parameters, "INPUT", context), "-o",
-                self.parameterAsFileOutput(parameters, "OUTPUT", context), "--overwrite",
-                "--descriptor", self.DESCRIPTORS[self.parameterAsEnum(parameters, "DESCRIPTOR", context)],
-                "--strategy", self.STRATEGIES[self.parameterAsEnum(parameters, "STRATEGY", context)]]
+                self.parameterAsFileOutput(parameters, "OUTPUT", context), "--overwrite"]
+        for name, option in (("DESCRIPTOR", "--descriptor"), ("STRATEGY", "--strategy")):
+            picked = self.parameterAsEnumString(parameters, name, context)
+            args += [option, picked] if picked else []
         k = self.parameterAsString(parameters, "K", context)
         return args + (["--k", k] if k else [])
 
@@ -283,7 +297,7 @@ class CompareAlgorithm(LidarSigAlgorithm):
             feedback.pushWarning(warning)
         scale = data.get("scale", {})
         rows = [{"key": k, "metric": scale.get(k, {}).get("name", k), "value": data.get(k),
-                 "like": scale.get(k, {}).get("like"), "on_scale": scale.get(k, {}).get("says")} for k in METRIC_KEYS]
+                 "like": scale.get(k, {}).get("like"), "on_scale": scale.get(k, {}).get("says")} for k in scale]
         table = self.table(parameters, "METRICS", context, [("key", QVariant.String), ("metric", QVariant.String),
                                                              ("value", QVariant.Double), ("like", QVariant.String),
                                                              ("on_scale", QVariant.String)], rows)
@@ -302,7 +316,6 @@ class ChangesAlgorithm(LidarSigAlgorithm):
             "(outlined where they changed significantly, hatched where only one epoch has points) are added to "
             "the project; the later epoch's points with their cell's change on request.</p>"
             "<p>An epoch is a point-cloud file; from a script, also a folder of tiles.</p>")
-    SCORES = ("auto", "bhattacharyya", "ssim", "emd_info", "emd_img", "fv", "kl", "l1")
 
     def parameters(self):
         self.add_file("EPOCH_A", "Earlier epoch")
@@ -312,9 +325,8 @@ class ChangesAlgorithm(LidarSigAlgorithm):
         self.addParameter(QgsProcessingParameterNumber("MIN_POINTS", "Fewest points per cell and epoch (0: chosen "
                                                        "from the densities)", QgsProcessingParameterNumber.Integer,
                                                        0, minValue=0))
-        self.addParameter(QgsProcessingParameterEnum("SCORE", "Metric that ranks the cells (auto: delta_KL, or "
-                                                     "delta_FV without comparable classes)", list(self.SCORES),
-                                                     defaultValue=0))
+        self.addParameter(choice("SCORE", "Metric that ranks the cells (not set: delta_KL, or delta_FV without "
+                                 "comparable classes)", offered("metrics")))
         self.addParameter(QgsProcessingParameterNumber("CONFIDENCE", "Confidence of the level of detection",
                                                        QgsProcessingParameterNumber.Double, 0.95, minValue=0.5,
                                                        maxValue=0.9999))
@@ -337,8 +349,8 @@ class ChangesAlgorithm(LidarSigAlgorithm):
         args += ["--cell", repr(cell)] if cell > 0 else []
         fewest = self.parameterAsInt(parameters, "MIN_POINTS", context)
         args += ["--min-points", str(fewest)] if fewest > 0 else []
-        score = self.SCORES[self.parameterAsEnum(parameters, "SCORE", context)]
-        args += ["--score", score] if score != "auto" else []
+        score = self.parameterAsEnumString(parameters, "SCORE", context)
+        args += ["--score", score] if score else []
         for name, option in (("POINTS", "--points"), ("REPORT", "--report")):
             path = self.parameterAsFileOutput(parameters, name, context)
             args += [option, path] if path else []
@@ -409,7 +421,7 @@ class SimilarAlgorithm(LidarSigAlgorithm):
     def results(self, parameters, context, feedback, finished):
         data = _json(finished)
         fields = [("rank", QVariant.Int), ("name", QVariant.String), ("path", QVariant.String),
-                  ("distance", QVariant.Double)] + [(k, QVariant.Double) for k in METRIC_KEYS]
+                  ("distance", QVariant.Double)] + [(k, QVariant.Double) for k in offered("metrics")]
         return {"OUTPUT": self.table(parameters, "OUTPUT", context, fields, data["results"])}
 
 

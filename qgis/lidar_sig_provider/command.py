@@ -7,6 +7,8 @@ and whole percent, ``lidar-sig: progress: <stage>: <N>%``; notes are ``lidar-sig
 a user error ends with ``lidar-sig: error: ...`` and exit status 2; SIGTERM stops it within a
 block of work, with nothing half-written, and status 143.
 """
+import functools
+import json
 import os
 import queue
 import re
@@ -63,6 +65,19 @@ def find_executable(setting=None):
         raise CommandError("lidar-sig was not found on PATH; install it (pip install lidar-sig) or set its path in "
                            "Settings > Options > Processing > Providers > lidar_sig")
     return found
+
+
+@functools.lru_cache(maxsize=4)
+def listing(executable):
+    """What the ``lidar-sig`` at ``executable`` offers (``lidar-sig plugins --json``): its
+    descriptors, strategies and metrics, each a dict by name; {} when it cannot say (the run of
+    a job then reports why). Asked once per executable and QGIS session."""
+    try:
+        done = subprocess.run([executable, "plugins", "--json"], capture_output=True, text=True, timeout=120,
+                              env=child_environment())
+        return json.loads(done.stdout) if done.returncode == 0 else {}
+    except (OSError, ValueError, subprocess.SubprocessError):
+        return {}
 
 
 def read_line(line):
