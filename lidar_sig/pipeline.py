@@ -181,7 +181,14 @@ class Pipeline:
         """Load this run's kernels in the background (:func:`lidar_sig.compile.warm_up`) by a
         tiny run through them (neighbour search, descriptor, strategy: a plugin's as a
         built-in's) on a made-up patch of ground; the thread, or None for a kernel not cached
-        yet (compiled in this thread then, see there)."""
+        yet (compiled in this thread then, see there) or for a descriptor that declares no
+        kernels."""
+        if not self.descriptor.kernels:
+            # it may compile numba functions of its own that it does not declare: a warm-up
+            # would compile them in a second thread beside the run's, which numba's threading
+            # layer does not allow; the run's first call compiles them in its own thread
+            return None
+
         def tiny_run():
             rng = np.random.default_rng(0)
             n = 4 * max(64, self.min_points())

@@ -185,3 +185,17 @@ def test_a_plugin_of_another_distribution_runs_in_tiles_and_is_warmed_up_like_a_
     warm = _run(tmp_path, "-c", code)
     assert warm.returncode == 0, warm.stderr
     assert warm.stdout.split() == ["True", "True", "True"]  # its kernel listed, cached after a run, warmed up
+
+
+def test_a_source_tree_never_installed_says_to_install_it(monkeypatch):
+    # the built-ins come from lidar_sig's own entry points; without them the error says what to do
+    from lidar_sig.errors import LidarSigError
+    from lidar_sig.plugins import registry
+
+    monkeypatch.setattr(registry, "entry_points", lambda group: [])
+    registry._plugins.cache_clear()
+    try:
+        with pytest.raises(LidarSigError, match=r"not registered: install it \(pip install -e \."):
+            registry.available("descriptor")
+    finally:
+        registry._plugins.cache_clear()

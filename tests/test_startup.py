@@ -205,8 +205,9 @@ def test_a_background_load_leaves_sys_stderr_alone():
 
 
 def test_a_plugin_descriptor_is_warmed_up_like_a_built_in(monkeypatch):
-    # a plugin declares its kernels (none here: it calls C3DCM's, through its own code) and gets
-    # the same head start as a built-in
+    # a plugin declares its kernels (C3DCM's here, which it calls through its own code) and gets
+    # the same head start as a built-in; one that declares none gets none (it may compile
+    # kernels of its own, which must not compile in a second thread)
     import lidar_sig as ls
     import lidar_sig.compile as compile_
 
@@ -217,11 +218,17 @@ def test_a_plugin_descriptor_is_warmed_up_like_a_built_in(monkeypatch):
 
     class Plugin(Descriptor):
         name = "test-plugin"
+        kernels = C3DCM.kernels
 
         def eigenvalues(self, batch):
             return C3DCM().eigenvalues(batch)
+
+    class Undeclared(Plugin):
+        name = "test-undeclared"
+        kernels = ()
 
     thread = ls.Pipeline(Plugin())._warm_up()
     assert thread is not None
     thread.join()
     assert ls.Pipeline("t3dvt")._warm_up() is not None
+    assert ls.Pipeline(Undeclared())._warm_up() is None

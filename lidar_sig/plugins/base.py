@@ -20,7 +20,9 @@ class Descriptor:
     tensor at each scale, or override ``saliency(batch)`` directly. ``kernels`` lists the
     compiled (numba) functions it calls, as ``(module, (function, ...))`` pairs: a run loads
     them before its first step, the first run after installing says that they compile, and
-    later runs warm them up in the background (:mod:`lidar_sig.compile`). ``tileable`` says
+    later runs warm them up in the background (:mod:`lidar_sig.compile`); a descriptor that
+    lists none gets no warm-up (whatever it compiles, it compiles in the run's own thread).
+    ``tileable`` says
     whether a run may cut the cloud into tiles with halos (docs/scale-out.md).
     """
 

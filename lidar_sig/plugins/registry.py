@@ -9,21 +9,6 @@ from ..errors import LidarSigError
 
 GROUPS = {"descriptor": "lidar_sig.descriptors", "strategy": "lidar_sig.strategies"}
 
-# The built-ins as declared in pyproject.toml; used only when lidar_sig runs from a source tree
-# that was never installed (no distribution metadata), so that the entry points are missing.
-_BUILTIN = {
-    "lidar_sig.descriptors": {
-        "c3dcm": "lidar_sig.plugins.descriptors.c3dcm:C3DCM",
-        "t3dvt": "lidar_sig.plugins.descriptors.t3dvt:T3DVT",
-        "t3dvt-get": "lidar_sig.plugins.descriptors.t3dvt_get:T3DVTGET",
-    },
-    "lidar_sig.strategies": {
-        "multiscale": "lidar_sig.plugins.strategies.multiscale:Multiscale",
-        "optimal": "lidar_sig.plugins.strategies.optimal:OptimalScale",
-    },
-}
-
-
 class _Plugin:
     def __init__(self, name, value, package):
         self.name, self.value, self.package = name, value, package
@@ -42,8 +27,11 @@ def _plugins(group):
     for ep in entry_points(group=group):
         package = ep.dist.name if ep.dist is not None else "?"
         found[ep.name] = _Plugin(ep.name, ep.value, package)
-    for name, value in _BUILTIN[group].items():
-        found.setdefault(name, _Plugin(name, value, "lidar_sig"))
+    if not any(p.package == "lidar_sig" for p in found.values()):
+        # the built-ins are entry points of lidar_sig's own metadata (pyproject.toml): a source
+        # tree that was never installed has none
+        raise LidarSigError(f"lidar_sig's own plugins ({group}) are not registered: install it "
+                            "(pip install -e . in its source tree, or pip install lidar-sig)")
     return found
 
 
