@@ -366,3 +366,28 @@ def test_noise_codes_follow_the_class_table():
     assert ls.Pipeline(scales=ls.knn(10, 20), progress=False).run(ls.PointCloud(xyz)).metadata["n_excluded"] == 0
     with pytest.raises(ls.LidarSigError, match="every point.*keep_noise"):
         ls.Pipeline(progress=False).run(ls.PointCloud(xyz, np.full(len(xyz), 18)))
+
+
+@pytest.mark.parametrize("suffix", [".laz", ".ply"])
+def test_a_run_replaces_its_own_outputs_and_keeps_the_other_runs(tmp_path, suffix):
+    # the change map's per-point change survives a saliency re-run, and the saliency a change
+    # map's points; each run replaces only what it writes itself
+    if suffix == ".ply":
+        pytest.importorskip("open3d", reason="PLY needs open3d: pip install -e '.[formats]'")
+    from conftest import SAMPLES
+
+    later = tmp_path / "later.laz"  # an epoch is LAS/LAZ (it has a CRS)
+    ls.Pipeline(progress=False).run(SAMPLES / "epoch2.laz").write(later)
+    points = tmp_path / ("points" + suffix)
+    done = run("changes", SAMPLES / "epoch1.laz", later, "--points", points, "-q")
+    assert done.returncode == 0, done.stderr
+    again = tmp_path / ("again" + suffix)
+    done = run("saliency", points, "-o", again, "--strategy", "optimal", "-q")
+    assert done.returncode == 0, done.stderr
+    names = list(ls.read(again).attributes) if suffix == ".ply" else \
+        list(laspy.read(again).point_format.extra_dimension_names)
+    plain = [n.removeprefix("scalar_") for n in names]
+    for name in ("Cl", "Cs", "Cp", "Egeom", "GeomClass", "OptimalScale", "ChangeScore", "ChangeLoD",
+                 "ChangeSignificant"):
+        assert plain.count(name) == 1, (name, names)
+    assert not any(n.startswith("lidar_sig_") for n in plain), names

@@ -29,6 +29,8 @@ SALIENCY_DESCRIPTIONS = {"Cl": "line-type saliency Cl [0,1]", "Cs": "surface-typ
                          "Cp": "point-type saliency Cp [0,1]", "Egeom": "geometric entropy [nats]",
                          "GeomClass": "1 line 2 surface 3 point 0 none"}
 OPTIMAL_DESCRIPTIONS = {"knn": "k of minimum-entropy scale", "radius": "index of min-entropy radius"}
+#: Outputs written together, each group by one kind of run: a run replaces its own group only.
+OUTPUT_GROUPS = ((*SALIENCY_DESCRIPTIONS, "OptimalScale"), tuple(CHANGE_DESCRIPTIONS))
 
 
 class Fields(dict):
@@ -71,6 +73,19 @@ def change_fields(score, lod, significant, score_name):
     return Fields({"ChangeScore": np.asarray(score, np.float32), "ChangeLoD": np.asarray(lod, np.float32),
                    "ChangeSignificant": np.asarray(significant, np.uint16)},
                   {name: text.format(score=score_name) for name, text in CHANGE_DESCRIPTIONS.items()})
+
+
+def replaced(previous, fields):
+    """The outputs an earlier run wrote (``previous``, names plain or prefixed) that writing
+    ``fields`` replaces: every one of a group (the saliency's, the per-point change's) one of
+    ``fields`` belongs to. A saliency re-run drops a stale OptimalScale and keeps the change
+    map's per-point change; a change map's points keep their saliency."""
+    def group(name):
+        name = name[len(PREFIX):] if name.startswith(PREFIX) else name
+        return next((k for k, names in enumerate(OUTPUT_GROUPS) if name in names), None)
+
+    written = {group(name) for name in fields} - {None}
+    return tuple(name for name in previous if group(name) in written)
 
 
 def output_names(fields, existing, previous=(), *, path=None):

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .fields import output_names
+from .fields import output_names, replaced
 
 CC_PREFIX = "scalar_"  # CloudCompare's mark of a scalar field in PLY and text files
 _CC_OWN = ("red", "green", "blue", "nx", "ny", "nz")  # colours and normals it reads by name
@@ -28,17 +28,20 @@ def plain_name(name):
     return name[len(CC_PREFIX):] if name.startswith(CC_PREFIX) else name
 
 
-def point_table(cloud, fields):
+def point_table(cloud, fields, *, keep_earlier=True):
     """``(columns, outputs, note)`` for writing ``cloud`` with the per-point ``fields``.
 
     ``columns`` maps names to (N,) arrays: the cloud's attributes, ``label`` (if labelled), then
-    the fields; ``outputs`` are the fields' names in it (``lidar_sig_<name>`` when the cloud has an
-    attribute of its own under one of our names, ``note`` then says so). Attributes an earlier
-    run wrote (``cloud.previous_outputs``) are left out: the new fields replace them.
+    the fields; ``outputs`` are the names in it lidar_sig wrote: an earlier run's that stay, then
+    the fields' (``lidar_sig_<name>`` when the cloud has an attribute of its own under one of our
+    names, ``note`` then says so). Attributes an earlier run of the same kind wrote are left out:
+    the new fields replace them (:func:`lidar_sig.io.fields.replaced`); without ``keep_earlier``
+    every output of an earlier run is left out.
     """
     columns = {}
+    gone = replaced(cloud.previous_outputs, fields) if keep_earlier else cloud.previous_outputs
     for name, values in _attributes(cloud).items():
-        if name in cloud.previous_outputs:
+        if name in gone:
             continue
         name = "_".join(str(name).replace(",", " ").split())  # one word: PLY, PCD and CSV headers
         values = np.asarray(values)
@@ -59,7 +62,8 @@ def point_table(cloud, fields):
     names, note = output_names(fields, columns, path=cloud.path)
     for name, values in fields.items():
         columns[names[name]] = np.asarray(values)
-    return columns, list(names.values()), note
+    kept = [name for name in cloud.previous_outputs if name in columns]
+    return columns, kept + list(names.values()), note
 
 
 def _attributes(cloud):

@@ -52,7 +52,9 @@ def _new_lasdata(cloud):
     7 with colours, 8 with colours and nir; attributes named like a dimension of the format
     (intensity, return_number, gps_time, ...) fill it when their values fit its type, every
     other one (or one that does not fit, as ``<name>_value``) becomes an extra dimension."""
-    columns, _, _ = point_table(cloud, {})
+    # an earlier run's outputs are left out: in LAS they are known as ours by descriptions that
+    # a PLY or text file does not keep (its header comment only names them)
+    columns, _, _ = point_table(cloud, {}, keep_earlier=False)
     columns.pop("label", None)
     fmt = 6 + ("red" in columns) + ("red" in columns and "nir" in columns)
     header = laspy.LasHeader(point_format=fmt, version="1.4")

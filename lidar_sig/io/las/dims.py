@@ -7,7 +7,7 @@ from __future__ import annotations
 import laspy
 import numpy as np
 
-from ..fields import CHANGE_DESCRIPTIONS, OPTIMAL_DESCRIPTIONS, PREFIX, SALIENCY_DESCRIPTIONS, output_names
+from ..fields import CHANGE_DESCRIPTIONS, OPTIMAL_DESCRIPTIONS, PREFIX, SALIENCY_DESCRIPTIONS, output_names, replaced
 
 # name -> (LAS extra-bytes type, description of at most 32 bytes): the saliency's dimensions.
 # 2-byte integers because QGIS drops 1-byte extra dimensions. The descriptions also mark a
@@ -37,11 +37,11 @@ def lidar_sig_dims(las):
 
 def add_fields(las, fields, *, path=None):
     """Set the per-point ``fields`` (:class:`lidar_sig.io.fields.Fields`: each in its values'
-    type, with its description) as extra dimensions of ``las`` (those of an earlier run are
-    replaced); returns the notes on what the caller should know (outputs renamed beside a user's
+    type, with its description) as extra dimensions of ``las`` (those of an earlier run of the
+    same kind are replaced, :func:`lidar_sig.io.fields.replaced`); returns the notes on what the caller should know (outputs renamed beside a user's
     own)."""
     notes = []
-    previous = lidar_sig_dims(las)
+    previous = replaced(lidar_sig_dims(las), fields)
     if previous:  # a re-run replaces instead of duplicating
         las.remove_extra_dims(previous)
     names, note = output_names(fields, las.point_format.dimension_names, previous, path=path)
