@@ -16,7 +16,8 @@ def plugins_command(monkeypatch):
     from lidar_sig.cli import cli
 
     def replace(function):
-        monkeypatch.setattr(cli.commands["plugins"], "callback", function)
+        # the command's options (such as --json) are not the test's concern
+        monkeypatch.setattr(cli.commands["plugins"], "callback", lambda **options: function())
     return replace
 
 
