@@ -3,8 +3,11 @@ project measured (docs/comparison.md), outliers flag the tiles above a documente
 say when none stands out, the catalogue names tiles that copy one another (a tile and its COPC
 copy), and similar leaves the query tile out of its answer."""
 import json
+import math
 import re
 import shutil
+
+import numpy as np
 
 import pytest
 
@@ -56,6 +59,24 @@ def test_a_value_is_placed_with_its_nearest_reference_case():
                                                                      "another_place", "beyond"]
 
 
+def placed(metric, value):
+    """The case a value is placed in, by the rule docs/comparison.md states: as a distance from
+    "same", within 5e-5 of it the same land rotated; else the first case below the geometric
+    mean of its highest value and the next case's lowest; above the last case's highest, beyond."""
+    def distance(x):
+        return abs(x - metric.same)
+
+    d = distance(value)
+    if d < 5e-5:
+        return "rotated"
+    cases = ["resampled", "adjacent", "another_place"]
+    spans = [sorted(distance(x) for x in metric.references[c]) for c in cases]
+    for k in range(2):
+        if d < math.sqrt(spans[k][1] * spans[k + 1][0]):
+            return cases[k]
+    return "beyond" if d > spans[2][1] else "another_place"
+
+
 def test_compare_s_json_and_report_place_every_metric(tmp_path):
     done = run("compare", SAMPLES / "epoch1.laz", SAMPLES / "epoch2.laz", "--json", "--report", tmp_path / "r.html")
     assert done.returncode == 0, done.stderr
@@ -64,10 +85,13 @@ def test_compare_s_json_and_report_place_every_metric(tmp_path):
     html = (tmp_path / "r.html").read_text()
     for m in METRICS:
         entry = info["scale"][m.key]
-        like, says = m.place(info[m.key])
-        assert (entry["name"], entry["like"], entry["says"]) == (m.name, like, says)
+        like = placed(m, info[m.key])
+        assert (entry["name"], entry["like"]) == (m.name, like)
+        if like in m.references:  # the phrase quotes the case's range
+            low, high = m.references[like]
+            assert f"({low:.4f}-{high:.4f})" in entry["says"], entry["says"]
         assert entry["resampled"] == list(m.references["resampled"]) and entry["rotated"] == m.same
-        assert says in html
+        assert entry["says"] in html
     assert "on the project&#x27;s scale" in html or "on the project's scale" in html
 
 
@@ -80,7 +104,8 @@ def test_outliers_say_no_tile_stands_out_on_the_ign_block(tmp_path):
     done = run("outliers", cat, "--report", tmp_path / "qc.html")
     assert done.returncode == 0, done.stderr
     lines = done.stdout.splitlines()
-    assert "no tile stands out: no score reaches 3.5, the mark of an outlier" in lines
+    verdict = [line for line in lines if line.startswith("no tile stands out: no score reaches 3.5, the mark of an")]
+    assert len(verdict) == 1 and "with 6 tiles the scores rest on few distances and are indicative" in verdict[0]
     assert not any(re.match(r"^ +\d+\*", line) for line in lines)
     html = (tmp_path / "qc.html").read_text()
     assert "No tile stands out" in html and "Highest scores beside their neighbours (no tile stands out)" in html
@@ -96,7 +121,21 @@ def test_outliers_mark_the_tiles_that_reach_the_threshold(tmp_path):
     done = run("outliers", cat)
     lines = done.stdout.splitlines()
     assert re.match(r"^ +1\* +234\.\d\d .*epoch1\.laz", lines[2]), lines
-    assert lines[-1] == "1 tile stands out (score 3.5 or more, the mark of an outlier): epoch1.laz, marked *"
+    assert lines[-1] == ("1 tile stands out (score 3.5 or more, the mark of an outlier): epoch1.laz, marked *; with 3 "
+                         "tiles the scores rest on few distances and are indicative (9 or more give them their meaning)")
+
+
+def test_the_verdict_on_nine_tiles_or_more_states_the_scores_without_reserve():
+    from lidar_sig.catalog.outliers import FEW_TILES, Outliers
+
+    def verdict(n, standing_out):
+        results = [{"name": f"t{i}", "outlier": i < standing_out} for i in range(n)]
+        return Outliers(None, results, np.zeros((n, n)), [[]] * n, 10.0, ()).verdict()
+
+    assert FEW_TILES == 9
+    assert "indicative" in verdict(8, 0) and "indicative" in verdict(8, 1)
+    assert verdict(9, 0) == "no tile stands out: no score reaches 3.5, the mark of an outlier"
+    assert verdict(9, 1) == "1 tile stands out (score 3.5 or more, the mark of an outlier): t0"
 
 
 # -- copies in a catalogue, and similar's answer ------------------------------------------------

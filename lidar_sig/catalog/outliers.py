@@ -40,6 +40,10 @@ CLASS_DIFFERENCE_MIN = 1.0
 #: The score from which a tile stands out: 3.5, the mark of an outlier that Iglewicz and Hoaglin
 #: give for the modified z-score (docs/catalog.md).
 OUTLIER_SCORE = 3.5
+#: Fewest tiles whose scores the verdict states without reserve: a tile and its eight neighbours
+#: of a square grid. Below, the medians and MADs rest on a few distances: the scores are
+#: indicative only, and the verdict says so.
+FEW_TILES = 9
 #: The scores drawn apart by the GeoPackage's style, below OUTLIER_SCORE: the survey's median
 #: (0) and a tile worth a look (2).
 STYLE_SCORES = (0.0, 2.0)
@@ -66,14 +70,22 @@ class Outliers:
         """The results whose score reaches :data:`OUTLIER_SCORE`, highest first."""
         return [r for r in self.results if r["outlier"]]
 
-    def verdict(self) -> str:
-        """One line: how many tiles stand out, or that none does."""
+    def verdict(self, marked: str = "") -> str:
+        """One line: how many tiles stand out (their names followed by ``marked``, e.g. how the
+        command marks them), or that none does; with fewer than :data:`FEW_TILES` tiles, that
+        the scores are indicative only."""
         found = self.standing_out
         if not found:
-            return f"no tile stands out: no score reaches {self.threshold:g}, the mark of an outlier"
-        many = len(found) > 1
-        return (f"{len(found)} tile{'s stand' if many else ' stands'} out (score {self.threshold:g} or more, the mark "
-                f"of an outlier): {', '.join(r['name'] for r in found[:3])}{', ...' if len(found) > 3 else ''}")
+            line = f"no tile stands out: no score reaches {self.threshold:g}, the mark of an outlier"
+        else:
+            many = len(found) > 1
+            line = (f"{len(found)} tile{'s stand' if many else ' stands'} out (score {self.threshold:g} or more, the "
+                    f"mark of an outlier): {', '.join(r['name'] for r in found[:3])}{', ...' if len(found) > 3 else ''}"
+                    + marked)
+        if len(self.results) < FEW_TILES:
+            line += (f"; with {len(self.results)} tiles the scores rest on few distances and are indicative "
+                     f"({FEW_TILES} or more give them their meaning)")
+        return line
 
     def __repr__(self):
         top = ", ".join(f"{r['name']} {r['score']:.2f}" for r in self.results[:3])

@@ -50,6 +50,6 @@ def outliers(catalogue, output, report, reach, top, as_json, overwrite, quiet):
                    + (f"  ({classes})" if classes else ""))
     if len(found.results) > top:
         click.echo(f"  ... {len(found.results) - top:,} more (--top, --json)")
-    click.echo(found.verdict() + (", marked *" if found.standing_out else ""))
+    click.echo(found.verdict(marked=", marked *"))
     for line in done.lines:
         click.echo(line)
