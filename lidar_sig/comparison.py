@@ -76,7 +76,9 @@ class Comparison(dict):
 
     def __repr__(self) -> str:
         shown = ", ".join(f"{k} {'n/a' if v is None else format(v, '.4g')}" for k, v in self.metrics.items())
-        return f"<Comparison {self.a.name} vs {self.b.name}: {shown}>"
+        from .views import one_line, short_name
+
+        return one_line(f"<Comparison {short_name(self.a.name)} vs {short_name(self.b.name)}: {shown}>")
 
     def _repr_html_(self) -> str:
         """A notebook's view: the metrics with their ranges and what each reacts to."""

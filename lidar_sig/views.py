@@ -18,6 +18,23 @@ CSS = (".lidar-sig-card{font-family:system-ui,sans-serif;font-size:13px;color:#2
        "font-variant-numeric:tabular-nums}.lidar-sig-card .m{color:#666}.lidar-sig-card img{border:1px solid #eee}")
 
 
+#: The longest one-line ``repr``, in characters: what a notebook's output cell shows unfolded.
+REPR_LIMIT = 300
+
+
+def short_name(name: Any) -> str:
+    """A file's name without its folders (a path says where, a repr only which); other names as they are."""
+    from pathlib import PurePath
+
+    text = str(name)
+    return PurePath(text).name or text
+
+
+def one_line(text: str, limit: int = REPR_LIMIT) -> str:
+    """``text`` (a ``<...>`` repr) cut to ``limit`` characters, ending ``...>`` when cut."""
+    return text if len(text) <= limit else text[:limit - 4] + "...>"
+
+
 def esc(text: Any) -> str:
     """Text made safe for HTML."""
     return html.escape(str(text), quote=True)

@@ -106,3 +106,20 @@ def test_a_signature_card_shows_its_classes():
     sig = ls.Pipeline(progress=False).run(xyz, labels=np.repeat([2, 6], 200)).signature
     html = sig._repr_html_()
     assert "ground" in html and "building" in html and len(repr(sig)) <= REPR_MAX
+
+
+def test_a_repr_names_the_files_without_their_folders_and_a_cut_one_still_closes(tmp_path):
+    import lidar_sig as ls
+
+    deep = tmp_path.joinpath(*["a_rather_long_folder_name"] * 12)
+    deep.mkdir(parents=True)
+    for name in ("epoch1.laz", "epoch2.laz"):
+        shutil.copy(SAMPLES / name, deep / name)
+    shown = repr(ls.compare(deep / "epoch1.laz", deep / "epoch2.laz"))
+    assert shown.startswith("<Comparison epoch1.laz vs epoch2.laz: ") and "a_rather_long" not in shown
+
+    from lidar_sig.jobs import info
+
+    described = info(deep / "epoch1.laz")  # its first line holds the whole path, 12 folders deep
+    assert len(described.lines[0]) > REPR_MAX
+    assert len(repr(described)) == REPR_MAX and repr(described).endswith("...>")

@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..errors import LidarSigError, positive_metres
+from ..views import one_line
 from .distances import combine, screening
 from .footprint import neighbours as spatial_neighbours
 
@@ -89,7 +90,7 @@ class Outliers:
 
     def __repr__(self):
         top = ", ".join(f"{r['name']} {r['score']:.2f}" for r in self.results[:3])
-        return f"<Outliers of {len(self.results)} tiles within {self.reach:.3g} m; highest {top}>"[:300]
+        return one_line(f"<Outliers of {len(self.results)} tiles within {self.reach:.3g} m; highest {top}>")
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON shape of ``lidar-sig outliers --json``."""

@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import LidarSigError, arg, whole_number
+from ..views import one_line, short_name
 from .distances import IMAGE, SCREENING, as_distance, combine, pair_metrics, screening
 from .features import sg_image
 
@@ -51,7 +52,7 @@ class Similar:
 
     def __repr__(self):
         best = ", ".join(f"{r['name']} {r['distance']:.3g}" for r in self.results[:3])
-        return f"<Similar to {self.query.get('name')}: {len(self.results)} tiles by {self.metric}; {best}>"[:300]
+        return one_line(f"<Similar to {short_name(self.query.get('name'))}: {len(self.results)} tiles by {self.metric}; {best}>")
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON shape of ``lidar-sig similar --json``."""

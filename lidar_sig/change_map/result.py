@@ -124,9 +124,11 @@ class ChangeMap:
     timings: dict = field(default_factory=dict)
 
     def __repr__(self):
-        return (f"<ChangeMap {self.grid.rows} x {self.grid.cols} cells of {self.cell:g} m, "
-                f"{int(self.table['valid'].sum())} compared, {self.n_significant} significant by {self.score} "
-                f"({self.confidence:.0%}); {self.a.name} -> {self.b.name}>")
+        from ..views import one_line, short_name
+
+        return one_line(f"<ChangeMap {self.grid.rows} x {self.grid.cols} cells of {self.cell:g} m, "
+                        f"{int(self.table['valid'].sum())} compared, {self.n_significant} significant by {self.score} "
+                        f"({self.confidence:.0%}); {short_name(self.a.name)} -> {short_name(self.b.name)}>")
 
     def thumbnail(self, size: int = 240) -> np.ndarray:
         """(H, W, 3) RGB picture of the map, about ``size`` pixels on its longer side: cells

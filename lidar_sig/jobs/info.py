@@ -21,7 +21,9 @@ class Description(JobRun):
         return {"kind": self.kind, **self.facts}
 
     def __repr__(self) -> str:
-        return f"<Description of a {self.kind}: {self.lines[0] if self.lines else ''}>"[:300]
+        from ..views import one_line
+
+        return one_line(f"<Description of a {self.kind}: {self.lines[0] if self.lines else ''}>")
 
 
 def info(path: Any, *, columns: Any = None) -> Description:
