@@ -81,6 +81,7 @@ def test_tiles_refuse_a_descriptor_that_needs_the_whole_cloud():
 @pytest.fixture(scope="module")
 def ign_merged():
     """The six IGN tiles read one by one, and their merge run as one block."""
+    need_data(IGN)  # (IGN_FILES is empty without it)
     files = [need_data(f) for f in IGN_FILES]
     clouds = [ls.read(f) for f in files]
     merged = ls.PointCloud(np.vstack([c.xyz for c in clouds]), np.concatenate([c.labels for c in clouds]),
