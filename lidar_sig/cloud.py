@@ -63,12 +63,13 @@ class PointCloud:
 
     def __repr__(self):
         from .crs import crs_name
+        from .views import one_line
 
         labelled = "labelled" if self.labels is not None else "unlabelled"
         crs = crs_name(self.crs) if self.crs else None
         extra = f", {len(self.attributes)} attributes" if self.attributes else ""
-        return (f"<PointCloud {len(self):,} points, {labelled}{extra}" + (f", {crs}" if crs else "")
-                + (f", from {self.path}" if self.path else "") + ">")
+        return one_line(f"<PointCloud {len(self):,} points, {labelled}{extra}" + (f", {crs}" if crs else "")
+                        + (f", from {self.path}" if self.path else "") + ">")
 
     def __post_init__(self):
         try:

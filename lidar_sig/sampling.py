@@ -35,9 +35,11 @@ class Resilience:
     values: dict
 
     def __repr__(self):
-        return (f"<Resilience of {self.source}: {len(self.fractions)} fractions "
-                f"({', '.join(f'{f:g}' for f in self.fractions[:4])}{', ...' if len(self.fractions) > 4 else ''}), "
-                f"{self.repeats} repeats, {self.render} rendering>")
+        from .views import one_line, short_name
+
+        return one_line(f"<Resilience of {short_name(self.source)}: {len(self.fractions)} fractions "
+                        f"({', '.join(f'{f:g}' for f in self.fractions[:4])}{', ...' if len(self.fractions) > 4 else ''}), "
+                        f"{self.repeats} repeats, {self.render} rendering>")
 
     def summary(self, key):
         """(mean, std, min, max) over the repeats, each a (F,) array, of metric ``key``."""

@@ -123,3 +123,5 @@ def test_a_repr_names_the_files_without_their_folders_and_a_cut_one_still_closes
     described = info(deep / "epoch1.laz")  # its first line holds the whole path, 12 folders deep
     assert len(described.lines[0]) > REPR_MAX
     assert len(repr(described)) == REPR_MAX and repr(described).endswith("...>")
+    cloud = repr(ls.read(deep / "epoch2.laz"))  # says where it came from, within the line
+    assert len(cloud) == REPR_MAX and cloud.startswith("<PointCloud 31,354 points") and cloud.endswith("...>")

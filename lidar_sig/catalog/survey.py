@@ -36,7 +36,9 @@ class Query:
     index: int | None = None
 
     def __repr__(self):
-        return f"<Query {self.name} ({self.kind})>"
+        from ..views import one_line
+
+        return one_line(f"<Query {self.name} ({self.kind})>")
 
 
 @dataclass(repr=False)
@@ -96,9 +98,11 @@ class Catalog:
         return len(self.columns["name"])
 
     def __repr__(self):
+        from ..views import one_line
+
         m = self.method
-        return (f"<Catalog {self.path}: {counted(len(self), 'tile')}, {m.get('descriptor', '?')} "
-                f"{m.get('strategy', '?')}, classes {self.classes.name}>")
+        return one_line(f"<Catalog {self.path}: {counted(len(self), 'tile')}, {m.get('descriptor', '?')} "
+                        f"{m.get('strategy', '?')}, classes {self.classes.name}>")
 
     def _repr_html_(self):
         """A notebook's view: the method, and the tiles with their points, area and density."""

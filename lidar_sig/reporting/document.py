@@ -20,7 +20,9 @@ class Report:
     figures: dict[str, bytes] = field(default_factory=dict)
 
     def __repr__(self):
-        return f"<Report {self.title!r}, {len(self.figures)} figures, {len(self.body) / 1e6:.1f} MB of HTML>"
+        from ..views import one_line
+
+        return one_line(f"<Report {self.title!r}, {len(self.figures)} figures, {len(self.body) / 1e6:.1f} MB of HTML>")
 
     def html(self) -> str:
         """The whole page, as text."""
