@@ -3,7 +3,6 @@ of a set, and the facts every job result gives (lines for people, a dict for JSO
 from __future__ import annotations
 
 import os
-from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -71,12 +70,9 @@ class JobRun:
 
     def __repr__(self) -> str:
         state = "complete" if self.complete else f"incomplete, {len(self.missing) + len(self.not_written)} problems"
+        from ..views import one_line
+
+        # the paths as given: where a run wrote is what its record is for
         shown = ", ".join(self.written[:2]) + (f", ... ({len(self.written)})" if len(self.written) > 2 else "")
-        return f"<{type(self).__name__} {state}; wrote {shown or 'nothing'}>"
+        return one_line(f"<{type(self).__name__} {state}; wrote {shown or 'nothing'}>")
 
-
-def check_extension(path: str | Path, extensions: Iterable[str], what: str) -> None:
-    """Refuse an output whose extension is not one of ``extensions``."""
-    extensions = tuple(extensions)
-    if Path(path).suffix.lower() not in extensions:
-        raise LidarSigError(f"{what} is written as {', '.join(extensions)}", path=path)
