@@ -24,11 +24,12 @@ DESCRIPTORS = ("c3dcm", "t3dvt", "t3dvt-get")
 
 def child(descriptor, path):
     import lidar_sig as ls
+    from lidar_sig.method.scales import PAPER_RADII
 
     cloud = ls.PointCloud(read_xyz(path))
     warm_up(descriptors=(descriptor,))
     start = time.perf_counter()
-    ls.Pipeline(descriptor=descriptor, scales=ls.scales.PAPER_RADII, weights="none", progress=False).saliency(cloud)
+    ls.Pipeline(descriptor=descriptor, scales=PAPER_RADII, weights="none", progress=False).saliency(cloud)
     report({"seconds": time.perf_counter() - start, "points": len(cloud)})
 
 

@@ -17,6 +17,7 @@ import sys
 import numpy as np
 
 import lidar_sig as ls
+from lidar_sig.method.scales import PAPER_K, PAPER_RADII
 from lidar_sig.plugins.descriptors.t3dvt_get import T3DVTGET
 
 CLASSES = {2: "ground", 6: "building", 5: "high vegetation"}
@@ -36,7 +37,7 @@ def main():
     for label, descriptor in configs:
         point, corner, total = {c: 0 for c in CLASSES}, {c: 0 for c in CLASSES}, {c: 0 for c in CLASSES}
         for i, cloud in enumerate(clouds):
-            sal, _ = ls.Pipeline(descriptor=descriptor, scales=ls.scales.PAPER_RADII, weights="none",
+            sal, _ = ls.Pipeline(descriptor=descriptor, scales=PAPER_RADII, weights="none",
                                  progress=False).saliency(cloud)
             if label == "T3DVT":
                 t3dvt_class[i] = sal.geom_class

@@ -17,9 +17,10 @@ import cv2
 import numpy as np
 
 import lidar_sig as ls
+from lidar_sig.method.scales import PAPER_K, PAPER_RADII
 from lidar_sig.io.png import write_png
 from lidar_sig.plugins.descriptors.t3dvt import T3DVT
-from lidar_sig.render import signature_image
+from lidar_sig.reporting.render import signature_image
 
 CONFIGS = [
     ("Multiscale C3DCM", "c3dcm", "multiscale"),
@@ -42,7 +43,7 @@ def main():
     panels = []
     for title, descriptor, strategy in CONFIGS:
         # the paper's setting: its scales, plain means; the density rendering of the figure
-        scales = ls.scales.PAPER_RADII if strategy == "multiscale" else ls.scales.PAPER_K
+        scales = PAPER_RADII if strategy == "multiscale" else PAPER_K
         result = ls.Pipeline(descriptor=descriptor, strategy=strategy, scales=scales, weights="none",
                              classes="paper", frame=frame, progress=False).run(cloud)
         img = signature_image(result.signature, "sas", mode="density")

@@ -11,12 +11,48 @@ the command line are quick and a Ctrl-C at that moment is handled like any other
 """
 __version__ = "0.1.0"
 
+import ast
+import importlib
 import warnings
-
-import lazy_loader
+from pathlib import Path
 
 # numba probes the TBB threading layer first and warns when an older TBB (such as the one
 # Open3D ships) is on the path; it then uses OpenMP or its own work queue, which is all we need.
 warnings.filterwarnings("ignore", message=".*The TBB threading layer requires TBB")
 
-__getattr__, __dir__, __all__ = lazy_loader.attach_stub(__name__, __file__)
+
+
+def _public_names():
+    """{public name: (module, attribute)} from the stub ``__init__.pyi``: ``from .m import x``
+    gives ``x`` from module ``lidar_sig.m`` (an attribute, or its submodule ``x``); ``from . import
+    m as y`` gives the subpackage ``lidar_sig.m`` as ``y``."""
+    where = {}
+    for node in ast.parse(Path(__file__).with_suffix(".pyi").read_text(encoding="utf-8")).body:
+        if isinstance(node, ast.ImportFrom):
+            module = __name__ + ("." + node.module if node.module else "")
+            for alias in node.names:
+                where[alias.asname or alias.name] = (module, alias.name)
+    return where
+
+
+_WHERE = _public_names()
+__all__ = sorted(_WHERE)
+
+
+def __getattr__(name):
+    if name not in _WHERE:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    module, attribute = _WHERE[name]
+    if module == __name__:  # a subpackage: ``from . import io``
+        value = importlib.import_module(f"{module}.{attribute}")
+    else:
+        try:
+            value = getattr(importlib.import_module(module), attribute)
+        except AttributeError:  # a submodule not yet imported: ``from .base import errors``
+            value = importlib.import_module(f"{module}.{attribute}")
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_WHERE))

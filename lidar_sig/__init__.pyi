@@ -1,26 +1,29 @@
 # The public names of lidar_sig, for static tools (editors, type checkers) and for the lazy
 # loading of __init__.py, which reads this file: each name is imported from its module when
 # first used, so that `import lidar_sig` and the command line start without numpy.
-from . import (catalog, change_map, data, errors, io, jobs, metrics, plugins, progress, reporting, signature,
-               tiling)
-from .catalog import Catalog, build_catalog
+from . import change_map, data, io, jobs, metrics, plugins, reporting, tiling
+from . import survey_catalog as catalog
+from .base import errors as errors
+from .base import progress as progress
+from .base.errors import LidarSigError, LidarSigWarning
 from .change_map import ChangeMap, ChangeSeries, changes
-from .classes import ASPRS, PAPER, ClassTable, class_table
-from .cloud import PointCloud
 from .comparison import Comparison, compare, compare_sources, report
-from .errors import LidarSigError, LidarSigWarning
 from .io import load_signature, read
-from .pipeline import Pipeline
+from .jobs.resilience import resilience
+from .method import signature_raster as signature
+from .method.classes import ASPRS, PAPER, ClassTable, class_table
+from .method.cloud import PointCloud
+from .method.saliency_map import Saliency
+from .method.scales import Scales, knn, radii
+from .method.signature_raster import Frame, Signature
+from .pipeline.flow import Pipeline
+from .pipeline.result import Result
 from .plugins import Descriptor, Strategy
 from .reporting import Report
-from .result import Result
-from .saliency import Saliency
-from .sampling import resilience
-from .scales import Scales, knn, radii
-from .signature import Frame, Signature
+from .survey_catalog import Catalog, build_catalog
 from .tiling.execution import Execution
-from .tiling.results import SetRun
-from .tiling.run import run_set
+from .tiling.run_set import run_set
+from .tiling.set_run import SetRun
 
 __version__: str
 

@@ -16,7 +16,7 @@ SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
 
 def _terminate(signum, frame):
-    from .errors import Interrupted
+    from .base.errors import Interrupted
 
     raise Interrupted(signum)
 
@@ -35,7 +35,7 @@ def main(argv=None):
             # what the SIGTERM handler raises, loaded whole before the handler can run (a SIGTERM
             # while the command line was importing it raised an ImportError of a partly loaded
             # module); a Ctrl-C while it loads is said like one while the libraries load
-            from . import errors  # noqa: F401
+            from .base import errors  # noqa: F401
             signal.signal(signal.SIGTERM, _terminate)
             from .cli import main as cli_main
         except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM while the command line loads

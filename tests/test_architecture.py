@@ -109,11 +109,11 @@ def _private(name):
 
 def test_the_walk_finds_the_package_and_its_imports():
     # the test can fail only if it sees the package: its modules and some lazy imports among them
-    assert {"lidar_sig", "lidar_sig.pipeline", "lidar_sig.io", "lidar_sig.cli"} <= set(MODULES)
+    assert {"lidar_sig", "lidar_sig.pipeline.flow", "lidar_sig.io", "lidar_sig.cli"} <= set(MODULES)
     edges = graph()
-    assert "lidar_sig.signature" in edges["lidar_sig.pipeline"]
-    assert "lidar_sig.io" in edges["lidar_sig.pipeline"]  # a lazy import, inside a function
-    assert "lidar_sig.io.hdf5" in edges["lidar_sig.io"]  # a lazy name of the package (_EXPORTS)
+    assert "lidar_sig.method.signature_raster" in edges["lidar_sig.pipeline.flow"]
+    assert "lidar_sig.io" in edges["lidar_sig.pipeline.flow"]  # a lazy import, inside a function
+    assert "lidar_sig.io.archive" in edges["lidar_sig.io"]  # a lazy name of the package (_EXPORTS)
     assert all(t in MODULES for m in MODULES for t in edges[m])
     assert find_cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}}) == ["a", "b", "c", "a"]
     assert find_cycle({"a": {"b"}, "b": set()}) is None
@@ -154,24 +154,33 @@ def test_the_architecture_page_names_every_module():
 
 def layers():
     """The layers of the page's diagram, top first: sets of top-level names (``cli``, ``io``,
-    ``pipeline``, ...). A line lists names, then says what they do; a line starting with ``|``
-    separates two layers."""
+    ``pipeline``, ...). A line lists names, then says what they do; a ``|`` among the names (or
+    alone, or before a line's words) separates two layers, wherever it stands."""
     text = PAGE.read_text(encoding="utf-8")
     diagram = text.split("```\n", 2)[1]
     tops = {m.split(".")[1] for m in MODULES if "." in m}
     out = [set()]
     for line in diagram.splitlines():
-        words = line.split()
-        if words and words[0] == "|":
-            out.append(set())
-            continue
-        for word in words:
-            if word == "->":
+        for word in line.split():
+            if word == "|":
+                if out[-1]:
+                    out.append(set())
+            elif word == "->":
                 continue
-            if word.rstrip("/") not in tops:
+            elif word.rstrip("/") in tops:
+                out[-1].add(word.rstrip("/"))
+            else:
                 break
-            out[-1].add(word.rstrip("/"))
     return [layer for layer in out if layer]
+
+
+def test_the_layers_are_read_as_the_page_draws_them():
+    # a separator at the end of a line of names splits the layer there, as one on a line of its own
+    found = layers()
+    assert len(found) >= 7
+    index = {name: i for i, layer in enumerate(found) for name in layer}
+    assert index["cli"] < index["jobs"] < index["change_map"] < index["pipeline"] < index["io"] < index["method"]
+    assert index["method"] < index["numerics"] < index["base"]
 
 
 def test_every_import_goes_to_the_same_layer_or_below():

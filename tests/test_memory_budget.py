@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import lidar_sig as ls
-from lidar_sig.errors import LidarSigError
+from lidar_sig.base.errors import LidarSigError
 from lidar_sig.tiling.median import sorted_median
 from lidar_sig.tiling.memory import DEFAULT_MEMORY, GIB, MIB, block_bytes, budget_bytes, over_budget
 
@@ -209,13 +209,13 @@ def test_python_compare_of_a_file_over_the_budget_with_an_archive_runs_it_in_til
 
 
 def test_a_tiled_run_that_fails_or_is_interrupted_leaves_nothing(tmp_path, monkeypatch):
-    from lidar_sig.tiling import run as tiling_run
+    from lidar_sig.tiling import run_set as tiling_run
 
     def fails(plan, ij):
         raise RuntimeError("a tile failed")
 
     # one core: the tiles run in the command's own process, where the failing task is patched in
-    monkeypatch.setattr("lidar_sig.tiling.execute.os.cpu_count", lambda: 1)
+    monkeypatch.setattr("lidar_sig.tiling.backends.os.cpu_count", lambda: 1)
     monkeypatch.setattr(tiling_run, "tile_task", fails)
     proc = lidar_sig_cli("saliency", EPOCH1, "-o", tmp_path / "out.laz", "--memory", SMALL)
     assert proc.returncode == 2 and "could not be processed in tiles" in proc.stderr, proc.stderr

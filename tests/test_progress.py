@@ -92,7 +92,7 @@ def test_on_a_terminal_the_saliency_loop_shows_a_bar_and_quiet_silences_it(tmp_p
 def test_a_step_shows_its_elapsed_time_after_a_delay_and_logs_when_done(capsys, caplog):
     import time
 
-    from lidar_sig import progress
+    from lidar_sig.base import progress
 
     with caplog.at_level("INFO", logger="lidar_sig"):
         with progress.step("quick", enabled=True):
@@ -111,10 +111,10 @@ def test_a_note_during_a_shown_step_gets_a_line_of_its_own(monkeypatch, capsys):
     import time
 
     from lidar_sig.cli.group import show_note as _note
-    from lidar_sig.errors import LidarSigWarning
-    from lidar_sig.progress import step
+    from lidar_sig.base.errors import LidarSigWarning
+    from lidar_sig.base.progress import step
 
-    monkeypatch.setattr("lidar_sig.progress.STEP_DELAY", 0.0)
+    monkeypatch.setattr("lidar_sig.base.progress.STEP_DELAY", 0.0)
     with step("working", enabled=True):
         time.sleep(0.1)
         _note("something to know", LidarSigWarning, __file__, 1)
@@ -179,7 +179,7 @@ def test_bars_off_a_terminal_when_asked(tmp_path):
 
 
 def test_a_loop_with_a_count_says_each_whole_percent_once(monkeypatch, capsys):
-    from lidar_sig import progress
+    from lidar_sig.base import progress
 
     monkeypatch.setenv("LIDAR_SIG_PROGRESS", "lines")
     assert list(progress.progress(range(250), desc="cells: of the map")) == list(range(250))

@@ -5,7 +5,7 @@ import pytest
 
 import lidar_sig as ls
 from conftest import airborne_like
-from lidar_sig import render
+from lidar_sig.reporting import render
 
 
 @pytest.fixture(scope="module")

@@ -119,7 +119,7 @@ def test_the_lazy_names_of_io_are_the_names_it_had():
     assert not [n for n in io.__all__ + list(io._EXPORTS) if isinstance(getattr(io, n), types.ModuleType)]
     from lidar_sig.io.las import read_las
 
-    assert io.read_las is read_las and lidar_sig.read is io.read and io.hdf5.HDF5_EXTENSIONS == (".h5", ".hdf5")
+    assert io.read_las is read_las and lidar_sig.read is io.read and io.archive.HDF5_EXTENSIONS == (".h5", ".hdf5")
 
 
 def _fill_the_cache():
@@ -134,7 +134,7 @@ def test_a_run_loads_its_kernels_in_the_background_before_it_calls_one():
     # descriptor and strategy, so that loading overlaps the run's first numpy steps
     _fill_the_cache()
     code = ("import lidar_sig as ls\n"
-            "from lidar_sig import grid, kernels\n"
+            "from lidar_sig.numerics import voxels as grid, kernels\n"
             "thread = ls.Pipeline(progress=False)._warm_up()\n"
             "thread.join()\n"
             "names = [(grid, 'nearest'), (grid, 'third_nearest'),\n"
@@ -146,7 +146,7 @@ def test_a_run_loads_its_kernels_in_the_background_before_it_calls_one():
 def test_a_failed_background_load_leaves_the_run_as_it_was(monkeypatch):
     # the background run is only a head start: what it fails at, the run proper does itself
     import lidar_sig as ls
-    import lidar_sig.compile as compile_
+    import lidar_sig.base.compile as compile_
 
     pts = np.random.default_rng(7).uniform(-5, 5, (3000, 3)) * [1, 1, 0.3]
     expected = ls.Pipeline(progress=False).run(pts).saliency.values
@@ -168,7 +168,7 @@ def test_no_background_run_while_a_kernel_is_to_be_compiled(monkeypatch):
     # numba, compiling, sets sys.stderr and back (colorama): from a second thread that undid a
     # redirection of stderr made meanwhile in the first (an error line lost from a test's capture)
     import lidar_sig as ls
-    import lidar_sig.compile as compile_
+    import lidar_sig.base.compile as compile_
 
     monkeypatch.setattr(compile_, "_WARMING", {})
     monkeypatch.setattr(compile_, "kernels_cached", lambda *a, **k: False)
@@ -209,7 +209,7 @@ def test_a_plugin_descriptor_is_warmed_up_like_a_built_in(monkeypatch):
     # the same head start as a built-in; one that declares none gets none (it may compile
     # kernels of its own, which must not compile in a second thread)
     import lidar_sig as ls
-    import lidar_sig.compile as compile_
+    import lidar_sig.base.compile as compile_
 
     monkeypatch.setattr(compile_, "_WARMING", {})
     monkeypatch.setattr(compile_, "kernels_cached", lambda *a, **k: True)  # as after a first run

@@ -9,8 +9,8 @@ import signal
 
 import click
 
-from . import (catalog, changes, compare, info, outliers, plugins, resilience, saliency, sample,  # noqa: F401
-               signature, similar)  # (registers the commands)
+from . import (catalog, changes, compare, info, list_plugins, outliers, resilience, saliency,  # noqa: F401
+               sample, signature, similar)  # (registers the commands)
 from .group import cli
 
 

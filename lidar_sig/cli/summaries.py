@@ -3,7 +3,7 @@ import json
 
 import click
 
-from ..errors import counted
+from ..base.errors import counted
 
 
 def archive_summary_line(side):

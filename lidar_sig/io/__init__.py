@@ -12,18 +12,18 @@ from typing import TYPE_CHECKING
 
 import lazy_loader
 
-from ..errors import LidarSigError, as_path, special_file
-from ..progress import step
+from ..base.errors import LidarSigError, as_path, special_file
+from ..base.progress import step
 
 if TYPE_CHECKING:
-    from ..cloud import PointCloud
+    from ..method.cloud import PointCloud
 from .atomic import atomic_output, check_output, check_outputs, output_group
 from .formats import (CLOUD_EXTENSIONS, HDF5_EXTENSIONS, LAS_EXTENSIONS, POINTS, SIGNATURE,
                       TEXT_EXTENSIONS, format_of)
 
 # name -> the module of this package that defines it, loaded on first use
 _EXPORTS = {
-    "archive_summary": "hdf5", "load_signature": "hdf5", "write_archive": "hdf5", "saliency_fields": "fields",
+    "archive_summary": "archive", "load_signature": "archive", "write_archive": "archive", "saliency_fields": "fields",
     "check_las_output": "las", "read_las": "las", "write_las": "las", "read_open3d": "open3d",
     "write_open3d": "open3d", "parse_columns": "text", "read_text": "text", "write_text": "text",
 }
@@ -33,8 +33,8 @@ __all__ = ["read", "write_cloud", "parse_columns", "CLOUD_EXTENSIONS", "atomic_o
            "archive_summary", "LAS_EXTENSIONS", "TEXT_EXTENSIONS", "HDF5_EXTENSIONS"]
 
 
-_SUBMODULES = ("atomic", "catalog", "fields", "formats", "geopackage", "geotiff", "h5", "hdf5", "las", "open3d", "png",
-               "results", "table", "text")
+_SUBMODULES = ("archive", "atomic", "catalog_file", "fields", "formats", "geopackage", "geotiff", "h5datasets", "las",
+               "open3d", "png", "result_files", "table", "text")
 __getattr__, _lazy_dir, _ = lazy_loader.attach(
     __name__, submodules=_SUBMODULES,
     submod_attrs={m: [n for n, where in _EXPORTS.items() if where == m] for m in set(_EXPORTS.values())})
@@ -72,7 +72,7 @@ def read(path: str | os.PathLike[str], *, columns: str | list[str] | None = None
             s.note(points=len(cloud))
         return cloud
     if fmt is not None and SIGNATURE in fmt.holds:
-        from .catalog import refuse_catalog
+        from .catalog_file import refuse_catalog
 
         refuse_catalog(path, "a point cloud")
         raise LidarSigError("is a signature archive, not a point cloud; use it with `lidar-sig compare` "

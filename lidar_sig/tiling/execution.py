@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ..errors import LidarSigError, LidarSigWarning, a_kind, arg, whole_number
+from ..base.errors import LidarSigError, LidarSigWarning, a_kind, arg, whole_number
 from .memory import DEFAULT_MEMORY, budget_bytes, one_block_note, points_over_budget, size
 
 #: Most local worker processes.
@@ -101,8 +101,8 @@ class Execution:
 
     @contextlib.contextmanager
     def backend(self) -> Iterator[Any]:
-        """Where the tiles run (:mod:`lidar_sig.tiling.execute`), closed when the block ends."""
-        from .execute import executor
+        """Where the tiles run (:mod:`lidar_sig.tiling.backends`), closed when the block ends."""
+        from .backends import executor
 
         backend = executor(self.workers, self.scheduler)
         try:

@@ -22,7 +22,7 @@ import math
 import re
 from pathlib import Path
 
-from ..errors import LidarSigError, arg, counted
+from ..base.errors import LidarSigError, arg, counted
 
 GIB = 2**30
 MIB = 2**20

@@ -10,7 +10,7 @@ import json
 import shutil
 from pathlib import Path
 
-from ..errors import LidarSigError, arg
+from ..base.errors import LidarSigError, arg
 from ..io.atomic import hold, keeping_work, release
 
 #: File that marks a folder as a work folder of ours (only such a folder is ever removed).
