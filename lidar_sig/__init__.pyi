@@ -23,7 +23,7 @@ from .reporting import Report
 from .survey_catalog import Catalog, build_catalog
 from .tiling.execution import Execution
 from .tiling.run_set import run_set
-from .tiling.set_run import SetRun
+from .tiling._set_run import SetRun
 
 __version__: str
 

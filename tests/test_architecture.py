@@ -141,6 +141,40 @@ def test_no_module_takes_another_modules_private_names():
     assert not found, "\n".join(found)
 
 
+def test_a_private_module_is_imported_only_inside_its_own_package():
+    # scikit-image's convention: a leading underscore marks a module as the package's own
+    # (``change_map/_lod.py``); other packages take its names from the package's public modules
+    found = []
+    for module, targets in graph().items():
+        for target in targets:
+            leaf = target.rpartition(".")[2]
+            owner = target.rpartition(".")[0]
+            if leaf.startswith("_") and not leaf.startswith("__") and not (module == owner
+                                                                           or module.startswith(owner + ".")):
+                found.append(f"{module} imports {target}")
+    assert not found, "\n".join(found)
+
+
+def test_no_two_modules_share_a_name_but_a_command_and_its_job():
+    # a reader never meets two `result.py`: a name (its leading underscore aside) is one module's,
+    # except a command of cli/ and the job of jobs/ it asks for
+    by_name = {}
+    for module in MODULES:
+        if module == "lidar_sig":
+            continue
+        by_name.setdefault(module.rpartition(".")[2].lstrip("_"), []).append(module)
+    shared = {name: found for name, found in by_name.items()
+              if len(found) > 1 and name != "" and not (
+                  sorted(m.rpartition(".")[0] for m in found) == ["lidar_sig.cli", "lidar_sig.jobs"])}
+    shared.pop("init", None)
+    assert not shared, shared
+
+
+def test_the_root_holds_the_public_entry_the_command_entry_and_subpackages():
+    root = sorted(p.name for p in PACKAGE.glob("*.py"))
+    assert root == ["__init__.py", "__main__.py"], root
+
+
 def test_the_architecture_page_names_every_module():
     # the table's first column names each module by its path in lidar_sig/
     listed = set()

@@ -120,10 +120,10 @@ def test_one_unlabelled_epoch_is_said_not_shown_as_a_class_change():
 # -- the synthetic scene of data_samples -------------------------------------------------------
 
 def coregistered_samples():
-    """The two epochs of the sample scene (lidar_sig/data/scene.py) without epoch 2's 20 degree
+    """The two epochs of the sample scene (lidar_sig/data/_scene.py) without epoch 2's 20 degree
     rotation (the committed epoch2.laz is rotated about the scene centre to test rotation invariance, so its
     coordinates no longer describe the same ground as epoch 1's), and the changes' places."""
-    from lidar_sig.data import scene as ms
+    from lidar_sig.data import _scene as ms
 
     scenes = ms.build_scenes()
     clouds = []
@@ -152,7 +152,7 @@ def test_removed_trees_and_the_new_building_are_in_the_top_cells_of_the_sample_s
 def sample_truth(grid):
     """Flat indices of the cells of ``grid`` that the sample scene's epoch 2 changed: those a cut
     tree's crown or the new building's footprint reaches."""
-    from lidar_sig.data import scene as ms
+    from lidar_sig.data import _scene as ms
 
     scenes = ms.build_scenes()
     removed = [t for t in scenes[1].trees if t not in scenes[2].trees]

@@ -190,7 +190,7 @@ def test_a_plugin_of_another_distribution_runs_in_tiles_and_is_warmed_up_like_a_
 def test_a_source_tree_never_installed_says_to_install_it(monkeypatch):
     # the built-ins come from lidar_sig's own entry points; without them the error says what to do
     from lidar_sig.base.errors import LidarSigError
-    from lidar_sig.plugins import registry
+    from lidar_sig.plugins import _registry as registry
 
     monkeypatch.setattr(registry, "entry_points", lambda group: [])
     registry._plugins.cache_clear()

@@ -134,7 +134,7 @@ def test_a_run_loads_its_kernels_in_the_background_before_it_calls_one():
     # descriptor and strategy, so that loading overlaps the run's first numpy steps
     _fill_the_cache()
     code = ("import lidar_sig as ls\n"
-            "from lidar_sig.numerics import voxels as grid, kernels\n"
+            "from lidar_sig.numerics import _voxels as grid, kernels\n"
             "thread = ls.Pipeline(progress=False)._warm_up()\n"
             "thread.join()\n"
             "names = [(grid, 'nearest'), (grid, 'third_nearest'),\n"

@@ -25,7 +25,7 @@ from .formats import (CLOUD_EXTENSIONS, HDF5_EXTENSIONS, LAS_EXTENSIONS, POINTS,
 _EXPORTS = {
     "archive_summary": "archive", "load_signature": "archive", "write_archive": "archive", "saliency_fields": "fields",
     "check_las_output": "las", "read_las": "las", "write_las": "las", "read_open3d": "open3d",
-    "write_open3d": "open3d", "parse_columns": "text", "read_text": "text", "write_text": "text",
+    "write_open3d": "open3d", "parse_columns": "_text", "read_text": "_text", "write_text": "_text",
 }
 
 __all__ = ["read", "write_cloud", "parse_columns", "CLOUD_EXTENSIONS", "atomic_output", "check_output",
@@ -33,8 +33,8 @@ __all__ = ["read", "write_cloud", "parse_columns", "CLOUD_EXTENSIONS", "atomic_o
            "archive_summary", "LAS_EXTENSIONS", "TEXT_EXTENSIONS", "HDF5_EXTENSIONS"]
 
 
-_SUBMODULES = ("archive", "atomic", "catalog_file", "fields", "formats", "geopackage", "geotiff", "h5datasets", "las",
-               "open3d", "png", "result_files", "table", "text")
+_SUBMODULES = ("archive", "atomic", "catalog_file", "fields", "formats", "geopackage", "geotiff", "las", "open3d", "png",
+               "result_files")
 __getattr__, _lazy_dir, _ = lazy_loader.attach(
     __name__, submodules=_SUBMODULES,
     submod_attrs={m: [n for n, where in _EXPORTS.items() if where == m] for m in set(_EXPORTS.values())})
@@ -47,11 +47,11 @@ def __dir__():
 def read(path: str | os.PathLike[str], *, columns: str | list[str] | None = None) -> PointCloud:
     """Read a point cloud (LAS/LAZ, PLY/PCD, XYZ/TXT/PTS/CSV text) into a PointCloud.
 
-    ``columns`` names the columns of a text file (see :mod:`lidar_sig.io.text`).
+    ``columns`` names the columns of a text file (see :mod:`lidar_sig.io._text`).
     """
     as_path(path, "read")
     if columns is not None:
-        from .text import parse_columns
+        from ._text import parse_columns
 
         columns = parse_columns(columns if isinstance(columns, str) else ",".join(map(str, columns)))
     path = Path(path)
