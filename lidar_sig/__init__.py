@@ -11,9 +11,15 @@ the command line are quick and a Ctrl-C at that moment is handled like any other
 """
 __version__ = "0.1.0"
 
-import warnings
+# When this package is the command line starting, Ctrl-C and SIGTERM wait from here until it
+# handles them (lidar_sig/start.py); a program that imports lidar_sig is left alone
+from . import start
 
-import lazy_loader
+start.hold()
+
+import warnings  # noqa: E402
+
+import lazy_loader  # noqa: E402
 
 # numba probes the TBB threading layer first and warns when an older TBB (such as the one
 # Open3D ships) is on the path; it then uses OpenMP or its own work queue, which is all we need.
