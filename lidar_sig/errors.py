@@ -94,7 +94,7 @@ def positive_metres(value, what):
     return number
 
 
-def brief(value):
+def brief(value: object) -> str:
     """The repr of ``value`` for a message, at most about 50 characters (10**400 has 401 digits)."""
     text = repr(value)
     return text if len(text) <= 40 else f"{text[:20]}...{text[-8:]} ({len(text):,} characters)"
@@ -119,7 +119,7 @@ NAME_MAX = 255
 PATH_MAX = 4096
 
 
-def check_name_lengths(path, room=0):
+def check_name_lengths(path: str | os.PathLike[str], room: int = 0) -> None:
     """Refuse ``path`` when one of its names is longer than its file system takes (255 bytes on
     most: about 85 CJK characters), or ``room`` bytes less for the last one (an output gets a
     temporary file named after it beside it), or when the whole path is longer than the system
@@ -199,7 +199,7 @@ _UNPRINTABLE = {c: f"\\x{c:02x}" for c in [*range(32), *range(127, 160)]}
 _UNPRINTABLE.update({ord("\n"): "\\n", ord("\r"): "\\r", ord("\t"): "\\t", 0x2028: "\\u2028", 0x2029: "\\u2029"})
 
 
-def printable(text):
+def printable(text: object) -> str:
     """``text`` as one line a terminal shows as it is: line breaks, tabs and other control
     characters (a file may be named "a\\nb") written as Python writes them in a string (``\\n``,
     ``\\t``, ``\\x1b``). Messages, notes, printed lines and reprs pass through it."""

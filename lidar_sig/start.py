@@ -6,6 +6,8 @@ the command line is then said in one line, where it was a KeyboardInterrupt trac
 silent end (status -15). A program that only imports lidar_sig is left alone. (Before the
 package's first line, while Python itself starts, a signal acts as on any program.)
 """
+from __future__ import annotations
+
 import os
 import sys
 
@@ -14,10 +16,10 @@ import sys
 import _signal
 
 #: The signals this module holds for the command line, or None; :func:`let_go` lets them come.
-held = None
+held: set[int] | None = None
 
 
-def is_the_program():
+def is_the_program() -> bool:
     """True when the process is the command line starting: ``lidar-sig`` (its script), or
     ``python -m lidar_sig`` while Python finds the package (``sys.argv[0]`` is then "-m")."""
     argv = sys.argv
@@ -34,7 +36,7 @@ def is_the_program():
     return os.path.basename(argv[0]) in ("lidar-sig", "lidar-sig.exe", "lidar-sig-script.py")
 
 
-def hold():
+def hold() -> None:
     """Hold SIGINT and SIGTERM (those not held already) when this process is the command line
     starting (:func:`is_the_program`); nothing otherwise."""
     global held
@@ -44,7 +46,7 @@ def hold():
     held = signals - set(_signal.pthread_sigmask(_signal.SIG_BLOCK, signals))
 
 
-def let_go():
+def let_go() -> None:
     """Let the signals :func:`hold` held come (one that came meanwhile is delivered now, to the
     handlers the command line has installed)."""
     global held

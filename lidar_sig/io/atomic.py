@@ -209,7 +209,7 @@ def hold(path, doing, errors=None):
     return fd
 
 
-def lock_path(path):
+def lock_path(path: str | os.PathLike[str]) -> Path:
     """The lock file of ``path`` (:func:`hold`): ``.NAME.lock`` beside it."""
     path = Path(path)
     return path.parent / f".{path.name}.lock"

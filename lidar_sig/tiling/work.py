@@ -9,7 +9,9 @@ import contextlib
 import contextvars
 import errno
 import json
+import os
 import shutil
+from collections.abc import Iterator
 from pathlib import Path
 
 from ..errors import LidarSigError, arg, check_name_lengths
@@ -86,7 +88,7 @@ def prepare_work(work, resume, keep=()):
     return work
 
 
-def file_in_the_way(folder):
+def file_in_the_way(folder: Path) -> Path | None:
     """The first part of the path ``folder`` that is a file (so that no folder can be made
     there: ``afile/sub``), or None."""
     for part in reversed([folder, *folder.parents]):
@@ -96,7 +98,7 @@ def file_in_the_way(folder):
 
 
 @contextlib.contextmanager
-def work_scope(work):
+def work_scope(work: str | os.PathLike[str]) -> Iterator[None]:
     """The block of a job that uses the work folder ``work`` (the run in tiles, then the outputs
     written from it). However the block ends, a folder this run held (:func:`prepare_work`) is
     let go at its end: its lock removed, so that a resumed run or another may use it at once.
@@ -140,7 +142,7 @@ def _settle(work, keep):
     return False
 
 
-def resumable(work, finished_only=False) -> bool:
+def resumable(work: str | os.PathLike[str], finished_only: bool = False) -> bool:
     """True when the work folder ``work`` holds what a resumed run reuses: a finished tile or
     (unless ``finished_only``) a staged part of a file."""
     work = Path(work)
