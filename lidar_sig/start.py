@@ -19,9 +19,16 @@ import _signal
 held: set[int] | None = None
 
 
+#: The names of the ``lidar-sig`` script (on Windows: its launcher and the script it runs).
+SCRIPT_NAMES = ("lidar-sig", "lidar-sig.exe", "lidar-sig-script.py")
+
+
 def is_the_program() -> bool:
-    """True when the process is the command line starting: ``lidar-sig`` (its script), or
-    ``python -m lidar_sig`` while Python finds the package (``sys.argv[0]`` is then "-m")."""
+    """True when the process is the command line starting: ``lidar-sig``, its script the
+    program's main module, or ``python -m lidar_sig`` while Python finds the package
+    (``sys.argv[0]`` is then "-m"). Not a worker process of a run in tiles: it is started
+    with the command's arguments, and may run its script (as ``__mp_main__``), but its main
+    module is multiprocessing's."""
     argv = sys.argv
     if not argv:
         return False
@@ -33,7 +40,8 @@ def is_the_program() -> bool:
             if option.startswith("-m"):
                 return option[2:] == "lidar_sig"
         return False
-    return os.path.basename(argv[0]) in ("lidar-sig", "lidar-sig.exe", "lidar-sig-script.py")
+    main = getattr(sys.modules.get("__main__"), "__file__", None) or ""
+    return os.path.basename(argv[0]) in SCRIPT_NAMES and os.path.basename(main) in SCRIPT_NAMES
 
 
 def hold() -> None:

@@ -245,3 +245,31 @@ def test_a_signal_while_the_package_loads_is_one_line(tmp_path, signum, count, d
     proc.send_signal(signum)
     assert_interrupted(proc, signum, read)
     assert not out.exists()
+
+
+WORKER_MASK = """import multiprocessing, signal, sys
+import lidar_sig
+
+
+def blocked():
+    return sorted(int(s) for s in signal.pthread_sigmask(signal.SIG_BLOCK, []))
+
+
+if __name__ == "__main__":
+    print("program", blocked())
+    with multiprocessing.get_context("spawn").Pool(1) as pool:
+        print("worker", pool.apply(blocked))
+"""
+
+
+def test_the_signals_held_at_the_start_are_held_in_the_program_only_not_in_its_workers(tmp_path):
+    # a worker process of a run in tiles runs the lidar-sig script again (as __mp_main__) with the
+    # command's arguments: it must not hold Ctrl-C and SIGTERM, which only the command line lets go
+    script = tmp_path / "lidar-sig"  # the program's name: what the start looks for
+    script.write_text(WORKER_MASK)
+    done = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=120,
+                          stdin=subprocess.DEVNULL, preexec_fn=_interruptible)
+    assert done.returncode == 0, done.stderr
+    held = sorted([int(signal.SIGINT), int(signal.SIGTERM)])
+    # this script never runs the command line, which would let them go: the program holds them still
+    assert done.stdout.splitlines() == [f"program {held}", "worker []"], done.stdout
