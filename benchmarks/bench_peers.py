@@ -87,8 +87,8 @@ def cross_check(path):
     """
     import pgeof
 
-    from lidar_sig.kernels import covariance_eigenvalues
-    from lidar_sig.neighbors import NeighborIndex
+    from lidar_sig.numerics.kernels import covariance_eigenvalues
+    from lidar_sig.numerics.neighbors import NeighborIndex
 
     xyz = read_xyz(path)
     x32 = np.ascontiguousarray(xyz, dtype=np.float32)

@@ -47,7 +47,7 @@ SPARSE_DENSITY, RECLASSIFIED = 0.3, (3, 4, 5)
 
 
 def _part(cloud, keep, name, xyz=None):
-    from lidar_sig.cloud import PointCloud
+    from lidar_sig.method.cloud import PointCloud
 
     xyz = cloud.xyz[keep] if xyz is None else xyz
     return PointCloud(xyz, cloud.labels[keep], path=name, crs=cloud.crs, units=cloud.units)
@@ -96,9 +96,9 @@ def main():
     import lidar_sig as ls
     from edited_epoch import edit
     from lidar_sig.change_map import read_epoch
-    from lidar_sig.errors import LidarSigWarning
+    from lidar_sig.base.errors import LidarSigWarning
     from lidar_sig.change_map.cells import CHANGE_KEYS
-    from lidar_sig.change_map.result import NAMES
+    from lidar_sig.change_map.maps import NAMES
 
     warnings.simplefilter("ignore", LidarSigWarning)  # the sparse pair's scheme warning is the point
     pipeline = ls.Pipeline(progress=False)

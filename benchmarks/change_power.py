@@ -68,7 +68,7 @@ NULLS = ("halves", "copy")
 def thinned(block, xyz, labels, keep, rng=None, name="epoch", moved=False):
     """The points ``keep`` of ``xyz``, ``labels`` as a PointCloud in ``block``'s CRS; ``moved``:
     with :data:`NOISE` of Gaussian noise (drawn from ``rng``) and moved by :data:`SHIFT`."""
-    from lidar_sig.cloud import PointCloud
+    from lidar_sig.method.cloud import PointCloud
 
     xyz = xyz[keep]
     if moved:
@@ -133,7 +133,7 @@ def main():
 
     from lidar_sig.change_map import density as density_of
     from lidar_sig.change_map import compute_epoch, read_epoch
-    from lidar_sig.errors import LidarSigWarning
+    from lidar_sig.base.errors import LidarSigWarning
 
     warnings.simplefilter("ignore", LidarSigWarning)
     pipeline = ls.Pipeline(progress=False)

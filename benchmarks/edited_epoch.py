@@ -131,7 +131,7 @@ def edit(one, *, seed=13, vegetation=HIGH_VEGETATION, avoid=(), name="edited epo
     ``one`` in cells other than the (x, y) centres ``avoid``, then 80% of the points kept and
     everything moved; edits as {edit name: (x, y) centre of its 25 m cell in ``one``'s
     coordinates}."""
-    from lidar_sig.cloud import PointCloud
+    from lidar_sig.method.cloud import PointCloud
 
     rng = np.random.default_rng(seed)
     xyz, labels = one.xyz, one.labels

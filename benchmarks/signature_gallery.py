@@ -19,7 +19,7 @@ import numpy as np
 import lidar_sig as ls
 from lidar_sig.io.png import write_png
 from lidar_sig.plugins.descriptors.t3dvt import T3DVT
-from lidar_sig.render import signature_image
+from lidar_sig.reporting.render import signature_image
 
 CONFIGS = [
     ("Multiscale C3DCM", "c3dcm", "multiscale"),

@@ -18,7 +18,7 @@ SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
 
 def _terminate(signum, frame):
-    from .errors import Interrupted
+    from .base.errors import Interrupted
 
     raise Interrupted(signum)
 
@@ -37,7 +37,7 @@ def main(argv=None):
             # what the SIGTERM handler raises, loaded whole before the handler can run (a SIGTERM
             # while the command line was importing it raised an ImportError of a partly loaded
             # module); a Ctrl-C while it loads is said like one while the libraries load
-            from . import errors  # noqa: F401
+            from .base import errors  # noqa: F401
             signal.signal(signal.SIGTERM, _terminate)
             # Ctrl-C and SIGTERM were held since the package's first line: one that came is
             # delivered now, to the handlers above (lidar_sig/start.py)

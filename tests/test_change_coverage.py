@@ -13,7 +13,7 @@ import pytest
 from command_line import run, run_process
 from conftest import ROOT, SAMPLES
 from lidar_sig.change_map import changes, read_epoch
-from lidar_sig.cloud import PointCloud
+from lidar_sig.method.cloud import PointCloud
 
 sys.path.insert(0, str(ROOT / "benchmarks"))
 ALIGNED = SAMPLES / "epoch2_aligned.laz"
@@ -158,7 +158,7 @@ def test_a_run_below_the_density_where_recall_drops_warns_with_the_figure(tmp_pa
     from edited_epoch import write_las
 
     from lidar_sig.change_map.density import LEAST_DENSITY, RECALL_BELOW
-    from lidar_sig.errors import LidarSigWarning
+    from lidar_sig.base.errors import LidarSigWarning
 
     rng = np.random.default_rng(3)
     paths = []

@@ -10,9 +10,9 @@ import pytest
 from conftest import airborne_like
 from lidar_sig.change_map import changes
 from lidar_sig.change_map.heights import LOWEST, height_distance, height_profile
-from lidar_sig.cloud import PointCloud
-from lidar_sig.crs import Units
-from lidar_sig.errors import LidarSigWarning
+from lidar_sig.method.cloud import PointCloud
+from lidar_sig.method.crs import Units
+from lidar_sig.base.errors import LidarSigWarning
 
 FOOT = 0.3048
 

@@ -11,7 +11,7 @@ import pytest
 from conftest import IGN, ROOT, need_data
 from lidar_sig.change_map import Level, changes, compute_epoch, level_of_detection, read_epoch
 from lidar_sig.change_map.lod import MIN_CELLS, quantile
-from lidar_sig.errors import LidarSigWarning
+from lidar_sig.base.errors import LidarSigWarning
 
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
@@ -167,8 +167,8 @@ def test_resampling_draws_per_cell_so_that_results_do_not_depend_on_the_processi
     from conftest import airborne_like
     from lidar_sig.change_map import Grid, bin_points, compute_epoch, null_metrics
     from lidar_sig.change_map.cells import cell_table
-    from lidar_sig.classes import ASPRS
-    from lidar_sig.cloud import PointCloud
+    from lidar_sig.method.classes import ASPRS
+    from lidar_sig.method.cloud import PointCloud
 
     epochs = [compute_epoch(PointCloud(airborne_like(6000, seed=s)[0], airborne_like(6000, seed=s)[1]))
               for s in (0, 1)]

@@ -16,8 +16,8 @@ import lidar_sig as ls
 from command_line import run, run_process
 from conftest import ROOT, SAMPLES, airborne_like
 from lidar_sig.change_map import ChangeSeries, Grid, changes
-from lidar_sig.cloud import PointCloud
-from lidar_sig.errors import LidarSigError, LidarSigWarning
+from lidar_sig.method.cloud import PointCloud
+from lidar_sig.base.errors import LidarSigError, LidarSigWarning
 from lidar_sig.metrics import METRIC_KEYS
 from robustness.helpers import assert_one_line_error, leftovers
 
@@ -108,7 +108,7 @@ def test_unlabelled_epochs_rank_by_a_label_free_metric():
 
 
 def test_one_unlabelled_epoch_is_said_not_shown_as_a_class_change():
-    from lidar_sig.errors import LidarSigWarning
+    from lidar_sig.base.errors import LidarSigWarning
 
     a, b = small_cloud(0), small_cloud(1)
     b.labels = None
@@ -463,7 +463,7 @@ def test_defaults_are_chosen_from_the_densities_and_recorded():
 # -- class schemes (issue 17) -------------------------------------------------------------------
 
 def test_class_maps_are_read_from_text_lists_dicts_and_files(tmp_path):
-    from lidar_sig.class_schemes import parse_class_map
+    from lidar_sig.method.class_maps import parse_class_map
 
     want = {"vegetation-or-other": [1, 3, 4, 5], "water": [9]}
     (tmp_path / "map.toml").write_text('vegetation-or-other = [5, 4, 3, 1]\nwater = 9\n')
@@ -484,7 +484,7 @@ def test_class_maps_are_read_from_text_lists_dicts_and_files(tmp_path):
     (42, "a class map is text like"),
 ])
 def test_a_bad_class_map_is_one_error_naming_the_value_and_the_fix(given, said):
-    from lidar_sig.class_schemes import parse_class_map
+    from lidar_sig.method.class_maps import parse_class_map
 
     with pytest.raises(LidarSigError, match=re.escape(said)) as err:
         parse_class_map(given)
@@ -495,7 +495,7 @@ def test_a_bad_class_map_is_one_error_naming_the_value_and_the_fix(given, said):
 
 
 def test_class_map_files_that_cannot_be_read_are_named(tmp_path):
-    from lidar_sig.class_schemes import parse_class_map
+    from lidar_sig.method.class_maps import parse_class_map
 
     with pytest.raises(LidarSigError, match="not found"):
         parse_class_map(tmp_path / "none.toml")
@@ -505,8 +505,8 @@ def test_class_map_files_that_cannot_be_read_are_named(tmp_path):
 
 
 def test_merged_classes_take_their_codes_from_either_scheme():
-    from lidar_sig.class_schemes import merge_classes
-    from lidar_sig.classes import ASPRS
+    from lidar_sig.method.class_maps import merge_classes
+    from lidar_sig.method.classes import ASPRS
 
     table = merge_classes(ASPRS, "1,3,4,5=vegetation-or-other")
     names = table.class_names
@@ -628,7 +628,7 @@ def test_the_map_has_coordinates_a_north_arrow_and_a_legend_of_significance():
 
 
 def test_a_class_map_file_given_on_the_command_line_is_read(tmp_path):
-    from lidar_sig.class_schemes import parse_class_map
+    from lidar_sig.method.class_maps import parse_class_map
 
     (tmp_path / "veg.toml").write_text("vegetation = [3, 5]\n")
     assert parse_class_map([str(tmp_path / "veg.toml"), "9=water"]) == {"vegetation": [3, 5], "water": [9]}

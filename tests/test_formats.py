@@ -10,7 +10,7 @@ import pytest
 import lidar_sig as ls
 from command_line import run
 from conftest import IGN, need_data
-from lidar_sig.errors import LidarSigWarning
+from lidar_sig.base.errors import LidarSigWarning
 
 open3d = pytest.importorskip("open3d", reason="PLY/PCD need open3d: pip install -e '.[formats]'")
 

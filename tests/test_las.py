@@ -11,7 +11,7 @@ import pytest
 import lidar_sig as ls
 from command_line import run
 from conftest import DATA, IGN, IGN_FILES, NOISY, airborne_like, need_data, noisy_las
-from lidar_sig.errors import LidarSigWarning
+from lidar_sig.base.errors import LidarSigWarning
 from lidar_sig.io.fields import saliency_fields
 from lidar_sig.io.las import SALIENCY_DIMS, write_las
 

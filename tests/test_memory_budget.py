@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import lidar_sig as ls
-from lidar_sig.errors import LidarSigError
+from lidar_sig.base.errors import LidarSigError
 from lidar_sig.tiling.median import sorted_median
 from lidar_sig.tiling.memory import DEFAULT_MEMORY, GIB, MIB, block_bytes, budget_bytes, over_budget
 
@@ -215,7 +215,7 @@ def test_a_tiled_run_that_fails_or_is_interrupted_leaves_nothing(tmp_path, monke
         raise RuntimeError("a tile failed")
 
     # one core: the tiles run in the command's own process, where the failing task is patched in
-    monkeypatch.setattr("lidar_sig.tiling.execute.cores", lambda: 1)
+    monkeypatch.setattr("lidar_sig.tiling.backends.cores", lambda: 1)
     monkeypatch.setattr(tiling_run, "tile_task", fails)
     proc = lidar_sig_cli("saliency", EPOCH1, "-o", tmp_path / "out.laz", "--memory", SMALL)
     assert proc.returncode == 2 and "could not be processed in tiles" in proc.stderr, proc.stderr

@@ -7,7 +7,7 @@ import lidar_sig as ls
 from conftest import airborne_like
 from lidar_sig.metrics import (bhattacharyya, color_bin_centres, color_histogram, emd_img, emd_info,
                                fisher_vector, fv_distance, l1_distance, ssim, symmetric_kl)
-from lidar_sig.saliency import LN3
+from lidar_sig.method.saliency_map import LN3
 
 AREA2 = [107485, 69097, 38866, 51227]  # paper Table 1: tree, building, low vegetation, road
 AREA3 = [135449, 69563, 35512, 83372]
@@ -187,7 +187,7 @@ def test_comparing_clouds_leaves_them_unchanged():
 def test_values_of_the_wrong_kind_are_named_with_their_article():
     # "a int" was said where a number came instead of a cloud, a source or a signature
     from lidar_sig.comparison import compare_sources
-    from lidar_sig.errors import a_kind
+    from lidar_sig.base.errors import a_kind
 
     assert [a_kind(v) for v in (None, 3, "x", [1], object())] == ["None", "an int", "a str", "a list", "an object"]
     with pytest.raises(ls.LidarSigError, match="cannot run on an int"):

@@ -5,9 +5,9 @@ from scipy.spatial import cKDTree
 
 import lidar_sig as ls
 from conftest import airborne_like
-from lidar_sig.neighbors import TIE, NeighborIndex
+from lidar_sig.numerics.neighbors import TIE, NeighborIndex
 from lidar_sig.plugins import get_strategy
-from lidar_sig.saliency import geometric_entropy
+from lidar_sig.method.saliency_map import geometric_entropy
 
 
 @pytest.fixture
@@ -80,7 +80,7 @@ def _assert_as_a_tree_finds(index):
 def test_unsettled_queries_by_tree_or_by_scan_give_the_same_neighbours(monkeypatch, scan_all):
     # isolated points far from a dense patch: the voxel shells cannot settle them, and they are
     # completed either by a k-d tree or, when few, by a scan of every point
-    import lidar_sig.neighbors as neighbors
+    import lidar_sig.numerics.neighbors as neighbors
 
     monkeypatch.setattr(neighbors, "_SCAN_ALL", scan_all)
     rng = np.random.default_rng(3)
@@ -94,7 +94,7 @@ def test_queries_a_few_shells_too_far_are_settled_by_more_shells(monkeypatch, fa
     # a few points 7 to 9 m beside a dense patch (voxels of about 1 m): 6 shells cannot settle
     # their k nearest nor their second neighbour; a second search of 12 shells does, and gives
     # what a scan of every point gives (with _FARTHER_VOXELS = 0, the scan)
-    import lidar_sig.neighbors as neighbors
+    import lidar_sig.numerics.neighbors as neighbors
 
     completed = []
     real = NeighborIndex._complete
@@ -235,7 +235,7 @@ def test_scales_validation():
 def test_second_distances_on_a_lattice_whose_points_lie_on_voxel_faces(cell):
     # a lattice of step 0.25 with the voxel side a multiple of it: many points sit exactly on a
     # face, and their second neighbour in the voxel next door must not be skipped for round-off
-    from lidar_sig.grid import VoxelGrid
+    from lidar_sig.numerics.voxels import VoxelGrid
 
     g = np.arange(0.0, 6.0, 0.25)
     xyz = np.array(np.meshgrid(g, g, [0.0, 0.25]), dtype=np.float64).reshape(3, -1).T

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import lidar_sig as ls
-from lidar_sig.neighbors import NeighborIndex
+from lidar_sig.numerics.neighbors import NeighborIndex
 from lidar_sig.plugins import Descriptor
 from lidar_sig.plugins.descriptors.c3dcm import C3DCM
 
@@ -120,7 +120,7 @@ def test_a_plugin_giving_ascending_eigenvalues_gets_the_saliency_of_descending_o
 def test_round_off_negative_eigenvalues_are_zero_and_clearly_negative_ones_refused(batch):
     zero = C3DCM().eigenvalues(batch)
     zero[..., 2] = 0.0
-    from lidar_sig.saliency import saliency_from_eigenvalues
+    from lidar_sig.method.saliency_map import saliency_from_eigenvalues
 
     np.testing.assert_allclose(Negative(1e-12).saliency(batch), saliency_from_eigenvalues(zero), atol=1e-12)
     with pytest.raises(ls.LidarSigError, match="'negative'.*negative eigenvalue"):
@@ -176,7 +176,7 @@ def test_a_plugin_of_another_distribution_runs_in_tiles_and_is_warmed_up_like_a_
         np.testing.assert_allclose(np.asarray(a[dim]), np.asarray(b[dim]), rtol=0, atol=1e-6)
     code = textwrap.dedent("""
         import lidar_sig as ls
-        from lidar_sig.compile import kernels_cached
+        from lidar_sig.base.compile import kernels_cached
         pipe = ls.Pipeline("demo-kernel")
         names = [n for module, names in pipe.kernels() for n in names]
         thread = pipe._warm_up()
@@ -189,7 +189,7 @@ def test_a_plugin_of_another_distribution_runs_in_tiles_and_is_warmed_up_like_a_
 
 def test_a_source_tree_never_installed_says_to_install_it(monkeypatch):
     # the built-ins come from lidar_sig's own entry points; without them the error says what to do
-    from lidar_sig.errors import LidarSigError
+    from lidar_sig.base.errors import LidarSigError
     from lidar_sig.plugins import registry
 
     monkeypatch.setattr(registry, "entry_points", lambda group: [])

@@ -111,10 +111,10 @@ def test_a_note_during_a_shown_step_gets_a_line_of_its_own(monkeypatch, capsys):
     import time
 
     from lidar_sig.cli.group import show_note as _note
-    from lidar_sig.errors import LidarSigWarning
-    from lidar_sig.progress import step
+    from lidar_sig.base.errors import LidarSigWarning
+    from lidar_sig.base.progress import step
 
-    monkeypatch.setattr("lidar_sig.progress.STEP_DELAY", 0.0)
+    monkeypatch.setattr("lidar_sig.base.progress.STEP_DELAY", 0.0)
     with step("working", enabled=True):
         time.sleep(0.1)
         _note("something to know", LidarSigWarning, __file__, 1)

@@ -1,4 +1,4 @@
-"""`lidar-sig resilience` and lidar_sig.resilience (lidar_sig.sampling): metrics of random subsamples (SPEC 7)."""
+"""`lidar-sig resilience` and lidar_sig.resilience (lidar_sig.jobs.resilience): metrics of random subsamples (SPEC 7)."""
 import json
 
 import numpy as np
@@ -6,7 +6,7 @@ import numpy as np
 import lidar_sig as ls
 from command_line import run, run_process
 from conftest import SAMPLES, airborne_like
-from lidar_sig.sampling import resilience
+from lidar_sig.jobs.resilience import resilience
 
 
 def test_full_fraction_is_identical_and_distances_grow_as_points_go():

@@ -3,10 +3,10 @@ import numpy as np
 import pytest
 
 import lidar_sig as ls
-from lidar_sig.kernels import eigvalsh3
-from lidar_sig.neighbors import NeighborIndex
+from lidar_sig.numerics.kernels import eigvalsh3
+from lidar_sig.numerics.neighbors import NeighborIndex
 from lidar_sig.plugins.descriptors.c3dcm import C3DCM
-from lidar_sig.saliency import LN3, geometric_class, geometric_entropy, saliency_from_eigenvalues
+from lidar_sig.method.saliency_map import LN3, geometric_class, geometric_entropy, saliency_from_eigenvalues
 
 
 def _centre_saliency(points, k=60):

@@ -3,8 +3,8 @@ import numpy as np
 import pytest
 
 import lidar_sig as ls
-from lidar_sig.classes import ASPRS, PAPER, UNLABELED
-from lidar_sig.signature import Frame, Signature
+from lidar_sig.method.classes import ASPRS, PAPER, UNLABELED
+from lidar_sig.method.signature_raster import Frame, Signature
 
 
 def _sig(sal, labels, classes=ASPRS, frame=None):
@@ -131,7 +131,7 @@ def test_write_png(tmp_path):
     res.write(tmp_path / "s.png")
     import cv2
 
-    from lidar_sig.render import signature_image
+    from lidar_sig.reporting.render import signature_image
     img = cv2.imread(str(tmp_path / "s.png"), cv2.IMREAD_UNCHANGED)[..., ::-1]  # BGR -> RGB
     assert img.shape == (512, 512, 3)
     assert np.array_equal(img, signature_image(res.signature))  # PNG is lossless
@@ -140,7 +140,7 @@ def test_write_png(tmp_path):
 
 
 def test_user_class_tables_from_toml_and_json(tmp_path):
-    from lidar_sig.classes import ISPRS_VAIHINGEN, class_table
+    from lidar_sig.method.classes import ISPRS_VAIHINGEN, class_table
 
     toml = tmp_path / "ign.toml"
     toml.write_text('name = "ign"\n[[class]]\nname = "vegetation"\ncodes = [3, 4, 5]\ncolor = [20, 140, 40]\n'
@@ -165,7 +165,7 @@ def test_user_class_tables_from_toml_and_json(tmp_path):
                                   'noise = 7\n[[class]]\nname="a"\ncodes=[1]\ncolor=[1,2,3]\n',
                                   'noise = [0]\n[[class]]\nname="a"\ncodes=[1]\ncolor=[1,2,3]\n'])
 def test_bad_class_tables_name_the_file(tmp_path, text):
-    from lidar_sig.classes import class_table
+    from lidar_sig.method.classes import class_table
 
     path = tmp_path / "bad.toml"
     path.write_text(text)

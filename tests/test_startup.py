@@ -146,7 +146,7 @@ def test_a_run_loads_its_kernels_in_the_background_before_it_calls_one():
 def test_a_failed_background_load_leaves_the_run_as_it_was(monkeypatch):
     # the background run is only a head start: what it fails at, the run proper does itself
     import lidar_sig as ls
-    import lidar_sig.compile as compile_
+    import lidar_sig.base.compile as compile_
 
     pts = np.random.default_rng(7).uniform(-5, 5, (3000, 3)) * [1, 1, 0.3]
     expected = ls.Pipeline(progress=False).run(pts).saliency.values
@@ -168,7 +168,7 @@ def test_no_background_run_while_a_kernel_is_to_be_compiled(monkeypatch):
     # numba, compiling, sets sys.stderr and back (colorama): from a second thread that undid a
     # redirection of stderr made meanwhile in the first (an error line lost from a test's capture)
     import lidar_sig as ls
-    import lidar_sig.compile as compile_
+    import lidar_sig.base.compile as compile_
 
     monkeypatch.setattr(compile_, "_WARMING", {})
     monkeypatch.setattr(compile_, "kernels_cached", lambda *a, **k: False)
@@ -209,7 +209,7 @@ def test_a_plugin_descriptor_is_warmed_up_like_a_built_in(monkeypatch):
     # the same head start as a built-in; one that declares none gets none (it may compile
     # kernels of its own, which must not compile in a second thread)
     import lidar_sig as ls
-    import lidar_sig.compile as compile_
+    import lidar_sig.base.compile as compile_
 
     monkeypatch.setattr(compile_, "_WARMING", {})
     monkeypatch.setattr(compile_, "kernels_cached", lambda *a, **k: True)  # as after a first run

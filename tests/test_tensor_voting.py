@@ -5,7 +5,7 @@ from scipy.spatial.transform import Rotation
 
 import lidar_sig as ls
 from conftest import airborne_like
-from lidar_sig.neighbors import NeighborIndex
+from lidar_sig.numerics.neighbors import NeighborIndex
 from lidar_sig.plugins.descriptors.t3dvt import T3DVT
 from lidar_sig.plugins.descriptors.t3dvt_get import T3DVTGET, cl_get_of_cloud
 

@@ -10,13 +10,13 @@ import numpy as np
 import pytest
 
 import lidar_sig as ls
-from lidar_sig.classes import class_table
-from lidar_sig.errors import LidarSigError, LidarSigWarning
+from lidar_sig.method.classes import class_table
+from lidar_sig.base.errors import LidarSigError, LidarSigWarning
 from lidar_sig.io.fields import saliency_fields
-from lidar_sig.signature import Signature
+from lidar_sig.method.signature_raster import Signature
 from lidar_sig.tiling.core import saliency_in_tiles
-from lidar_sig.tiling.execute import executor
-from lidar_sig.tiling.run import run_set
+from lidar_sig.tiling.backends import executor
+from lidar_sig.tiling.run_set import run_set
 
 from command_line import run as lidar_sig_cli
 from conftest import DATA, IGN, IGN_FILES, NOISY, SAMPLES, airborne_like, need_data, noisy_las
@@ -330,7 +330,7 @@ def test_a_signal_during_a_streamed_write_stops_it_at_the_next_chunk(tmp_path):
     import os
     import signal
 
-    from lidar_sig.errors import Interrupted
+    from lidar_sig.base.errors import Interrupted
     from lidar_sig.io.las import write_las_chunks
 
     src = SAMPLES / "epoch1.laz"

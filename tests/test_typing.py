@@ -52,7 +52,7 @@ def test_the_public_names_resolve_statically(tmp_path):
     said = checked.stdout
     revealed = [line.split("Revealed type is ", 1)[1] for line in said.splitlines() if "Revealed type is" in line]
     assert len(revealed) == 6, said
-    for line, name in zip(revealed, ("lidar_sig.pipeline.Pipeline", "lidar_sig.result.Result",
+    for line, name in zip(revealed, ("lidar_sig.pipeline.flow.Pipeline", "lidar_sig.pipeline.result.Result",
                                      "lidar_sig.comparison.Comparison", "lidar_sig.tiling.execution.Execution",
-                                     "lidar_sig.jobs.saliency.SaliencyRun", "lidar_sig.change_map.result.ChangeMap")):
+                                     "lidar_sig.jobs.saliency.SaliencyRun", "lidar_sig.change_map.maps.ChangeMap")):
         assert name in line, (name, line)

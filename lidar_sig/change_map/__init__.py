@@ -29,9 +29,9 @@ The modules: :mod:`~lidar_sig.change_map.grid` (the cells), :mod:`~lidar_sig.cha
 from tiles, checked against the others), :mod:`~lidar_sig.change_map.cells` (per-cell
 signatures, metrics and resampled metrics from computed saliency, coverage states),
 :mod:`~lidar_sig.change_map.heights` (delta_H), :mod:`~lidar_sig.change_map.lod`
-(the level of detection, array in, array out), :mod:`~lidar_sig.change_map.result` (the
+(the level of detection, array in, array out), :mod:`~lidar_sig.change_map.maps` (the
 ChangeMap: levels, ranking, rasters, files), :mod:`~lidar_sig.change_map.series` (more than two
-epochs) and :mod:`~lidar_sig.change_map.run` (:func:`changes`, which reads the epochs and runs
+epochs) and :mod:`~lidar_sig.change_map.compute` (:func:`changes`, which reads the epochs and runs
 the pipeline).
 """
 from .cells import CELL_FIELDS, CELL_FRAME, SEED, bin_points, cell_signature, null_metrics, observed_metrics
@@ -39,8 +39,8 @@ from .density import auto_cell, auto_min_points, density
 from .epochs import Epoch, compute_epoch, read_epoch
 from .grid import MAX_CELLS, Grid, check_cell
 from .lod import CONFIDENCE, REPLICATES, Level, level_of_detection
-from .result import LABEL_FREE_SCORE, SCORE, ChangeMap, metric_levels, score_values
-from .run import AUTO, changes
+from .maps import LABEL_FREE_SCORE, SCORE, ChangeMap, metric_levels, score_values
+from .compute import AUTO, changes
 from .series import ChangeSeries
 
 __all__ = ["AUTO", "CELL_FIELDS", "CELL_FRAME", "CONFIDENCE", "LABEL_FREE_SCORE", "MAX_CELLS", "REPLICATES",

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..metrics import METRIC_KEYS, compare
-from ..signature import Frame, Signature, point_codes
+from ..method.signature_raster import Frame, Signature, point_codes
 from .heights import HEIGHT, height_distance
 from .lod import REPLICATES
 
@@ -52,7 +52,7 @@ class Binned:
     """An epoch's points by cell: ``order`` sorts them by cell, so that cell c holds the points
     ``order[starts[c]:starts[c + 1]]``; ``classes`` (cells, C) counts its points per class and
     ``undefined`` (cells,) those with undefined saliency; ``pixel``, ``egeom_bin`` and
-    ``class_index`` (N,) code each point for a signature (:func:`lidar_sig.signature.point_codes`);
+    ``class_index`` (N,) code each point for a signature (:func:`lidar_sig.method.signature_raster.point_codes`);
     ``height`` (N,) is each point's z in metres (:mod:`.heights`)."""
 
     order: np.ndarray

@@ -8,9 +8,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..cloud import PointCloud
-from ..crs import crs_name, same_crs
-from ..errors import LidarSigError, a_kind, as_path
+from ..method.cloud import PointCloud
+from ..method.crs import crs_name, same_crs
+from ..base.errors import LidarSigError, a_kind, as_path
 
 
 @dataclass
@@ -35,7 +35,7 @@ def compute_epoch(source, pipeline=None, *, columns=None):
     computed with ``pipeline`` (default ``Pipeline()``). Give it to
     :func:`~lidar_sig.change_map.changes` in place of the source to compute an epoch's saliency
     once for several change maps."""
-    from ..pipeline import pipeline_or_default
+    from ..pipeline.flow import pipeline_or_default
 
     pipeline = pipeline_or_default(pipeline)
     cloud = read_epoch(source, columns=columns)

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import positive_metres
+from ..base.errors import positive_metres
 
 #: Most cells a change map holds (its table takes about 200 bytes a cell).
 MAX_CELLS = 4_000_000

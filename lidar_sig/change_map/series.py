@@ -9,8 +9,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..errors import LidarSigError, as_path
-from ..progress import step
+from ..base.errors import LidarSigError, as_path
+from ..base.progress import step
 
 if TYPE_CHECKING:
     from ..reporting import Report

@@ -11,7 +11,7 @@ import click
 
 from . import (catalog, changes, compare, info, outliers, plugins, resilience, saliency, sample,  # noqa: F401
                signature, similar)  # (registers the commands)
-from ..errors import printable
+from ..base.errors import printable
 from .group import cli
 
 

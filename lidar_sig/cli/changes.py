@@ -4,7 +4,7 @@ import json
 
 import click
 
-from ..errors import LidarSigError, counted
+from ..base.errors import LidarSigError, counted
 from .group import cli
 from .options import Choice, Default, columns_option, metric_keys, overwrite_option, pipeline_options, render_option
 

@@ -3,7 +3,7 @@ import json
 
 import click
 
-from ..errors import printable
+from ..base.errors import printable
 from .group import cli
 from .options import (columns_option, execution_options, json_option, overwrite_option, pipeline_options,
                       render_option, report_options)

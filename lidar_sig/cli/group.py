@@ -8,9 +8,9 @@ import warnings
 
 import click
 
-from ..errors import Interrupted, LidarSigError, LidarSigWarning, printable, speaking
+from ..base.errors import Interrupted, LidarSigError, LidarSigWarning, printable, speaking
 from ..io.atomic import recording_outputs
-from ..progress import environment_setting, say
+from ..base.progress import environment_setting, say
 
 
 def show_note(message, category, filename, lineno, file=None, line=None, _shown=warnings.showwarning):

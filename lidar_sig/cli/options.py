@@ -12,8 +12,8 @@ import math
 
 import click
 
-from ..errors import LidarSigError
-from ..progress import settings as progress_settings
+from ..base.errors import LidarSigError
+from ..base.progress import settings as progress_settings
 
 
 class Choice(click.Choice):
@@ -46,7 +46,7 @@ class Default:
 
 
 def _weights():
-    from ..neighbors import WEIGHTS
+    from ..numerics.neighbors import WEIGHTS
 
     return WEIGHTS
 
@@ -59,8 +59,8 @@ def metric_keys():
 
 
 def renderings():
-    """The renderings of the signatures, the default first (``lidar_sig.signature.RENDERINGS``)."""
-    from ..signature import RENDERINGS
+    """The renderings of the signatures, the default first (``lidar_sig.method.signature_raster.RENDERINGS``)."""
+    from ..method.signature_raster import RENDERINGS
 
     return RENDERINGS
 
@@ -161,9 +161,9 @@ def pipeline_options(func):
 def make_pipeline(descriptor=None, strategy=None, radii=None, units=None, k=None, weights=None,
                   max_neighbors=None, classes=None, keep_noise=None, quiet=False):
     """A Pipeline from command-line option values (None: the default)."""
-    from ..pipeline import Pipeline
-    from ..scales import knn
-    from ..scales import radii as make_radii
+    from ..pipeline.flow import Pipeline
+    from ..method.scales import knn
+    from ..method.scales import radii as make_radii
 
     if radii is not None and k is not None:
         raise LidarSigError("give either --radii or --k, not both")

@@ -4,8 +4,8 @@ import json
 
 import click
 
-from ..errors import counted, printable
-from ..progress import settings as progress_settings
+from ..base.errors import counted, printable
+from ..base.progress import settings as progress_settings
 from .group import cli
 from .options import overwrite_option
 

@@ -3,7 +3,7 @@ import json
 
 import click
 
-from ..errors import counted
+from ..base.errors import counted
 from ..io import check_output, read
 from .group import cli
 from .options import (Default, columns_option, not_empty, number_list, overwrite_option, pipeline_options,
@@ -11,7 +11,7 @@ from .options import (Default, columns_option, not_empty, number_list, overwrite
 
 
 def _fractions():
-    from ..sampling import DEFAULT_FRACTIONS
+    from ..jobs.resilience import DEFAULT_FRACTIONS
 
     return ",".join(f"{f:g}" for f in DEFAULT_FRACTIONS)
 
@@ -35,7 +35,7 @@ def resilience_command(source, fractions, repeats, seed, as_json, plot, render, 
                        method_given, quiet):
     """Compare SOURCE with uniform random subsamples of itself, fraction by fraction."""
     from ..metrics import METRIC_KEYS, METRIC_NAMES
-    from ..sampling import check_fractions, plot_resilience, resilience
+    from ..jobs.resilience import check_fractions, plot_resilience, resilience
 
     values = check_fractions(number_list(fractions, "--fractions"), "--fractions")
     if plot:

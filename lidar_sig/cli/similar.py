@@ -3,7 +3,7 @@ import json
 
 import click
 
-from ..progress import settings as progress_settings
+from ..base.progress import settings as progress_settings
 from .group import cli
 from .options import Choice, columns_option, metric_keys
 
@@ -25,7 +25,7 @@ def similar(query, catalogue, top, metric, shortlist, as_json, columns, quiet):
     QUERY is a tile of the catalogue (its file name, stem or path), a point cloud (computed with
     the catalogue's method) or a signature archive made with that method.
     """
-    from ..catalog import Catalog
+    from ..survey_catalog import Catalog
     from ..metrics import METRIC_KEYS, METRIC_NAMES
 
     with progress_settings(enabled=False if quiet else None):

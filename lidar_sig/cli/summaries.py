@@ -3,7 +3,7 @@ import json
 
 import click
 
-from ..errors import counted, printable
+from ..base.errors import counted, printable
 
 
 def archive_summary_line(side):

@@ -16,7 +16,7 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..errors import LidarSigError, arg, as_path
+from ..base.errors import LidarSigError, arg, as_path
 
 #: The sample's files, in the order they are written.
 SAMPLE_FILES = ("epoch1.laz", "epoch2.laz", "epoch2_aligned.laz")

@@ -12,11 +12,11 @@ from typing import TYPE_CHECKING
 
 import lazy_loader
 
-from ..errors import LidarSigError, as_path, special_file
-from ..progress import step
+from ..base.errors import LidarSigError, as_path, special_file
+from ..base.progress import step
 
 if TYPE_CHECKING:
-    from ..cloud import PointCloud
+    from ..method.cloud import PointCloud
 from .atomic import atomic_output, check_output, check_outputs, output_group
 from .formats import (CLOUD_EXTENSIONS, HDF5_EXTENSIONS, LAS_EXTENSIONS, POINTS, SIGNATURE,
                       TEXT_EXTENSIONS, format_of)
@@ -72,7 +72,7 @@ def read(path: str | os.PathLike[str], *, columns: str | list[str] | None = None
             s.note(points=len(cloud))
         return cloud
     if fmt is not None and SIGNATURE in fmt.holds:
-        from .catalog import refuse_catalog
+        from .catalog_file import refuse_catalog
 
         refuse_catalog(path, "a point cloud")
         raise LidarSigError("is a signature archive, not a point cloud; use it with `lidar-sig compare` "

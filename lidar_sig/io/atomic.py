@@ -32,7 +32,7 @@ import threading
 import time
 from pathlib import Path
 
-from ..errors import Interrupted, LidarSigError, arg, check_name_lengths
+from ..base.errors import Interrupted, LidarSigError, arg, check_name_lengths
 
 _HOST = socket.gethostname().replace(".", "-")[:32] or "host"
 # Outputs written inside an output_group, waiting to be renamed: [(tmp, path, overwrite)]

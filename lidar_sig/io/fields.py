@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import LidarSigError
+from ..base.errors import LidarSigError
 
 #: Prefix of our names when the input already has an attribute of the same name that is not ours.
 PREFIX = "lidar_sig_"

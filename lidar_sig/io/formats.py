@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ..errors import LidarSigError
+from ..base.errors import LidarSigError
 
 #: What a format can hold.
 POINTS, SIGNATURE, IMAGE, RASTER, VECTOR, REPORT = "points", "signature", "image", "raster", "vector", "report"

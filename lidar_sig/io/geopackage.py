@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import LidarSigError, LidarSigWarning
+from ..base.errors import LidarSigError, LidarSigWarning
 from .atomic import atomic_output
 
 APPLICATION_ID = 0x47504B47  # "GPKG"

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import LidarSigError
+from ..base.errors import LidarSigError
 from .atomic import atomic_output, check_output
 
 #: No-data value of every band (float32): -9999, which tools without NaN support also read.

@@ -24,8 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..cloud import PointCloud
-from ..errors import LidarSigError, LidarSigWarning
+from ..method.cloud import PointCloud
+from ..base.errors import LidarSigError, LidarSigWarning
 from .atomic import atomic_output
 from .fields import marker, parse_marker
 from .formats import OPEN3D_EXTENSIONS  # noqa: F401 (a name of this module too)

@@ -1,7 +1,7 @@
 """PNG files of pictures and of signatures (Sas, Sg), written atomically."""
 from __future__ import annotations
 
-from ..render import encode_png, signature_image
+from ..reporting.render import encode_png, signature_image
 from .atomic import atomic_output
 
 

@@ -17,8 +17,8 @@ import warnings
 
 import numpy as np
 
-from ..cloud import PointCloud
-from ..errors import LidarSigError, LidarSigWarning, arg, counted
+from ..method.cloud import PointCloud
+from ..base.errors import LidarSigError, LidarSigWarning, arg, counted
 from .atomic import atomic_output
 from .fields import marker, parse_marker
 from .formats import TEXT_EXTENSIONS  # noqa: F401 (a name of this module too)

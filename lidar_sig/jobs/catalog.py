@@ -4,14 +4,14 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from ..errors import counted
+from ..base.errors import counted
 from .common import JobRun
 
 
 @dataclass(repr=False)
 class CatalogJob(JobRun):
     """What :func:`catalog` did (:class:`JobRun`), with the catalogue's own account
-    (:class:`~lidar_sig.catalog.build.CatalogRun`: tiles added, recomputed, unchanged, failed)."""
+    (:class:`~lidar_sig.survey_catalog.build.CatalogRun`: tiles added, recomputed, unchanged, failed)."""
 
     run: Any = None
 
@@ -24,7 +24,7 @@ class CatalogJob(JobRun):
     def problems(self) -> list[str]:
         if self.complete:
             return []
-        from ..errors import arg
+        from ..base.errors import arg
 
         return [f"missing: {line}" for line in self.missing] + [
             f"the catalogue lacks the {counted(len(self.missing), 'tile')} above: fix or replace them and run the "
@@ -34,10 +34,10 @@ class CatalogJob(JobRun):
 def catalog(inputs: Any, output: Any, *, pipeline: Any = None, execution: Any = None, resume: bool = False,
             overwrite: bool = False, method_given: Any = None) -> CatalogJob:
     """Make the catalogue ``output`` (.h5) of the LAS/LAZ tiles of ``inputs``, or grow it
-    (:func:`lidar_sig.catalog.build_catalog`), on the workers or cluster of ``execution``, its
+    (:func:`lidar_sig.survey_catalog.build_catalog`), on the workers or cluster of ``execution``, its
     work folder the execution's ``work_dir`` (default ``OUTPUT.work``)."""
-    from ..catalog import build_catalog
-    from ..crs import crs_name
+    from ..survey_catalog import build_catalog
+    from ..method.crs import crs_name
     from ..reporting.sections import scales_text
     from ..tiling.execution import as_execution
 
@@ -64,7 +64,7 @@ def catalog(inputs: Any, output: Any, *, pipeline: Any = None, execution: Any = 
 @dataclass(repr=False)
 class OutliersRun(JobRun):
     """What :func:`outliers` did (:class:`JobRun`), with the tiles' scores
-    (:class:`~lidar_sig.catalog.outliers.Outliers`)."""
+    (:class:`~lidar_sig.survey_catalog.outlier_scores.Outliers`)."""
 
     found: Any = None
 
@@ -77,7 +77,7 @@ def outliers(catalogue: Any, *, output: Any = None, report: Any = None, reach: f
     """Every tile of ``catalogue`` scored by how unlike it is to its neighbours and the survey
     (:meth:`lidar_sig.Catalog.outliers`), the footprints written as the GeoPackage ``output`` and
     the review page as ``report``: both checked before any work, written together or not at all."""
-    from ..catalog import Catalog
+    from ..survey_catalog import Catalog
     from ..io import check_outputs, output_group
     from ..io.formats import VECTOR, check_format
     from ..reporting import check_report_path

@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from ..errors import LidarSigError
+from ..base.errors import LidarSigError
 from .common import JobRun
 
 

@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ..errors import LidarSigError, a_kind, arg, as_path
+from ..base.errors import LidarSigError, a_kind, arg, as_path
 
 
 def as_sources(sources: Any, what: str = "sources") -> list[str]:
@@ -54,7 +54,7 @@ class JobRun:
 
     def problems(self) -> list[str]:
         """The lines that say what is missing and what to do (stderr of an incomplete run)."""
-        from ..errors import counted, printable
+        from ..base.errors import counted, printable
 
         if self.complete:
             return []
@@ -70,7 +70,7 @@ class JobRun:
 
     def __repr__(self) -> str:
         state = "complete" if self.complete else f"incomplete, {len(self.missing) + len(self.not_written)} problems"
-        from ..views import one_line
+        from ..base.views import one_line
 
         # the paths as given: where a run wrote is what its record is for
         shown = ", ".join(self.written[:2]) + (f", ... ({len(self.written)})" if len(self.written) > 2 else "")

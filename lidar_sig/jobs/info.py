@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-from ..errors import arg, as_path, counted
+from ..base.errors import arg, as_path, counted
 from .common import JobRun
 
 
@@ -21,7 +21,7 @@ class Description(JobRun):
         return {"kind": self.kind, **self.facts}
 
     def __repr__(self) -> str:
-        from ..views import one_line
+        from ..base.views import one_line
 
         return one_line(f"<Description of a {self.kind}: {self.lines[0] if self.lines else ''}>")
 
@@ -34,10 +34,10 @@ def info(path: Any, *, columns: Any = None) -> Description:
 
     path = as_path(path, "info")
     if path.suffix.lower() in HDF5_EXTENSIONS:
-        from ..io.catalog import is_catalog
+        from ..io.catalog_file import is_catalog
 
         if is_catalog(path):
-            from ..catalog import Catalog
+            from ..survey_catalog import Catalog
 
             cat = Catalog(path)
             facts = {"path": str(path), "tiles": [{"name": str(n), "points": int(p)}
@@ -57,7 +57,7 @@ def info(path: Any, *, columns: Any = None) -> Description:
 def _cloud(path, cloud):
     import numpy as np
 
-    from ..bounds import bounds
+    from ..numerics.bounds import bounds
 
     lo, hi = bounds(cloud.xyz)
     facts: dict[str, Any] = {"path": str(path), "points": len(cloud), "bounds": {"min": lo.tolist(), "max": hi.tolist()},

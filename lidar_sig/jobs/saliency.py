@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ..errors import LidarSigError, arg, as_path
+from ..base.errors import LidarSigError, arg, as_path
 from ..io import CLOUD_EXTENSIONS, check_cloud_output, check_output, read
 from ..io.formats import POINTS, format_of, holds
 from .common import JobRun, as_sources, is_set, work_folder
@@ -22,7 +22,7 @@ from .common import JobRun, as_sources, is_set, work_folder
 @dataclass(repr=False)
 class SaliencyRun(JobRun):
     """What :func:`saliency` did (:class:`JobRun`), with the Result of one file (None for a
-    set; a closed :class:`~lidar_sig.tiling.results.TiledResult` for one run in tiles)."""
+    set; a closed :class:`~lidar_sig.tiling.set_run.TiledResult` for one run in tiles)."""
 
     result: Any = None
 
@@ -57,7 +57,7 @@ def saliency(sources: Any, output: str | Path, *, pipeline: Any = None, executio
     columns : str or list, optional
         Columns of a text cloud.
     """
-    from ..pipeline import pipeline_or_default
+    from ..pipeline.flow import pipeline_or_default
     from ..tiling.execution import as_execution
 
     pipeline = pipeline_or_default(pipeline)
@@ -78,7 +78,7 @@ def saliency(sources: Any, output: str | Path, *, pipeline: Any = None, executio
     start = time.perf_counter()
     over = execution.over_budget(source, pipeline)
     if over or execution.tiles_asked:
-        from ..tiling.run import run_in_tiles
+        from ..tiling.run_set import run_in_tiles
 
         from ..tiling.work import work_scope
 
@@ -101,7 +101,7 @@ def saliency(sources: Any, output: str | Path, *, pipeline: Any = None, executio
 
 def check_las_output(output: Path, over: int | None, execution: Any) -> None:
     """Refuse a per-point output other than LAS/LAZ for a file processed in tiles."""
-    from ..errors import arg
+    from ..base.errors import arg
     from ..tiling.memory import exceed
 
     fmt = format_of(output)
@@ -153,7 +153,7 @@ def _of_set(sources, outdir, pipeline, execution, overwrite, resume):
 def _write_set(sources, outputs, work, pipeline, execution, overwrite, resume):
     """The set run in tiles and each input's output written, within the scope of the work folder
     (let go at the end; kept only with work worth resuming, which the job's result names)."""
-    from ..tiling.run import run_set
+    from ..tiling.run_set import run_set
     from ..tiling.work import remove_work, work_scope
 
     with work_scope(work):

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ..errors import LidarSigError, arg
+from ..base.errors import LidarSigError, arg
 from ..io import check_outputs, output_group, read
 from .common import JobRun, as_sources, is_set, work_folder
 
@@ -48,8 +48,8 @@ def signature(sources: Any, output: str | Path | None = None, *, png: str | Path
     per-point datasets in the archive of one cloud run as one block. A report needs the whole
     cloud in memory. Other parameters as for :func:`lidar_sig.jobs.saliency`.
     """
-    from ..pipeline import pipeline_or_default
-    from ..signature import RENDERINGS
+    from ..pipeline.flow import pipeline_or_default
+    from ..method.signature_raster import RENDERINGS
     from ..tiling.execution import as_execution
 
     pipeline = pipeline_or_default(pipeline)
@@ -88,7 +88,7 @@ def signature(sources: Any, output: str | Path | None = None, *, png: str | Path
     if tiled and not over:
         return _of_set(sources, output, ext, png, sg, render, pipeline, execution, overwrite, resume, start)
     if over:
-        from ..tiling.run import run_in_tiles
+        from ..tiling.run_set import run_in_tiles
         from ..tiling.work import work_scope
 
         first = Path(outputs[0])
@@ -133,7 +133,7 @@ def _write(sig, output, ext, png, sg, render, overwrite, *, archive):
 
 def _of_set(sources, output, ext, png, sg, render, pipeline, execution, overwrite, resume, start):
     from ..io import write_archive
-    from ..tiling.run import run_set
+    from ..tiling.run_set import run_set
     from ..tiling.work import remove_work, work_scope
 
     outputs = [str(p) for p in (output, png, sg) if p]

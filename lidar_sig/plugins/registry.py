@@ -5,7 +5,7 @@ from functools import lru_cache
 from importlib import import_module
 from importlib.metadata import entry_points
 
-from ..errors import LidarSigError
+from ..base.errors import LidarSigError
 
 GROUPS = {"descriptor": "lidar_sig.descriptors", "strategy": "lidar_sig.strategies"}
 

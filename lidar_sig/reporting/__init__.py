@@ -2,7 +2,7 @@
 map or series, or for a catalogue's outliers, made from computed results (a
 :class:`lidar_sig.comparison.Comparison`, a :class:`lidar_sig.comparison.Side`, a
 :class:`lidar_sig.change_map.ChangeMap` or :class:`~lidar_sig.change_map.ChangeSeries`, a
-:class:`lidar_sig.catalog.outliers.Outliers`); nothing here
+:class:`lidar_sig.survey_catalog.outlier_scores.Outliers`); nothing here
 reads a file or runs a pipeline (:func:`lidar_sig.comparison.report` does, then makes the report).
 
 A :class:`Report` is one self-contained HTML page (pictures embedded, no network). In a notebook

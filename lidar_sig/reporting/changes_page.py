@@ -7,8 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import counted
-from ..progress import step
+from ..base.errors import counted
+from ..base.progress import step
 from . import page
 from .document import Report
 from .map_image import TOP, change_map_image
@@ -19,7 +19,7 @@ def changes_report(change_map, *, top=TOP):
     """The :class:`Report` of a computed :class:`lidar_sig.change_map.ChangeMap`: the map over
     both epochs, the most changed cells with their class composition and their signatures side
     by side."""
-    from ..render import encode_png, signature_image
+    from .render import encode_png, signature_image
 
     cm = change_map
     names = [Path(e.name).name for e in (cm.a, cm.b)]

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..progress import step
+from ..base.progress import step
 from . import page
 from .document import Report
 from .provenance import provenance
@@ -27,7 +27,7 @@ DIFFERENCE_CAPTION = (
 
 def comparison_report(comparison):
     """The :class:`Report` of a computed :class:`lidar_sig.comparison.Comparison`."""
-    from .. import render as images
+    from . import render as images
     from . import figures
 
     c = comparison

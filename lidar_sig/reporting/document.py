@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..progress import step
+from ..base.progress import step
 from . import page
 from .paths import check_plots_folder, check_report_path
 
@@ -20,7 +20,7 @@ class Report:
     figures: dict[str, bytes] = field(default_factory=dict)
 
     def __repr__(self):
-        from ..views import one_line
+        from ..base.views import one_line
 
         return one_line(f"<Report {self.title!r}, {len(self.figures)} figures, {len(self.body) / 1e6:.1f} MB of HTML>")
 

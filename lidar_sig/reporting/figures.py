@@ -13,7 +13,7 @@ import io
 
 import numpy as np
 
-from ..saliency import LN3
+from ..method.saliency_map import LN3
 
 #: Line colours of the first and second cloud, the ends of the difference image's ramp.
 SIDE_COLOURS = ("#2166ac", "#b2182b")
@@ -63,7 +63,7 @@ def present_classes(signatures):
 def saliency_pdfs(signatures, names, *, bins=SALIENCY_BINS):
     """Per semantic class (rows), the pdfs of Cl, Cs and Cp (columns) of each signature: the
     paper's figure of class-wise saliency pdfs, from the count rasters (so archives have it)."""
-    from ..io.hdf5 import saliency_histograms
+    from ..io.archive import saliency_histograms
 
     classes = signatures[0].classes
     rows = present_classes(signatures)

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import counted
+from ..base.errors import counted
 
 #: ColorBrewer YlOrRd, light (no change) to dark red (most change), for the score.
 SEQUENTIAL = np.array([(255, 255, 204), (255, 237, 160), (254, 217, 118), (254, 178, 76), (253, 141, 60),
@@ -71,7 +71,7 @@ def change_map_image(change_map, epoch="b", *, display=640, top=TOP):
     covers in the colour of their state (appeared, vanished), those both cover with too few
     points grey, the ``top`` most changed numbered; coordinates, north arrow, scale bar, CRS
     and legend around it."""
-    from ..render import ramp
+    from .render import ramp
 
     cm = change_map
     e = cm.a if epoch == "a" else cm.b
@@ -114,7 +114,7 @@ def _backdrop(grid, xyz, saliency, display):
     """A light grey top view placed in the grid's extent (float RGB) and the cells' pixel edges."""
     import cv2
 
-    from ..render import top_view
+    from .render import top_view
 
     view, px = top_view(xyz, saliency)
     grey = cv2.cvtColor(view, cv2.COLOR_RGB2GRAY)
@@ -179,8 +179,8 @@ def _framed(map_rgb, grid, edges, crs, units, legend):
     name."""
     import cv2
 
-    from ..crs import crs_name
-    from ..render import scale_bar
+    from ..method.crs import crs_name
+    from .render import scale_bar
 
     h, w = map_rgb.shape[:2]
     width = max(LEFT + w + RIGHT, legend.shape[1])
@@ -243,7 +243,7 @@ def _swatch(legend, x, y, colour, alpha, outlined):
 def _score_legend(cm, top_value):
     import cv2
 
-    from ..render import ramp
+    from .render import ramp
 
     width = 620
     legend = np.full((118, width, 3), 255, np.uint8)

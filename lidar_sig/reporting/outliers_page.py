@@ -9,8 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import counted
-from ..progress import step
+from ..base.errors import counted
+from ..base.progress import step
 from . import page
 from .document import Report
 from .sections import class_legend, made_line, scales_text
@@ -23,10 +23,10 @@ TABLE_ROWS = 25
 
 
 def outliers_report(outliers, *, top=None):
-    """The :class:`Report` of computed :class:`lidar_sig.catalog.outliers.Outliers`; ``top``
+    """The :class:`Report` of computed :class:`lidar_sig.survey_catalog.outlier_scores.Outliers`; ``top``
     outliers (default TOP_SHOWN) are shown beside their neighbours."""
-    from .. import render as images
-    from ..crs import crs_name
+    from . import render as images
+    from ..method.crs import crs_name
     from ..metrics import METRIC_NAMES
     from . import figures
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from ..errors import LidarSigError, arg, as_path
+from ..base.errors import LidarSigError, arg, as_path
 
 HTML_EXTENSIONS = (".html", ".htm")
 

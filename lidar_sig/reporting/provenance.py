@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..crs import crs_name
+from ..method.crs import crs_name
 from . import page
 from .sections import scales_text
 
@@ -13,7 +13,7 @@ from .sections import scales_text
 def _files(side):
     """(path, size in bytes, SHA-256) of the side's input file and, for an archive, of the
     clouds it records having been made from."""
-    from ..io.hdf5 import sha256_of
+    from ..io.archive import sha256_of
 
     out = []
     path = side.result.cloud.path if side.result is not None else side.name

@@ -8,8 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..cloud import kept_points
-from ..progress import step
+from ..method.cloud import kept_points
+from ..base.progress import step
 from . import page
 
 EGEOM_CAPTION = (
@@ -135,7 +135,7 @@ def class_table(sides, tags):
 def top_view(side, span=None):
     """PNG of the side's cloud seen from above, coloured by its saliency (``span``: see
     :func:`shared_span`)."""
-    from ..render import encode_png, top_view_image
+    from .render import encode_png, top_view_image
 
     result = side.result
     cloud = result.cloud

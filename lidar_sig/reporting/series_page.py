@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..errors import counted
-from ..progress import step
+from ..base.errors import counted
+from ..base.progress import step
 from . import page
 from .changes_page import cells_table, settings_text
 from .document import Report
@@ -15,7 +15,7 @@ from .sections import made_line, warnings_list
 
 def series_report(series, *, top=TOP):
     """The :class:`Report` of a computed :class:`lidar_sig.change_map.ChangeSeries`."""
-    from ..render import encode_png
+    from .render import encode_png
 
     pngs = {}
     with step("rendering the report", intervals=len(series.maps)):

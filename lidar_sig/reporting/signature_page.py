@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..progress import step
+from ..base.progress import step
 from . import page
 from .document import Report
 from .provenance import provenance
@@ -19,7 +19,7 @@ SIGNATURE_PLOTS = ("sas.png", "sg.png", "classes.png", "egeom.png", "saliency_by
 def signature_report(side, *, render="smooth"):
     """The :class:`Report` of one cloud: a :class:`lidar_sig.comparison.Side` (its name, its
     signature and, for a cloud, the pipeline Result)."""
-    from .. import render as images
+    from . import render as images
     from . import figures
 
     sig = side.signature

@@ -7,7 +7,7 @@ depends on must lie inside that block, and is checked per point rather than trus
 - its neighbourhood: every point within its largest scale (a radius, or the distance to its
   k-th neighbour, ties included) must be in the block, so that distance must be shorter than
   the point's distance to the halo's edge;
-- its neighbours' area weights (:mod:`lidar_sig.neighbors`): each neighbour's distance to its
+- its neighbours' area weights (:mod:`lidar_sig.numerics.neighbors`): each neighbour's distance to its
   second-nearest other point (capped) must be shorter than that neighbour's distance to the
   edge, unless those distances are the whole set's already (a set's run finds them in a first
   pass, :func:`tile_second_distances`, checked the same way, and every tile takes them).
@@ -32,9 +32,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..bounds import bounds
-from ..errors import LidarSigError, arg, positive_metres
-from ..neighbors import NeighborIndex, area_cap, radius_reach, unique_points
+from ..numerics.bounds import bounds
+from ..base.errors import LidarSigError, arg, positive_metres
+from ..numerics.neighbors import NeighborIndex, area_cap, radius_reach, unique_points
 
 #: Relative margin kept between a needed distance and the halo's edge (round-off of the tests).
 MARGIN = 1e-9
@@ -393,7 +393,7 @@ def tile_second_distances(load, tiling, ij, ctx, *, halo=None):
         if halo_.whole or len(support) >= 3:  # fewer: the second neighbour is outside
             # a grid sized for SECOND_GRID_K neighbours: the 3-nearest search is fastest on it
             index = NeighborIndex(support, "knn", np.array([min(SECOND_GRID_K, len(support))]), min_neighbors=1)
-            # queries in the grid's order: each bounds the next (lidar_sig.grid)
+            # queries in the grid's order: each bounds the next (lidar_sig.numerics.voxels)
             wanted = np.zeros(len(support), bool)
             wanted[loc] = True
             rows = np.flatnonzero(wanted[index.order])
@@ -438,7 +438,7 @@ def saliency_in_tiles(pipeline, cloud, tile_size, *, halo=None):
     cloud. Returns ``(saliency, stats)`` with the summed tile statistics, ``n_recomputed``
     among them (core points recomputed with a wider halo). Withheld and noise points are left
     out as ``pipeline.saliency`` leaves them out (``n_excluded``)."""
-    from ..saliency import Saliency
+    from ..method.saliency_map import Saliency
 
     check_tileable(pipeline)
     kept = pipeline.kept(cloud)

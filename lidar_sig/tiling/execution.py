@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ..errors import LidarSigError, LidarSigWarning, a_kind, arg, check_name_lengths, positive_metres, whole_number
+from ..base.errors import LidarSigError, LidarSigWarning, a_kind, arg, check_name_lengths, positive_metres, whole_number
 from .memory import DEFAULT_MEMORY, budget_bytes, one_block_note, points_over_budget, size
 
 #: Most local worker processes per core: above the cores, workers take turns on them while each
@@ -74,7 +74,7 @@ class Execution:
             object.__setattr__(self, "work_dir", Path(self.work_dir))
 
     def __repr__(self) -> str:
-        from ..views import one_line
+        from ..base.views import one_line
 
         where = (f"Dask {self.scheduler}" if self.scheduler else "all cores" if self.workers is None
                  else f"{self.workers} process{'es' if self.workers > 1 else ''}")
@@ -105,8 +105,8 @@ class Execution:
 
     @contextlib.contextmanager
     def backend(self) -> Iterator[Any]:
-        """Where the tiles run (:mod:`lidar_sig.tiling.execute`), closed when the block ends."""
-        from .execute import executor
+        """Where the tiles run (:mod:`lidar_sig.tiling.backends`), closed when the block ends."""
+        from .backends import executor
 
         backend = executor(self.workers, self.scheduler)
         try:
@@ -119,7 +119,7 @@ def _checked_workers(workers: Any) -> int:
     """``workers`` as an int: a whole number from 1 to :data:`WORKERS_PER_CORE` per core of this
     machine (LidarSigError naming the value, the cores and the fix otherwise), with a note when
     it is more than the cores."""
-    from .execute import cores
+    from .backends import cores
 
     workers = whole_number(workers, arg("workers"), low=1)
     n_cores = cores()

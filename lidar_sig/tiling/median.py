@@ -1,6 +1,6 @@
 """The exact median of values kept in several sorted files, without holding them: what
 ``numpy.median`` gives on their concatenation, from binary searches in the mapped files (the
-set's area-weight cap, :func:`lidar_sig.neighbors.area_cap`, over every distinct location of a
+set's area-weight cap, :func:`lidar_sig.numerics.neighbors.area_cap`, over every distinct location of a
 set of any size)."""
 from __future__ import annotations
 

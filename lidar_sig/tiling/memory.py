@@ -22,7 +22,7 @@ import math
 import re
 from pathlib import Path
 
-from ..errors import LidarSigError, arg, brief, counted
+from ..base.errors import LidarSigError, arg, brief, counted
 
 TIB = 2**40
 GIB = 2**30

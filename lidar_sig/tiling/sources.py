@@ -7,7 +7,7 @@ plan-view cell (a square of the tile size, in the files' coordinate units) in a 
 a processing tile then loads the few cells its block touches. A point's identifier packs its
 file (``source``) and its index in the file: ``source << ID_BITS | index``.
 
-Withheld and noise points (``noise_codes``, :func:`lidar_sig.cloud.kept_points`) are counted
+Withheld and noise points (``noise_codes``, :func:`lidar_sig.method.cloud.kept_points`) are counted
 and not staged: the tiles never see them, as the single-block run does not.
 
 A part is staged completely or not at all: its cell files are written in a folder of their
@@ -25,9 +25,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..bounds import bounds
-from ..cloud import MAX_COORDINATE, check_magnitude, kept_points
-from ..errors import LidarSigError, arg, as_path, counted, reason, special_file
+from ..numerics.bounds import bounds
+from ..method.cloud import MAX_COORDINATE, check_magnitude, kept_points
+from ..base.errors import LidarSigError, arg, as_path, counted, reason, special_file
 from ..io import LAS_EXTENSIONS
 from .work import STAGED
 
@@ -102,7 +102,7 @@ def scan(files):
     without points (its header's bounds would stretch the set's extent to meaningless values)."""
     import laspy
 
-    from ..crs import las_units, same_crs
+    from ..method.crs import las_units, same_crs
 
     sources = []
     for i, f in enumerate(files):
@@ -266,7 +266,7 @@ def stage_part(work, source, part, start, stop, cells, noise_codes=None):
             "hi": hi.tolist(), "labelled": labelled, "cells": sorted(occupied),
             "counts": [occupied[key] for key in sorted(occupied)]}
     if part == 0:
-        from ..io.hdf5 import sha256_of
+        from ..io.archive import sha256_of
 
         info["sha256"] = sha256_of(source.path)
     tmp = part_record(work, source.id, part).with_suffix(".tmp")

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..signature import Signature
+from ..method.signature_raster import Signature
 from .core import SetContext, Tiling, tile_name, tile_saliency, tile_second_distances
 from .sources import Cells, load_cells, source_of, stage_part
 from .work import FINISHED

@@ -14,7 +14,7 @@ import shutil
 from collections.abc import Iterator
 from pathlib import Path
 
-from ..errors import LidarSigError, arg, check_name_lengths
+from ..base.errors import LidarSigError, arg, check_name_lengths
 from ..io.atomic import hold, keeping_work, release
 
 #: File that marks a folder as a work folder of ours (only such a folder is ever removed).

@@ -12,7 +12,7 @@ from robustness.helpers import mounted_tmpfs
 
 RUN = ("import numpy as np, lidar_sig as ls\n"
        "ls.Pipeline(progress=True).run(np.random.default_rng(0).uniform(0, 10, (3000, 3)))\n"
-       "from lidar_sig.compile import kernels_cached\nprint('cached', kernels_cached(ls.Pipeline().kernels()))\n")
+       "from lidar_sig.base.compile import kernels_cached\nprint('cached', kernels_cached(ls.Pipeline().kernels()))\n")
 
 
 def test_read_only_install_compiles_once_into_the_user_cache_and_says_so(tmp_path):

@@ -62,7 +62,7 @@ def test_default_optimal_scale_on_tile_plus_100_copies_of_one_point_ends(tmp_pat
 
 def test_neighbour_search_ends_when_the_kth_neighbour_coincides():
     # the grid itself, without merging duplicates first: a zero k-th distance must not stall it
-    code = ("import numpy as np\nfrom lidar_sig.neighbors import NeighborIndex\n"
+    code = ("import numpy as np\nfrom lidar_sig.numerics.neighbors import NeighborIndex\n"
             "xyz = np.repeat(np.random.default_rng(0).uniform(0, 20, (3000, 3)), 5, axis=0)\n"
             "index = NeighborIndex(xyz, 'knn', np.array([2, 4]))\n"
             "for rows in index.blocks():\n    b = index.query(rows)\n"
@@ -108,8 +108,8 @@ def test_far_outlier_no_longer_makes_every_query_scan_every_point(tmp_path):
 def test_capped_spheres_served_by_nearest_search_match_the_spherical_search():
     # the shortcut for spheres that overflow the cap gives the same neighbourhoods (distance
     # for distance: which of points tied at the cap is kept is arbitrary in both)
-    from lidar_sig.grid import VoxelGrid
-    from lidar_sig.neighbors import NeighborIndex
+    from lidar_sig.numerics.voxels import VoxelGrid
+    from lidar_sig.numerics.neighbors import NeighborIndex
 
     pts = ls.read(need_data(TILE)).metric_xyz()[::3]
     fast = NeighborIndex(pts, "radius", np.array([2.0, 3.0]), max_neighbors=40)

@@ -17,7 +17,7 @@ import pytest
 
 import lidar_sig as ls
 from conftest import SAMPLES
-from lidar_sig.crs import Units
+from lidar_sig.method.crs import Units
 from command_line import run
 from robustness.helpers import assert_one_line_error, leftovers, write_las
 
@@ -228,7 +228,7 @@ def test_interrupt_after_an_output_was_written_names_it(tmp_path, monkeypatch, c
     # the line said "outputs not written, earlier ones left as they were" of an output in place
     import lidar_sig.cli.saliency
     from lidar_sig.cli import main
-    from lidar_sig.errors import Interrupted
+    from lidar_sig.base.errors import Interrupted
 
     def signalled(*args, **kwargs):  # SIGTERM while the summary is printed, after the write
         raise Interrupted(signal.SIGTERM)
@@ -305,8 +305,8 @@ def test_fractions_with_an_empty_item_or_twice_the_same_are_refused(tmp_path, fr
 
 def test_counts_of_one_are_singular():
     # "1 points have NaN ...", "holds 1 distinct locations", "1 duplicate points", ...
-    from lidar_sig.errors import counted
-    from lidar_sig.result import Result
+    from lidar_sig.base.errors import counted
+    from lidar_sig.pipeline.result import Result
 
     assert (counted(1, "point"), counted(2, "point"), counted(12345, "class", "classes")) == \
         ("1 point", "2 points", "12,345 classes")

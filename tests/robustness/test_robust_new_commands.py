@@ -80,7 +80,7 @@ def test_catalog_work_dir_that_is_a_file_is_refused(tmp_path, scene):
 
 @pytest.mark.parametrize("inputs, backend, what", [(5, None, "an int"), ("TILES", "fast", "backend")])
 def test_build_catalog_refuses_values_of_the_wrong_kind(tmp_path, scene, inputs, backend, what):
-    from lidar_sig.catalog import build_catalog
+    from lidar_sig.survey_catalog import build_catalog
 
     inputs = scene[0] if inputs == "TILES" else inputs
     with pytest.raises(ls.LidarSigError, match=what):

@@ -328,7 +328,7 @@ def test_workers_above_the_cores_get_a_note():
 
 def test_many_workers_without_a_tile_size_get_tiles_large_enough(tmp_path):
     # the default size, two tiles per worker, made tiles too small for 1000 workers and was refused
-    from lidar_sig.tiling.execute import InProcess
+    from lidar_sig.tiling.backends import InProcess
 
     class ManyWorkers(InProcess):  # a backend said to have 1,000 workers, run in this process
         workers = 1000

@@ -172,7 +172,7 @@ def test_ctrl_c_while_computing_is_one_line(tmp_path):
 @pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
 def test_signal_while_starting_is_one_line(tmp_path, signum):
     # a signal while the command line loaded used to print a traceback (Ctrl-C; and SIGTERM while
-    # lidar_sig.errors, which its handler raises from, was being imported)
+    # lidar_sig.base.errors, which its handler raises from, was being imported)
     proc = start("saliency", SRC, "-o", tmp_path / "o.laz", "-q", python=("-X", "importtime"))
     read = wait_for_lines(proc, lambda line: line.startswith("import time:") and line.split("|")[-1].strip() == "click")
     proc.send_signal(signum)
@@ -181,11 +181,11 @@ def test_signal_while_starting_is_one_line(tmp_path, signum):
 
 
 def test_ctrl_c_while_the_handlers_module_loads_is_one_line():
-    # lidar_sig.errors was loaded outside the guard of the start: a Ctrl-C then was a traceback
+    # lidar_sig.base.errors was loaded outside the guard of the start: a Ctrl-C then was a traceback
     code = ("import sys\n"
             "class Interrupting:\n"
             "    def find_spec(self, name, path=None, target=None):\n"
-            "        if name == 'lidar_sig.errors':\n"
+            "        if name == 'lidar_sig.base.errors':\n"
             "            raise KeyboardInterrupt\n"
             "sys.meta_path.insert(0, Interrupting())\n"
             "from lidar_sig.__main__ import main\n"
@@ -203,7 +203,7 @@ def test_sigterm_while_click_parses_is_said_as_sigterm(monkeypatch, capsys):
     # the options (or closed the command's context) was said as SIGINT, status 130
     from lidar_sig.cli import main
     from lidar_sig.cli.group import cli
-    from lidar_sig.errors import Interrupted
+    from lidar_sig.base.errors import Interrupted
 
     def signalled(*args, **kwargs):
         raise Interrupted(signal.SIGTERM)

@@ -303,7 +303,7 @@ def _las_in(path, crs, seed=0, east=0.0, n=3000):
 def test_same_crs_holds_for_the_same_crs_written_differently():
     import pyproj
 
-    from lidar_sig.crs import same_crs
+    from lidar_sig.method.crs import same_crs
 
     modern = pyproj.CRS.from_epsg(2154)
     legacy, renamed = _legacy_lambert93(), _renamed_lambert93()

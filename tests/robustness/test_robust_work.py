@@ -89,7 +89,7 @@ def test_an_interrupted_set_says_where_its_work_is_kept(tmp_path, monkeypatch):
     (lambda: ls.Execution(tile_size=0), "tile_size"),
     (lambda: ls.Execution(workers=2, scheduler="tcp://x:1"), "scheduler"),
     (lambda: ls.Execution(work_dir=3), "work_dir"),
-    (lambda: __import__("lidar_sig.tiling.execute", fromlist=["executor"]).executor(0), "workers"),
+    (lambda: __import__("lidar_sig.tiling.backends", fromlist=["executor"]).executor(0), "workers"),
     (lambda: ls.run_set(ls.Pipeline(), [EPOCH1], work="w", memory=-5), "memory"),
     (lambda: ls.Pipeline().run(EPOCH1, execution={"memory": "1GiB"}), "execution"),
 ])

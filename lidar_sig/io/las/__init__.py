@@ -9,7 +9,7 @@ earlier run are replaced, a user's own dimension of the same name never is
 (:mod:`~lidar_sig.io.las.dims`).
 """
 from ..fields import saliency_fields
-from .build import check_las_output, las_scaling, to_lasdata
+from .lasdata import check_las_output, las_scaling, to_lasdata
 from .dims import SALIENCY_DIMS, is_ours, lidar_sig_dims, set_extra_bytes_ranges
 from .read import LAS_EXTENSIONS, read_las
 from .upgrade import upgrade_to_14

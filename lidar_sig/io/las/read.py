@@ -8,9 +8,9 @@ import warnings
 import laspy
 import numpy as np
 
-from ...cloud import PointCloud
-from ...crs import las_units
-from ...errors import LidarSigError, LidarSigWarning, counted, reason
+from ...method.cloud import PointCloud
+from ...method.crs import las_units
+from ...base.errors import LidarSigError, LidarSigWarning, counted, reason
 from ..formats import LAS_EXTENSIONS  # noqa: F401 (a name of this module too)
 from .dims import lidar_sig_dims
 

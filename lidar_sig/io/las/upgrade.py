@@ -5,7 +5,7 @@ from __future__ import annotations
 import laspy
 import numpy as np
 
-from ...crs import las_crs
+from ...method.crs import las_crs
 
 # LAS 1.0-1.3 point format -> the LAS 1.4 format with the same dimensions (and more).
 FORMAT_14 = {0: 6, 1: 6, 2: 7, 3: 7, 4: 9, 5: 10}
@@ -45,6 +45,6 @@ def upgrade_to_14(las):
 
 def _wkt_from_geotiff(header):
     """OGC WKT 1 (as GDAL and PDAL write it) of the CRS in the GeoTIFF keys, or None
-    (compound when a vertical EPSG code is given; see :func:`lidar_sig.crs.las_crs`)."""
+    (compound when a vertical EPSG code is given; see :func:`lidar_sig.method.crs.las_crs`)."""
     crs = las_crs(header)
     return crs.to_wkt(version="WKT1_GDAL") if crs is not None else None

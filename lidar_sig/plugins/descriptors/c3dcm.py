@@ -1,5 +1,5 @@
 """C3DCM: the covariance tensor of a neighbourhood (docs/method.md, "C3DCM")."""
-from ..base import Descriptor
+from ..kinds import Descriptor
 
 
 class C3DCM(Descriptor):
@@ -12,9 +12,9 @@ class C3DCM(Descriptor):
 
     name = "c3dcm"
     summary = "covariance tensor of the neighbourhood (C3DCM)"
-    kernels = (("lidar_sig.kernels", ("covariance_eigenvalues",)),)
+    kernels = (("lidar_sig.numerics.kernels", ("covariance_eigenvalues",)),)
 
     def eigenvalues(self, batch):
-        from ...kernels import covariance_eigenvalues  # numba: loaded to compute, not to list plugins
+        from ...numerics.kernels import covariance_eigenvalues  # numba: loaded to compute, not to list plugins
 
         return covariance_eigenvalues(batch.xyz, batch.rows, batch.idx, batch.counts, batch.weights)

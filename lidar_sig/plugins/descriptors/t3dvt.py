@@ -1,8 +1,8 @@
 """T3DVT: tensor voting with ball tensors, then anisotropic diffusion (docs/descriptors.md, "T3DVT")."""
 import numpy as np
 
-from ...errors import LidarSigError
-from ..base import Descriptor
+from ...base.errors import LidarSigError
+from ..kinds import Descriptor
 
 
 class T3DVT(Descriptor):
@@ -30,7 +30,7 @@ class T3DVT(Descriptor):
 
     name = "t3dvt"
     summary = "tensor voting with ball tensors and anisotropic diffusion (T3DVT)"
-    kernels = (("lidar_sig.kernels", ("voting_eigenvalues",)),)
+    kernels = (("lidar_sig.numerics.kernels", ("voting_eigenvalues",)),)
 
     def __init__(self, delta=0.16, diffusion=True):
         if not delta > 0:
@@ -42,7 +42,7 @@ class T3DVT(Descriptor):
         return {"delta": self.delta, "diffusion": self.diffusion}
 
     def eigenvalues(self, batch):
-        from ...kernels import voting_eigenvalues  # numba: loaded to compute, not to list plugins
+        from ...numerics.kernels import voting_eigenvalues  # numba: loaded to compute, not to list plugins
 
         w = voting_eigenvalues(batch.xyz, batch.rows, batch.idx, batch.counts, batch.sigma, batch.weights)
         if not self.diffusion:

@@ -33,8 +33,8 @@ class T3DVTGET(T3DVT):
 
     name = "t3dvt-get"
     summary = "tensor voting modified by the gradient energy tensor of the height field (T3DVT-GET)"
-    kernels = (("lidar_sig.kernels", ("voting_eigenvalues",)),
-               ("lidar_sig.get", ("first_pass", "second_pass", "third_pass", "_pack_rows")))
+    kernels = (("lidar_sig.numerics.kernels", ("voting_eigenvalues",)),
+               ("lidar_sig.plugins.descriptors.gradient_energy", ("first_pass", "second_pass", "third_pass", "_pack_rows")))
 
     def __init__(self, delta=0.16, diffusion=True, get_threshold=GET_THRESHOLD):
         super().__init__(delta=delta, diffusion=diffusion)
@@ -75,8 +75,8 @@ def cl_get_of_cloud(xyz, kind, scales, *, max_neighbors=512, min_neighbors=3, th
 
     Cylindrical neighbourhoods: the neighbour search runs on (x, y, 0).
     """
-    from ...get import line_saliency_of_index  # numba: loaded to compute, not to list plugins
-    from ...neighbors import NeighborIndex
+    from .gradient_energy import line_saliency_of_index  # numba: loaded to compute, not to list plugins
+    from ...numerics.neighbors import NeighborIndex
 
     flat = np.column_stack([xyz[:, 0], xyz[:, 1], np.zeros(len(xyz))])
     index = NeighborIndex(flat, kind, scales, max_neighbors=max_neighbors, min_neighbors=min_neighbors)

@@ -1,8 +1,8 @@
 """Multiscale: the average of the per-scale saliency maps (docs/method.md, "Strategies")."""
 import numpy as np
 
-from ...scales import knn
-from ..base import Strategy
+from ...method.scales import knn
+from ..kinds import Strategy
 
 
 class Multiscale(Strategy):
@@ -16,10 +16,10 @@ class Multiscale(Strategy):
     name = "multiscale"
     summary = "average saliency over scales (default k = 20, 30, 40)"
     default_scales = knn(20, 30, 40)
-    kernels = (("lidar_sig.kernels", ("mean_over_scales",)),)
+    kernels = (("lidar_sig.numerics.kernels", ("mean_over_scales",)),)
 
     def combine(self, per_scale):
-        from ...kernels import mean_over_scales  # numba loads with the first kernel a run calls
+        from ...numerics.kernels import mean_over_scales  # numba loads with the first kernel a run calls
 
         # numpy.nanmean's result (all-NaN rows stay NaN) in one pass over the (B, S, 3) values
         per_scale = np.ascontiguousarray(per_scale, dtype=np.float64)

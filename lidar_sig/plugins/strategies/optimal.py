@@ -1,9 +1,9 @@
 """Optimal-scale: per point, the scale of minimum geometric entropy (docs/method.md, "Strategies")."""
 import numpy as np
 
-from ...saliency import geometric_entropy
-from ...scales import PAPER_K
-from ..base import Strategy
+from ...method.saliency_map import geometric_entropy
+from ...method.scales import PAPER_K
+from ..kinds import Strategy
 
 
 class OptimalScale(Strategy):

@@ -1,0 +1,261 @@
+"""The change map of two epochs or more from their files (:func:`changes`, `lidar-sig changes`):
+read the epochs, check them, choose the cell size and the fewest points from their densities,
+compute each epoch's saliency once, then per interval (consecutive pair) the cells' metrics,
+their level of detection and the ranking."""
+from __future__ import annotations
+
+import time
+import warnings
+from typing import TYPE_CHECKING, Any, overload
+
+import numpy as np
+
+from ..method.class_maps import class_scheme_warnings, merge_classes
+from ..method.classes import UNLABELED
+from ..base.errors import LidarSigError, LidarSigWarning, amount, counted, whole_number
+from ..metrics import METRIC, METRIC_KEYS, METRIC_NAMES
+from ..base.progress import step
+from ..method.signature_raster import Frame, method_differences
+from .cells import CELL_FRAME, SEED, bin_points, cell_table, null_metrics, observed_metrics
+from .density import LEAST_DENSITY, MIN_POINTS_FLOOR, RECALL_BELOW, auto_cell, auto_min_points, density
+from .epochs import Epoch, check_same_crs, read_epoch
+from .grid import MAX_CELLS, Grid, check_cell
+from .lod import CONFIDENCE, MIN_CELLS, REPLICATES
+from .maps import LABEL_FREE_SCORE, SCORE, ChangeMap, metric_levels
+from .series import ChangeSeries
+
+if TYPE_CHECKING:
+    from ..pipeline.flow import Pipeline
+
+#: The value of ``cell`` and ``min_points`` that chooses them from the epochs' densities.
+AUTO = "auto"
+
+
+@overload
+def changes(a: Any, b: Any, /, *, cell: float | str = AUTO, pipeline: Pipeline | None = None,
+            min_points: int | str = AUTO, score: str | None = None, render: str = "smooth", frame: Frame = CELL_FRAME,
+            columns: Any = None, confidence: float = CONFIDENCE, class_map: Any = None, seed: int = SEED) -> ChangeMap:
+    ...
+
+
+@overload
+def changes(a: Any, b: Any, c: Any, /, *more: Any, cell: float | str = AUTO, pipeline: Pipeline | None = None,
+            min_points: int | str = AUTO, score: str | None = None, render: str = "smooth", frame: Frame = CELL_FRAME,
+            columns: Any = None, confidence: float = CONFIDENCE, class_map: Any = None,
+            seed: int = SEED) -> ChangeSeries:
+    ...
+
+
+def changes(a: Any, b: Any, *more: Any, cell: float | str = AUTO, pipeline: Pipeline | None = None,
+            min_points: int | str = AUTO, score: str | None = None, render: str = "smooth", frame: Frame = CELL_FRAME,
+            columns: Any = None, confidence: float = CONFIDENCE, class_map: Any = None,
+            seed: int = SEED) -> ChangeMap | ChangeSeries:
+    """Per-cell change map between epochs of the same area (registration-free), with a level of
+    detection per cell and metric.
+
+    Parameters
+    ----------
+    a, b, *more : str, Path, list of paths, folder, PointCloud or Epoch
+        The epochs in time order: point-cloud files, folders of tiles or lists of tile files
+        (joined into one cloud per epoch), clouds, or epochs whose saliency is computed already
+        (:func:`~lidar_sig.change_map.compute_epoch`, with the same method). All must be in the
+        same CRS. Three or more give a :class:`~lidar_sig.change_map.ChangeSeries` (a map per
+        consecutive pair).
+    cell : float or "auto"
+        Cell side in metres (converted to the CRS unit); ``"auto"`` (default) chooses it from
+        the smallest density of the epochs (:mod:`~lidar_sig.change_map.density`).
+    pipeline : Pipeline, optional
+        The method of the saliency; default ``Pipeline()`` (docs/method.md).
+    min_points : int or "auto"
+        Fewest points with defined saliency a cell must hold in each epoch to be compared;
+        ``"auto"`` (default): a fifth of a full cell at the smallest density, at least 30.
+    score : str, optional
+        Metric that ranks the cells (a key of :data:`lidar_sig.metrics.METRIC_KEYS`; for
+        s_SSIM, 1 - SSIM ranks); default :data:`~lidar_sig.change_map.SCORE` (delta_KL), or
+        :data:`~lidar_sig.change_map.LABEL_FREE_SCORE` (delta_FV) when an epoch is unlabelled
+        or the epochs' class codes barely overlap.
+    render : str
+        Rendering of Sg and Sas for the image metrics (see :mod:`lidar_sig.method.signature_raster`).
+    frame : Frame
+        Frame of the per-cell signatures; default :data:`~lidar_sig.change_map.CELL_FRAME` (64 px).
+    confidence : float
+        Confidence of the significance test, one-sided, from 0.5 to 0.9999; default 0.95.
+    class_map : str, list, dict or path, optional
+        Codes of either epoch merged into one class before the comparison, e.g.
+        ``"1,3,4,5=vegetation-or-other"`` (see :func:`lidar_sig.method.class_maps.parse_class_map`).
+    seed : int
+        Seed of the resampling behind the level of detection (each cell has its own stream).
+
+    Returns
+    -------
+    ChangeMap, or ChangeSeries for three epochs or more
+    """
+    from ..pipeline.flow import pipeline_or_default
+
+    sources = (a, b) + more
+    cell_rule = AUTO if _is_auto(cell) else "given"
+    cell = None if cell_rule == AUTO else check_cell(cell)
+    min_points_rule = AUTO if _is_auto(min_points) else "given"
+    min_points = None if min_points_rule == AUTO else whole_number(min_points, "min_points", low=1)
+    if isinstance(confidence, bool) or not isinstance(confidence, (int, float)) or not 0.5 <= confidence <= 0.9999:
+        raise LidarSigError(f"the confidence must be a number from 0.5 to 0.9999 (e.g. 0.95), got {confidence!r}")
+    if score is not None and score not in METRIC_KEYS:
+        raise LidarSigError(f"unknown score {score!r}; use one of {', '.join(METRIC_KEYS)}")
+    if not isinstance(frame, Frame):
+        raise LidarSigError(f"frame must be a lidar_sig.Frame, got {frame!r}")
+    seed = whole_number(seed, "seed")
+    pipeline = pipeline_or_default(pipeline)
+    table_of_classes = merge_classes(pipeline.classes, class_map)  # a bad map is refused before reading
+    given = [x if isinstance(x, Epoch) else None for x in sources]  # saliency computed already
+    for x in given:
+        differ = [] if x is None else method_differences(x.metadata, pipeline.method())
+        if differ:
+            raise LidarSigError(f"the epoch {x.name} was computed with another method ({'; '.join(differ)}); give "
+                                "the pipeline it was computed with, or its cloud")
+    clouds = [read_epoch(x, columns=columns) for x in sources]
+    names = [x.name if x is not None else c.path or "(in memory)" for x, c in zip(given, clouds)]
+    for k in range(1, len(clouds)):
+        check_same_crs([clouds[0], clouds[k]], [names[0], names[k]])
+    labelled = all(c.labels is not None for c in clouds)
+    notes = []
+    if not labelled and any(c.labels is not None for c in clouds):
+        bare = ", ".join(n for n, c in zip(names, clouds) if c.labels is None)
+        notes.append(f"{bare} has no class labels: the cells are compared by geometry only (ranked by "
+                     f"{METRIC_NAMES[score or LABEL_FREE_SCORE]}) and every epoch's points are shown as one class")
+    if score in METRIC and METRIC[score].needs_labels and not labelled:
+        raise LidarSigError(f"score {score!r} needs class labels in every epoch; use fv or another geometric metric")
+    if class_map and not labelled:
+        raise LidarSigError("a class map merges class codes, but not every epoch has class labels; leave out "
+                            "--class-map")
+    units = clouds[0].units
+    # the points each run uses: withheld and noise points count neither in the densities nor
+    # in the grid's extent, as they are in no cell
+    kept = [pipeline.kept(c) if x is None else x.kept for x, c in zip(given, clouds)]
+    used = [c.xyz[:, :2] if k is None else c.xyz[k, :2] for c, k in zip(clouds, kept)]
+    densities = [density(xy, units.horizontal) for xy in used]
+    sparse = min(range(len(densities)), key=densities.__getitem__)
+    if densities[sparse] < LEAST_DENSITY:
+        notes.append(f"{names[sparse]} holds {densities[sparse]:.2g} points/m²: below {LEAST_DENSITY:g} point/m² the "
+                     f"change map finds fewer than 80% of known changes ({RECALL_BELOW:.0%} at 0.5 points/m² in its "
+                     "benchmark, docs/changes.md), so a cell that is not significant may still have changed")
+    if cell is None:
+        cell = auto_cell(min(densities))
+    if min_points is None:
+        min_points = auto_min_points(min(densities), cell)
+    for k in range(len(clouds) - 1):  # before the grid: disjoint epochs would span a needless one
+        _check_overlap(used[k], used[k + 1], names[k], names[k + 1])
+    grid = Grid.covering(np.vstack(used), cell / units.horizontal)
+    if grid.n_cells > MAX_CELLS:  # a far outlier, or a cell size meant in another unit
+        raise LidarSigError(f"the epochs span {amount(grid.cols)} x {amount(grid.rows)} cells of {cell:g} m, more than "
+                            f"{MAX_CELLS:,}; use a larger cell size (--cell) or remove far outlying points")
+    counts = [np.bincount(grid.cell_of(xy), minlength=grid.n_cells) for xy in used]
+    for k in range(len(clouds) - 1):  # said before the saliency is computed
+        filled = np.minimum(counts[k], counts[k + 1])
+        if filled.max() < min_points:
+            pair = "" if len(clouds) == 2 else f" {names[k]} and {names[k + 1]}"
+            fix = _fewer_points(min_points_rule, min_points)
+            raise LidarSigError(f"no cell of {cell:g} m holds {counted(min_points, 'point')} in both "
+                                f"epochs{pair} (at most {amount(filled.max())}); {fix}")
+    epochs, seconds = [], []
+    for cloud, name, epoch, used_points in zip(clouds, names, given, kept):
+        start = time.perf_counter()
+        if epoch is None:
+            sal, stats = pipeline.saliency(cloud)
+            epoch = Epoch(name, cloud, sal, stats, kept=used_points)
+        seconds.append(time.perf_counter() - start)
+        epochs.append(epoch)
+    classes = table_of_classes if labelled else UNLABELED
+    with step("binning", epochs=len(epochs), cells=grid.n_cells):
+        binned = [bin_points(e, grid, classes, labelled, frame) for e in epochs]
+    schemes = _scheme_warnings(binned, classes, names, ranked_by=score) if labelled else [[]] * (len(epochs) - 1)
+    score = score or (SCORE if labelled and not any(schemes) else LABEL_FREE_SCORE)
+    method = {k: epochs[0].metadata[k] for k in ("descriptor", "strategy", "scale_kind", "scale_values",
+                                                 "scale_units", "weights") if k in epochs[0].metadata}
+    maps = []
+    for k in range(len(epochs) - 1):
+        maps.append(_interval(k, epochs, binned, grid, classes, min_points, cell, render, frame, confidence, seed,
+                              score, method, units, names, min_points_rule, densities[k:k + 2]))
+        cm = maps[-1]
+        cm.cell_rule, cm.min_points_rule = cell_rule, min_points_rule
+        cm.density = (densities[k], densities[k + 1])
+        cm.timings["saliency"] = [seconds[k], seconds[k + 1]]
+        cm.warnings = notes + schemes[k] + cm.warnings
+    for text in dict.fromkeys(w for m in maps for w in m.warnings):  # each once
+        warnings.warn(text, LidarSigWarning, stacklevel=2)
+    return maps[0] if len(maps) == 1 else ChangeSeries(maps, epochs)
+
+
+def _interval(k, epochs, binned, grid, classes, min_points, cell, render, frame, confidence, seed, score, method,
+              units, names, min_points_rule, densities):
+    """The ChangeMap of epochs k and k + 1: table, metrics, levels of detection, ranking."""
+    pair = binned[k:k + 2]
+    table = cell_table(grid, pair, min_points, densities)
+    if not table["valid"].any():  # the points are there, their saliency is not
+        most = int(np.minimum(table["defined_a"], table["defined_b"]).max())
+        fix = _fewer_points(min_points_rule, min_points)
+        raise LidarSigError(f"no cell of {cell:g} m holds {counted(min_points, 'point')} with defined saliency in both "
+                            f"{names[k]} and {names[k + 1]} (at most {most:,}); {fix} or larger scales")
+    n_valid = int(table["valid"].sum())
+    timings = {}
+    start = time.perf_counter()
+    with step("cell metrics", cells=n_valid, cell=f"{cell:g} m", frame=f"{frame.size} px") as s:
+        observed_metrics(table, pair, classes, render=render, frame=frame, progress=s)
+    timings["cells"] = time.perf_counter() - start
+    start = time.perf_counter()
+    with step("level of detection", cells=n_valid, replicates=2 * REPLICATES) as s:
+        null = null_metrics(table, pair, classes, render=render, frame=frame, seed=seed, stream=k, progress=s)
+        levels = metric_levels(table, null, confidence=confidence)
+    timings["lod"] = time.perf_counter() - start
+    notes = []
+    if n_valid < MIN_CELLS:
+        notes.append(f"the level of detection covers sampling noise only: {n_valid} compared "
+                     f"cell{'s' if n_valid != 1 else ''}, fewer than {MIN_CELLS}, cannot tell what differs between "
+                     "the two surveys everywhere; use smaller cells (--cell) for more")
+    cm = ChangeMap(table, pair[0].classes, pair[1].classes, grid, epochs[k].cloud.crs, units, cell, int(min_points),
+                   score, render, classes, epochs[k], epochs[k + 1], frame, method, levels, confidence,
+                   warnings=notes, timings=timings)
+    cm.rank_by(score)
+    return cm
+
+
+def _check_overlap(xy_a, xy_b, name_a, name_b):
+    """A LidarSigError when the extents of two epochs' (N, 2) points are disjoint: they share no
+    land to compare."""
+    low_a, high_a = xy_a.min(axis=0), xy_a.max(axis=0)
+    low_b, high_b = xy_b.min(axis=0), xy_b.max(axis=0)
+    if np.any(high_a < low_b) or np.any(high_b < low_a):
+        def extent(low, high):
+            return f"x {low[0]:.1f} to {high[0]:.1f}, y {low[1]:.1f} to {high[1]:.1f}"
+
+        raise LidarSigError(f"{name_a} ({extent(low_a, high_a)}) and {name_b} ({extent(low_b, high_b)}) do not "
+                            "overlap; give epochs of the same area")
+
+
+def _fewer_points(min_points_rule, min_points):
+    """The fix when no cell holds enough points. With --min-points auto the minimum is a fifth of
+    a full cell, but never below MIN_POINTS_FLOOR: where the floor holds, the cells are too small
+    for a sparse survey and a larger one holds more points; above it, the cells are larger than
+    what the survey fills and a smaller one needs fewer."""
+    if min_points_rule == AUTO and min_points <= MIN_POINTS_FLOOR:
+        return (f"use a larger cell size (--cell): the automatic minimum is {MIN_POINTS_FLOOR} points or more, "
+                "which small cells of a sparse survey do not hold; or give a smaller minimum (--min-points)")
+    if min_points_rule == AUTO:
+        return ("use a smaller cell size (--cell): the automatic minimum is a fifth of a full cell, which cells "
+                "larger than the survey do not hold; or give a smaller minimum (--min-points)")
+    return "use a larger cell size (--cell) or a smaller minimum (--min-points)"
+
+
+def _scheme_warnings(binned, classes, names, *, ranked_by=None):
+    """Per interval, the warnings that its two epochs' class codes barely overlap
+    (:func:`lidar_sig.method.class_maps.class_scheme_warnings`), saying what the ranking then is."""
+    consequence = "delta_KL and L1 measure the classification schemes as much as the land"
+    if ranked_by is None:
+        consequence += (f"; the cells are ranked by {METRIC_NAMES[LABEL_FREE_SCORE]}, which does not depend on the "
+                        "labels (--class-map merges codes to compare the classes)")
+    return [class_scheme_warnings(binned[k].classes.sum(axis=0), binned[k + 1].classes.sum(axis=0),
+                                  classes.class_names, names[k:k + 2], consequence=consequence)
+            for k in range(len(binned) - 1)]
+
+
+def _is_auto(value):
+    return isinstance(value, str) and value.strip().lower() == AUTO

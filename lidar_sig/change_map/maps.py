@@ -1,0 +1,418 @@
+"""The change map as a result: the per-cell table and the grid, each metric's level of
+detection, the cells ranked (significant ones first), rasters of any field, plain values for
+JSON, and the files it is saved as (GeoTIFF with its QGIS style, GeoPackage of the cells, the
+later epoch's points with their cell's change, PNG, HTML)."""
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ..method.crs import crs_name
+from ..base.errors import LidarSigError, as_path, whole_number
+from ..metrics import METRIC, METRIC_NAMES, METRICS
+from ..base.progress import step
+from ..method.signature_raster import Frame
+from .cells import CELL_FRAME, CHANGE_KEYS, COVERAGE, cell_signature, epoch_cells
+from .epochs import Epoch
+from .grid import Grid
+from .heights import HEIGHT, HEIGHT_NAME
+from .lod import CONFIDENCE, level_of_detection, pooled_confidence
+
+if TYPE_CHECKING:
+    from ..reporting import Report
+    from ..method.signature_raster import Signature
+
+#: Metric that ranks the cells by default (docs/changes.md): delta_KL of the class distributions
+#: where both epochs are labelled in overlapping class schemes, else LABEL_FREE_SCORE.
+SCORE = "kl"
+#: Metric that ranks the cells where the labels cannot (unlabelled epochs, or class schemes that
+#: barely overlap): delta_FV, which separated the edited cells best among the metrics that do not
+#: depend on the labels (docs/changes.md).
+LABEL_FREE_SCORE = "fv"
+#: Bands of the change map's GeoTIFF before the metrics and after them.
+BANDS = ("score", "lod", "significant")
+COUNT_BANDS = ("height_lod", "points_a", "points_b", "undefined_a", "undefined_b", "coverage")
+#: Names of what the change map compares: the metrics' and delta_H's.
+NAMES = {**METRIC_NAMES, HEIGHT: HEIGHT_NAME}
+
+
+def oriented(values, metric):
+    """A metric's values oriented so that larger means more different: its distance form
+    (:meth:`lidar_sig.metrics.Metric.distance`: 1 - s_SSIM for s_SSIM), delta_H as it is."""
+    return METRIC[metric].distance(values) if metric in METRIC else values
+
+
+def score_name(key):
+    """The name of the ranking values of ``key``: its distance form's (1 - s_SSIM), delta_H's."""
+    return METRIC[key].distance_name if key in METRIC else NAMES[key]
+
+
+def score_values(table, score):
+    """The ranking values of the per-cell ``table`` by metric ``score``: the metric itself, or
+    1 - s_SSIM for ``"ssim"``, so that a larger score always means more change."""
+    return oriented(table[score], score)
+
+
+def metric_levels(table, null, *, confidence=CONFIDENCE):
+    """{metric key: :class:`~lidar_sig.change_map.lod.Level`} of every metric, from the table's
+    observed values and the replicates ``null`` (cells, replicates, metrics) of
+    :func:`~lidar_sig.change_map.cells.null_metrics`."""
+    return {k: level_of_detection(oriented(table[k], k), oriented(null[:, :, m], k), table["valid"],
+                                  confidence=confidence)
+            for m, k in enumerate(CHANGE_KEYS)}
+
+
+@dataclass(repr=False)
+class ChangeMap:
+    """The result of :func:`lidar_sig.change_map.changes` for two epochs.
+
+    Attributes
+    ----------
+    table : numpy structured array
+        One record per cell of the grid, row-major (row 0 north): ``row``, ``col``, cell bounds
+        ``x_min, y_min, x_max, y_max`` (CRS coordinates), ``points_a``, ``points_b``,
+        ``defined_a``, ``defined_b`` (those with defined saliency), ``undefined_a``,
+        ``undefined_b`` (share of the cell's points with undefined saliency), ``valid`` (both
+        epochs hold ``min_points`` points with defined saliency or more), ``coverage`` (the
+        code of :data:`~lidar_sig.change_map.cells.COVERAGE`), the metrics of
+        :data:`lidar_sig.metrics.METRIC_KEYS` and ``height`` (delta_H, m), and the ranking's
+        ``score``, ``lod`` (its level of detection), ``height_lod`` (delta_H's), ``z`` and
+        ``significant`` (:meth:`rank_by`); NaN (False) where ``valid`` is False.
+    classes_a, classes_b : (cells, C) int64
+        Points of each class of ``class_table`` per cell, in each epoch.
+    grid : Grid
+    score : str
+        The metric that ranks the cells (a key of METRIC_KEYS); the table's ``score`` holds its
+        values, 1 - s_SSIM for ``"ssim"``, so that a larger score always means more change.
+    levels : dict
+        {metric key or "height": :class:`~lidar_sig.change_map.lod.Level`}: every metric's level of
+        detection and significance per cell.
+    cell_rule, min_points_rule : str
+        ``"auto"`` (chosen from the epochs' densities) or ``"given"``.
+    density : tuple
+        Points per m² of each epoch (:func:`~lidar_sig.change_map.density.density`).
+    warnings : list
+        What may make the map mislead (class schemes, too few cells for the survey part).
+    """
+
+    table: np.ndarray
+    classes_a: np.ndarray
+    classes_b: np.ndarray
+    grid: Grid
+    crs: object
+    units: object
+    cell: float
+    min_points: int
+    score: str
+    render: str
+    class_table: object
+    a: Epoch
+    b: Epoch
+    frame: Frame = CELL_FRAME
+    method: dict = field(default_factory=dict)
+    levels: dict = field(default_factory=dict)
+    confidence: float = CONFIDENCE
+    cell_rule: str = "given"
+    min_points_rule: str = "given"
+    density: tuple = ()
+    warnings: list = field(default_factory=list)
+    timings: dict = field(default_factory=dict)
+
+    def __repr__(self):
+        from ..base.views import one_line, short_name
+
+        return one_line(f"<ChangeMap {self.grid.rows} x {self.grid.cols} cells of {self.cell:g} m, "
+                        f"{int(self.table['valid'].sum())} compared, {self.n_significant} significant by {self.score} "
+                        f"({self.confidence:.0%}); {short_name(self.a.name)} -> {short_name(self.b.name)}>")
+
+    def thumbnail(self, size: int = 240) -> np.ndarray:
+        """(H, W, 3) RGB picture of the map, about ``size`` pixels on its longer side: cells
+        compared shaded from white (least changed) to orange (most) by their rank, those that
+        changed significantly red, the others grey (row 0 north)."""
+        valid = self.raster("valid") > 0
+        score = np.where(valid, self.raster("score"), np.nan)
+        rank = np.zeros(score.shape)
+        if valid.any():
+            order = np.argsort(np.argsort(score[valid]))
+            rank[valid] = order / max(len(order) - 1, 1)
+        rgb = np.where(valid[..., None], np.array([1.0, 1.0, 1.0]) - rank[..., None] * np.array([0.0, 0.45, 0.8]),
+                       np.array([0.82, 0.82, 0.82]))
+        rgb[self.raster("significant") > 0] = (0.80, 0.05, 0.05)
+        k = max(1, size // max(self.grid.rows, self.grid.cols))
+        return np.repeat(np.repeat(rgb, k, axis=0), k, axis=1)
+
+    def _repr_html_(self):
+        """A notebook's view: the map's thumbnail, its counts and the most changed cells."""
+        from ..base.views import card
+
+        rows = [(item["rank"], f"{item['bounds'][0]:.1f}, {item['bounds'][1]:.1f}", item["points_a"], item["points_b"],
+                 f"{item['score']:.4f}", "yes" if item["significant"] else "no") for item in self.top(5)]
+        facts = [f"{self.a.name} -> {self.b.name}", f"{self.grid.rows} x {self.grid.cols} cells of {self.cell:g} m, "
+                 f"{int(self.table['valid'].sum())} compared, {self.n_significant} significant "
+                 f"({self.confidence:.0%} level of detection of {self.score})"]
+        return card("ChangeMap", facts + [f"warning: {w}" for w in self.warnings],
+                    header=("rank", "x, y min", "points A", "points B", "score", "significant"), rows=rows,
+                    numeric=(0, 2, 3, 4), image=self.thumbnail(), width=220,
+                    note="red: changed significantly; orange to white: compared, most to least changed; grey: not "
+                         "compared")
+
+    def rank_by(self, score: str) -> None:
+        """Fill the table's ranking fields from metric ``score`` and delta_H, the two tests of
+        a cell (:meth:`tests`): ``score``, its level ``lod`` and delta_H's ``height_lod`` at the
+        confidence of each of the two tests (:func:`~lidar_sig.change_map.lod.pooled_confidence`),
+        ``z`` the larger of their z, and ``significant`` where either exceeds its level."""
+        self.score = score
+        each = pooled_confidence(self.confidence, len(self.tests))
+        t = self.table
+        t["score"] = score_values(t, score)
+        t["lod"] = self.levels[score].lod_at(each)
+        t["height_lod"] = self.levels[HEIGHT].lod_at(each)
+        with np.errstate(invalid="ignore"):
+            t["z"] = np.fmax(self.levels[score].z, self.levels[HEIGHT].z)
+            t["significant"] = t["valid"] & ((t["score"] > t["lod"]) | (t[HEIGHT] > t["height_lod"]))
+
+    @property
+    def names(self) -> dict[str, str]:
+        """{key: name} of everything the map compares: the metrics' names and delta_H."""
+        return dict(NAMES)
+
+    @property
+    def score_name(self) -> str:
+        """The name of the ranking values (the score's distance form: 1 - s_SSIM for s_SSIM)."""
+        return score_name(self.score)
+
+    @property
+    def tests(self) -> tuple[str, ...]:
+        """The metrics whose levels of detection decide a cell's significance: the score (what
+        the cell is made of) and delta_H (how high it is), each at the confidence that keeps
+        the map's (docs/changes.md, "Significance")."""
+        return (self.score, HEIGHT)
+
+    @property
+    def n_significant(self) -> int:
+        """Cells whose score exceeds its level of detection."""
+        return int(self.table["significant"].sum())
+
+    @property
+    def transform(self) -> Any:
+        """The grid's affine transform: an ``affine.Affine`` when affine (installed with
+        rasterio) is present, else the 6-tuple (a, b, c, d, e, f) in rasterio's order (see
+        :attr:`Grid.transform`)."""
+        try:
+            from affine import Affine
+        except ImportError:
+            return self.grid.transform
+        return Affine(*self.grid.transform)
+
+    def raster(self, name: str) -> np.ndarray:
+        """(rows, cols) float64 raster of the table's field ``name``, row 0 north; NaN where
+        the cell has no data (for metrics and the score)."""
+        if not isinstance(name, str) or name not in self.table.dtype.names:
+            raise LidarSigError(f"the change map has no field {name!r}; use one of {', '.join(self.table.dtype.names)}")
+        return np.asarray(self.table[name], dtype=np.float64).reshape(self.grid.rows, self.grid.cols)
+
+    def ranked(self, n: int | None = None) -> np.ndarray:
+        """Flat indices of the valid cells, most changed first: the significant cells first,
+        then by z (how far the score lies above what unchanged land gives, in spreads), ties by
+        score; the first ``n``."""
+        if n is not None:
+            n = whole_number(n, "the number of cells")
+        valid = np.flatnonzero(self.table["valid"])
+        t = self.table[valid]
+        z = np.where(np.isnan(t["z"]), -np.inf, t["z"])
+        order = valid[np.lexsort((-t["score"], -z, ~t["significant"]))]
+        return order if n is None else order[:n]
+
+    def signatures(self, flat: int) -> tuple[Signature, Signature]:
+        """(Signature of A, Signature of B) of cell ``flat``, as the metrics saw them."""
+        if isinstance(flat, bool) or not isinstance(flat, (int, np.integer)) or not 0 <= flat < self.grid.n_cells:
+            raise LidarSigError(f"no cell {flat!r} in a grid of {self.grid.n_cells:,} cells; give a flat cell index "
+                                "from the table (row x columns + col)")
+        labelled = bool(self.class_table.names)
+        return tuple(cell_signature(e, np.flatnonzero(epoch_cells(e, self.grid) == flat),
+                                    self.class_table, labelled, self.frame) for e in (self.a, self.b))
+
+    def to_pandas(self) -> Any:
+        """The table as a pandas DataFrame (needs pandas)."""
+        try:
+            import pandas as pd
+        except ImportError:
+            raise LidarSigError("to_pandas needs pandas: pip install pandas") from None
+        return pd.DataFrame(self.table)
+
+    def composition(self, flat: int) -> dict[str, tuple[int, int]]:
+        """{class name: [points in A, points in B]} of cell ``flat``, classes present in either."""
+        names = self.class_table.class_names
+        a, b = self.classes_a[flat], self.classes_b[flat]
+        return {names[k]: [int(a[k]), int(b[k])] for k in np.flatnonzero((a > 0) | (b > 0))}
+
+    def top(self, n: int = 10) -> list[dict[str, Any]]:
+        """The ``n`` most changed cells as plain dicts (rank, bounds, counts, score, its level
+        of detection and significance, metrics, the metrics in which the cell changed
+        significantly, classes)."""
+        out = []
+        for rank, flat in enumerate(self.ranked(n), 1):
+            rec = self.table[flat]
+            item = {"rank": rank, "row": int(rec["row"]), "col": int(rec["col"]),
+                    "bounds": [float(rec[k]) for k in ("x_min", "y_min", "x_max", "y_max")],
+                    "points_a": int(rec["points_a"]), "points_b": int(rec["points_b"]),
+                    "undefined_a": float(rec["undefined_a"]), "undefined_b": float(rec["undefined_b"]),
+                    "score": float(rec["score"]), "lod": _plain(rec["lod"]), "height_lod": _plain(rec["height_lod"]),
+                    "z": _plain(rec["z"]),
+                    "significant": bool(rec["significant"])}
+            item.update({k: _plain(rec[k]) for k in CHANGE_KEYS})
+            item["significant_metrics"] = [k for k in CHANGE_KEYS if k in self.levels
+                                           and self.levels[k].significant[flat]]
+            item["classes"] = self.composition(flat)
+            out.append(item)
+        return out
+
+    def coverage(self) -> dict[str, int]:
+        """{state: cells} of every coverage state (:data:`~lidar_sig.change_map.cells.COVERAGE`):
+        compared, appeared, vanished, too few points, not covered."""
+        codes = np.bincount(self.table["coverage"].astype(np.int64), minlength=len(COVERAGE))
+        return {name: int(codes[code]) for code, name in COVERAGE.items()}
+
+    def uncompared(self, state: str) -> list[dict[str, Any]]:
+        """The cells in coverage ``state`` ("appeared", "vanished", ...) as plain dicts: row,
+        col, bounds, the points of each epoch."""
+        code = next(k for k, v in COVERAGE.items() if v == state)
+        t = self.table
+        return [{"row": int(t["row"][c]), "col": int(t["col"][c]),
+                 "bounds": [float(t[k][c]) for k in ("x_min", "y_min", "x_max", "y_max")],
+                 "points_a": int(t["points_a"][c]), "points_b": int(t["points_b"][c])}
+                for c in np.flatnonzero(t["coverage"] == code)]
+
+    def settings(self) -> dict[str, Any]:
+        """The grid and settings as plain values (``to_dict`` without the cells)."""
+        a, b, c, d, e, f = self.grid.transform
+        return {"a": self.a.name, "b": self.b.name, "cell_m": self.cell, "cell_rule": self.cell_rule,
+                "cell_crs_units": self.grid.size, "units": self.units.describe(), "crs": crs_name(self.crs),
+                "min_points": self.min_points, "min_points_rule": self.min_points_rule,
+                "density": [round(float(v), 4) for v in self.density], "score": self.score,
+                "confidence": self.confidence, "render": self.render, "frame_px": self.frame.size,
+                "grid": {"rows": self.grid.rows, "cols": self.grid.cols, "transform": [a, b, c, d, e, f],
+                         "cells": self.grid.n_cells, "valid": int(self.table["valid"].sum()),
+                         "significant": self.n_significant},
+                "coverage": {"cells": self.coverage(), "codes": {str(k): v for k, v in COVERAGE.items()},
+                             "appeared": self.uncompared("appeared"), "vanished": self.uncompared("vanished")},
+                "levels": {k: {"beta": v.beta, "tau": v.tau, "survey": v.survey,
+                               "significant": int(v.significant.sum())} for k, v in self.levels.items()
+                           if np.isfinite(v.mu0).any()},
+                "warnings": list(self.warnings), "method": self.method}
+
+    def to_dict(self, n: int = 10) -> dict[str, Any]:
+        """Everything a ``--json`` user needs: the grid, the settings, each metric's survey part
+        and significant cells, and the ``n`` top cells (all compared cells when ``n`` is at
+        least their number)."""
+        return {**self.settings(), "top": self.top(n)}
+
+    def metadata_tags(self):
+        """Text tags of the GeoTIFF: the settings a reader needs to interpret the bands."""
+        return {"cell_m": f"{self.cell:g}", "cell_rule": self.cell_rule, "min_points": str(self.min_points),
+                "min_points_rule": self.min_points_rule, "density_points_per_m2": ", ".join(
+                    f"{v:.4g}" for v in self.density), "score": self.score, "confidence": f"{self.confidence:g}",
+                "compared": str(int(self.table["valid"].sum())), "significant": str(self.n_significant),
+                "epoch_a": self.a.name, "epoch_b": self.b.name}
+
+    def bands(self, prefix=""):
+        """(rasters, descriptions) of the GeoTIFF's bands: the score, its level of detection,
+        significant (0/1), every metric and delta_H, delta_H's level, the points of each epoch,
+        their undefined shares and the coverage state; NaN where there is no data. ``prefix``
+        starts each description (a series' interval)."""
+        names = BANDS + CHANGE_KEYS + COUNT_BANDS
+        rasters = []
+        for n in names:
+            r = self.raster(n)
+            if n == "significant":
+                r = np.where(self.raster("valid") > 0, r, np.nan)
+            elif n.startswith("undefined"):  # shares say nothing where a cell is empty
+                r = np.where(self.raster(n.replace("undefined", "points")) > 0, r, np.nan)
+            rasters.append(r)
+        return rasters, [prefix + _band_description(n, self.score, self.confidence) for n in names]
+
+    def save(self, path: str | os.PathLike[str], *, overwrite: bool = False) -> None:
+        """Write by extension: ``.tif``/``.tiff`` a Cloud-Optimized GeoTIFF of the score, its
+        level of detection, significance and every metric (needs rasterio: ``pip install
+        lidar-sig[geo]``) with its QGIS style beside it (``.qml``: the score as a colour ramp),
+        ``.gpkg`` the cells as a GeoPackage layer (:func:`~lidar_sig.change_map.layers.cell_features`),
+        a point-cloud extension (``.laz``, ``.las``, ``.ply``, ``.csv``, ...) the later epoch's
+        points with their saliency and their cell's change (ChangeScore, ChangeLoD,
+        ChangeSignificant), ``.png`` the map, ``.html`` the report."""
+        from ..io import output_group
+        from ..io.formats import IMAGE, POINTS, RASTER, REPORT, VECTOR, format_of
+
+        fmt = format_of(as_path(path, "saving a change map"))
+        holds = set(fmt.holds) if fmt is not None else set()
+        if RASTER in holds:
+            from ..io.geotiff import write_geotiff
+            from ..io.styles import style_path, write_style
+            from .layers import score_style
+
+            rasters, descriptions = self.bands()
+            with step(f"writing {Path(path).name}", bands=len(rasters)), output_group():
+                write_geotiff(path, rasters, descriptions, self.grid.transform, self.crs, overwrite=overwrite,
+                              tags=self.metadata_tags())
+                write_style(style_path(path), score_style(self), overwrite=overwrite)
+        elif VECTOR in holds:
+            from ..io.geopackage import write_geopackage
+            from .layers import cells_layer
+
+            with step(f"writing {Path(path).name}", cells=int(self.table["valid"].sum())):
+                write_geopackage(path, [cells_layer(self)], overwrite=overwrite)
+        elif POINTS in holds:
+            from ..io import write_cloud
+            from .layers import point_change
+
+            e = self.b
+            with step(f"writing {Path(path).name}", points=len(e.cloud)):
+                write_cloud(path, e.cloud, e.saliency, scale_kind=e.metadata.get("scale_kind"),
+                            scale_values=e.metadata.get("scale_values"), overwrite=overwrite,
+                            extra=point_change(self))
+        elif IMAGE in holds:
+            from ..io.png import write_png
+            from ..reporting import change_map_image
+
+            with step(f"writing {Path(path).name}"):
+                write_png(path, change_map_image(self), overwrite=overwrite)
+        elif REPORT in holds:
+            self.report().save(path, overwrite=overwrite)
+        else:
+            ext = Path(path).suffix.lower()
+            raise LidarSigError(f"cannot write a change map as {ext or '(no extension)'!r}; use .tif, .gpkg, "
+                                ".png, .html or a point-cloud format (.laz, .las, .ply, .csv, ...)", path=path)
+
+    def report(self) -> Report:
+        """The HTML report: the map over a top view of both epochs and the signatures of the top
+        cells side by side (:class:`lidar_sig.reporting.Report`)."""
+        from ..reporting import changes_report
+
+        return changes_report(self)
+
+
+def _plain(value):
+    value = float(value)
+    return None if math.isnan(value) else value
+
+
+def _band_description(name, score, confidence=CONFIDENCE):
+    names = {m.key: f"{m.name}: {m.short}" for m in METRICS}
+    names[HEIGHT] = f"{HEIGHT_NAME}: EMD of heights above the cell's lowest points (m)"
+    ranking = score_name(score)
+    each = f"{pooled_confidence(confidence, 2):.1%}"
+    text = {"score": f"score: {ranking}, the ranking metric",
+            "lod": f"lod: level of detection of the score ({ranking} of unchanged land at {each})",
+            "height_lod": f"height_lod: level of detection of {HEIGHT_NAME} (m, unchanged land at {each})",
+            "significant": f"significant: 1 where the score or {HEIGHT_NAME} exceeds its level of detection (the "
+                           f"two at {confidence:.0%} together), 0 where not",
+            "points_a": "points of epoch A", "points_b": "points of epoch B",
+            "undefined_a": "share of A's points with undefined saliency",
+            "undefined_b": "share of B's points with undefined saliency",
+            "coverage": "coverage: " + ", ".join(f"{k} {v}" for k, v in COVERAGE.items())
+                        + " (only B covers the cell: appeared; only A: vanished)"}
+    return text.get(name) or names[name]

@@ -1,0 +1,1 @@
+"""One cloud -> saliency and signature: the Pipeline and its Result."""
