@@ -208,7 +208,7 @@ def main():
           f"--json {out['cli_outliers_seconds']:.2f} s, with -o tiles.gpkg --report {out['cli_outliers_outputs_seconds']:.2f} s")
 
     # the shortlist against the full metrics of every tile
-    from lidar_sig.survey_catalog.distances import combine, screening
+    from lidar_sig.survey_catalog._distances import combine, screening
 
     same, worst = 0, []
     checked = queries[:args.check]

@@ -97,8 +97,8 @@ def main():
     from edited_epoch import edit
     from lidar_sig.change_map import read_epoch
     from lidar_sig.base.errors import LidarSigWarning
-    from lidar_sig.change_map.cells import CHANGE_KEYS
-    from lidar_sig.change_map.maps import NAMES
+    from lidar_sig.change_map._cells import CHANGE_KEYS
+    from lidar_sig.change_map._maps import NAMES
 
     warnings.simplefilter("ignore", LidarSigWarning)  # the sparse pair's scheme warning is the point
     pipeline = ls.Pipeline(progress=False)

@@ -18,10 +18,10 @@ import lidar_sig as ls
 from browser import Browser, missing
 from conftest import IGN, NOISY, airborne_like, need_data, noisy_las
 from lidar_sig.survey_catalog import build_catalog
-from lidar_sig.survey_catalog.embedding import classical_mds
-from lidar_sig.survey_catalog.footprint import convex_hull, neighbours, polygon_area, polygon_distance
-from lidar_sig.survey_catalog.outlier_scores import robust_z
-from lidar_sig.survey_catalog.tile import tile_task
+from lidar_sig.survey_catalog._embedding import classical_mds
+from lidar_sig.survey_catalog._footprint import convex_hull, neighbours, polygon_area, polygon_distance
+from lidar_sig.survey_catalog._outlier_scores import robust_z
+from lidar_sig.survey_catalog._tile import tile_task
 from lidar_sig.io.geopackage import APPLICATION_ID
 from lidar_sig.tiling.backends import executor
 
@@ -288,7 +288,7 @@ def test_a_dask_cluster_makes_the_same_catalogue(tmp_path):
 
 
 def test_a_tile_larger_than_a_block_goes_through_the_tiled_runner(tmp_path, monkeypatch):
-    import lidar_sig.survey_catalog.tile as tile
+    import lidar_sig.survey_catalog._tile as tile
 
     path = synthetic_tile(tmp_path / "a.laz", 0, (0, 0))
     monkeypatch.setattr(tile, "BLOCK_POINTS", 1000)

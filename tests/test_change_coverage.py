@@ -88,7 +88,7 @@ def test_cells_that_only_one_epoch_covers_are_appeared_or_vanished_in_the_geotif
 
 
 def test_coverage_states_follow_the_documented_rule():
-    from lidar_sig.change_map.cells import COVERAGE, coverage
+    from lidar_sig.change_map._cells import COVERAGE, coverage
 
     codes = {v: k for k, v in COVERAGE.items()}
     points_a = np.array([500, 0, 400, 80, 49, 0, 3, 30, 1000])
@@ -138,7 +138,7 @@ def test_the_advice_when_no_cell_holds_enough_points_names_the_option_that_fixes
 
 
 def test_a_map_of_a_pair_that_only_partly_overlaps_keeps_every_point_in_a_state():
-    from lidar_sig.change_map.cells import COVERS
+    from lidar_sig.change_map._cells import COVERS
 
     a, b = read_epoch(SAMPLES / "epoch1.laz"), read_epoch(ALIGNED)
     x = np.median(a.xyz[:, 0])
@@ -157,7 +157,7 @@ def test_a_map_of_a_pair_that_only_partly_overlaps_keeps_every_point_in_a_state(
 def test_a_run_below_the_density_where_recall_drops_warns_with_the_figure(tmp_path):
     from edited_epoch import write_las
 
-    from lidar_sig.change_map.density import LEAST_DENSITY, RECALL_BELOW
+    from lidar_sig.change_map._density import LEAST_DENSITY, RECALL_BELOW
     from lidar_sig.base.errors import LidarSigWarning
 
     rng = np.random.default_rng(3)

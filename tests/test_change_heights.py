@@ -9,7 +9,7 @@ import pytest
 
 from conftest import airborne_like
 from lidar_sig.change_map import changes
-from lidar_sig.change_map.heights import LOWEST, height_distance, height_profile
+from lidar_sig.change_map._heights import LOWEST, height_distance, height_profile
 from lidar_sig.method.cloud import PointCloud
 from lidar_sig.method.crs import Units
 from lidar_sig.base.errors import LidarSigWarning

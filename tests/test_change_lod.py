@@ -10,7 +10,7 @@ import pytest
 
 from conftest import IGN, ROOT, need_data
 from lidar_sig.change_map import Level, changes, compute_epoch, level_of_detection, read_epoch
-from lidar_sig.change_map.lod import MIN_CELLS, quantile
+from lidar_sig.change_map._lod import MIN_CELLS, quantile
 from lidar_sig.base.errors import LidarSigWarning
 
 sys.path.insert(0, str(ROOT / "benchmarks"))
@@ -166,7 +166,7 @@ def test_a_series_of_three_epochs_puts_each_edit_in_its_interval(block, edited, 
 def test_resampling_draws_per_cell_so_that_results_do_not_depend_on_the_processing_order():
     from conftest import airborne_like
     from lidar_sig.change_map import Grid, bin_points, compute_epoch, null_metrics
-    from lidar_sig.change_map.cells import cell_table
+    from lidar_sig.change_map._cells import cell_table
     from lidar_sig.method.classes import ASPRS
     from lidar_sig.method.cloud import PointCloud
 

@@ -120,7 +120,7 @@ def test_one_unlabelled_epoch_is_said_not_shown_as_a_class_change():
 # -- the synthetic scene of data_samples -------------------------------------------------------
 
 def coregistered_samples():
-    """The two epochs of the sample scene (lidar_sig/data/scene.py) without epoch 2's 20 degree
+    """The two epochs of the sample scene (lidar_sig/data/_scene.py) without epoch 2's 20 degree
     rotation (the committed epoch2.laz is rotated about the scene centre to test rotation invariance, so its
     coordinates no longer describe the same ground as epoch 1's), and the changes' places."""
     from lidar_sig.data import scene as ms

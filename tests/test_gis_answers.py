@@ -126,7 +126,7 @@ def test_outliers_mark_the_tiles_that_reach_the_threshold(tmp_path):
 
 
 def test_the_verdict_on_nine_tiles_or_more_states_the_scores_without_reserve():
-    from lidar_sig.survey_catalog.outlier_scores import FEW_TILES, Outliers
+    from lidar_sig.survey_catalog._outlier_scores import FEW_TILES, Outliers
 
     def verdict(n, standing_out):
         results = [{"name": f"t{i}", "outlier": i < standing_out} for i in range(n)]

@@ -158,8 +158,8 @@ def test_the_cells_geopackage_has_an_index_a_style_and_the_command_s_cells(outpu
 
 def test_the_cells_layer_names_the_coverage_state_the_change_map_gives_each_cell():
     # the states themselves are the change map's (tests/test_change_coverage.py); the layer names them
-    from lidar_sig.change_map.cells import coverage as states
-    from lidar_sig.change_map.layers import coverage
+    from lidar_sig.change_map._cells import coverage as states
+    from lidar_sig.change_map._layers import coverage
 
     points_a, points_b = np.array([500, 0, 0, 450, 30, 0]), np.array([400, 400, 12, 0, 40, 0])
     valid = np.array([True, False, False, False, False, False])

@@ -10,7 +10,7 @@ import pytest
 
 import lidar_sig as ls
 from lidar_sig.base.errors import LidarSigError
-from lidar_sig.tiling.median import sorted_median
+from lidar_sig.tiling._median import sorted_median
 from lidar_sig.tiling.memory import DEFAULT_MEMORY, GIB, MIB, block_bytes, budget_bytes, over_budget
 
 from command_line import run as lidar_sig_cli

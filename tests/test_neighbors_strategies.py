@@ -235,7 +235,7 @@ def test_scales_validation():
 def test_second_distances_on_a_lattice_whose_points_lie_on_voxel_faces(cell):
     # a lattice of step 0.25 with the voxel side a multiple of it: many points sit exactly on a
     # face, and their second neighbour in the voxel next door must not be skipped for round-off
-    from lidar_sig.numerics.voxels import VoxelGrid
+    from lidar_sig.numerics._voxels import VoxelGrid
 
     g = np.arange(0.0, 6.0, 0.25)
     xyz = np.array(np.meshgrid(g, g, [0.0, 0.25]), dtype=np.float64).reshape(3, -1).T

@@ -40,7 +40,7 @@ def test_build_warns_of_nothing_and_both_archives_carry_the_license(dist):
         metadata = whl.read(next(n for n in names if n.endswith(".dist-info/METADATA"))).decode()
     assert any(n.endswith(".dist-info/licenses/LICENSE") for n in names)
     assert "License-Expression: BSD-3-Clause" in metadata and "Classifier: Programming Language :: Python :: 3.11" in metadata
-    assert "lidar_sig/data/scene.py" in names and not [n for n in names if "__pycache__" in n]
+    assert "lidar_sig/data/_scene.py" in names and not [n for n in names if "__pycache__" in n]
     with tarfile.open(sdist) as tar:
         members = {m.name.split("/", 1)[1] for m in tar.getmembers() if "/" in m.name}
     # the sdist's tests can run: they, the sample and the pinned test environment are in it

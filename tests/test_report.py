@@ -80,7 +80,7 @@ def _class_shares(path):
 
 def test_demo_report_shows_the_removed_trees_and_the_new_building(demo):
     """The README's epochs: epoch 2 lost a third of its trees and gained a building
-    (lidar_sig/data/scene.py). The class composition and the difference image show it."""
+    (lidar_sig/data/_scene.py). The class composition and the difference image show it."""
     folder, _ = demo
     html = (folder / "report.html").read_text(encoding="utf-8")
     a, b = _class_shares(EPOCH1), _class_shares(EPOCH2)

@@ -14,7 +14,7 @@ from lidar_sig.method.classes import class_table
 from lidar_sig.base.errors import LidarSigError, LidarSigWarning
 from lidar_sig.io.fields import saliency_fields
 from lidar_sig.method.signature_raster import Signature
-from lidar_sig.tiling.core import saliency_in_tiles
+from lidar_sig.tiling._core import saliency_in_tiles
 from lidar_sig.tiling.backends import executor
 from lidar_sig.tiling.run_set import run_set
 

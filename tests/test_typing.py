@@ -54,5 +54,5 @@ def test_the_public_names_resolve_statically(tmp_path):
     assert len(revealed) == 6, said
     for line, name in zip(revealed, ("lidar_sig.pipeline.flow.Pipeline", "lidar_sig.pipeline.result.Result",
                                      "lidar_sig.comparison.Comparison", "lidar_sig.tiling.execution.Execution",
-                                     "lidar_sig.jobs.saliency.SaliencyRun", "lidar_sig.change_map.maps.ChangeMap")):
+                                     "lidar_sig.jobs.saliency.SaliencyRun", "lidar_sig.change_map._maps.ChangeMap")):
         assert name in line, (name, line)

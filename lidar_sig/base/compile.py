@@ -18,7 +18,7 @@ _WARMING = {}
 #: plugin (``kernels``), the search's for radius scales on the Scales, the area weights' in
 #: :mod:`lidar_sig.numerics.neighbors`; a run gathers them (``Pipeline.kernels``). The functions they call
 #: are compiled and cached with them.
-COMMON = (("lidar_sig.numerics.voxels", ("nearest",)),
+COMMON = (("lidar_sig.numerics._voxels", ("nearest",)),
           ("lidar_sig.numerics.kernels", ("saliency_rows", "entropy_rows", "order_eigenvalues")))
 # numba modules that build an error message when imported, which numba colours through colorama
 # by setting sys.stderr and back; numba imports them at its first load of a cached kernel, so

@@ -24,23 +24,23 @@ shift of a few decimetres between the epochs moves a few points across a cell ed
   schemes that barely overlap), or its delta_H exceeds its level, the two tests together at
   the map's confidence; significant cells first, then by z.
 
-The modules: :mod:`~lidar_sig.change_map.grid` (the cells), :mod:`~lidar_sig.change_map.density`
-(the defaults from the densities), :mod:`~lidar_sig.change_map.epochs` (an epoch read, joined
-from tiles, checked against the others), :mod:`~lidar_sig.change_map.cells` (per-cell
+The modules: :mod:`~lidar_sig.change_map._grid` (the cells), :mod:`~lidar_sig.change_map._density`
+(the defaults from the densities), :mod:`~lidar_sig.change_map._epochs` (an epoch read, joined
+from tiles, checked against the others), :mod:`~lidar_sig.change_map._cells` (per-cell
 signatures, metrics and resampled metrics from computed saliency, coverage states),
-:mod:`~lidar_sig.change_map.heights` (delta_H), :mod:`~lidar_sig.change_map.lod`
-(the level of detection, array in, array out), :mod:`~lidar_sig.change_map.maps` (the
+:mod:`~lidar_sig.change_map._heights` (delta_H), :mod:`~lidar_sig.change_map._lod`
+(the level of detection, array in, array out), :mod:`~lidar_sig.change_map._maps` (the
 ChangeMap: levels, ranking, rasters, files), :mod:`~lidar_sig.change_map.series` (more than two
-epochs) and :mod:`~lidar_sig.change_map.compute` (:func:`changes`, which reads the epochs and runs
+epochs) and :mod:`~lidar_sig.change_map._compute` (:func:`changes`, which reads the epochs and runs
 the pipeline).
 """
-from .cells import CELL_FIELDS, CELL_FRAME, SEED, bin_points, cell_signature, null_metrics, observed_metrics
-from .density import auto_cell, auto_min_points, density
-from .epochs import Epoch, compute_epoch, read_epoch
-from .grid import MAX_CELLS, Grid, check_cell
-from .lod import CONFIDENCE, REPLICATES, Level, level_of_detection
-from .maps import LABEL_FREE_SCORE, SCORE, ChangeMap, metric_levels, score_values
-from .compute import AUTO, changes
+from ._cells import CELL_FIELDS, CELL_FRAME, SEED, bin_points, cell_signature, null_metrics, observed_metrics
+from ._density import auto_cell, auto_min_points, density
+from ._epochs import Epoch, compute_epoch, read_epoch
+from ._grid import MAX_CELLS, Grid, check_cell
+from ._lod import CONFIDENCE, REPLICATES, Level, level_of_detection
+from ._maps import LABEL_FREE_SCORE, SCORE, ChangeMap, metric_levels, score_values
+from ._compute import AUTO, changes
 from .series import ChangeSeries
 
 __all__ = ["AUTO", "CELL_FIELDS", "CELL_FRAME", "CONFIDENCE", "LABEL_FREE_SCORE", "MAX_CELLS", "REPLICATES",

@@ -14,7 +14,7 @@ from ..base.progress import step
 
 if TYPE_CHECKING:
     from ..reporting import Report
-    from .grid import Grid
+    from ._grid import Grid
 
 #: Value of the "when" band in a cell compared in some interval but never significant.
 NEVER = 0
@@ -105,7 +105,7 @@ class ChangeSeries:
             raise LidarSigError(POINTS_OF_TWO, path=path)
         if VECTOR in holds:
             from ..io.geopackage import write_geopackage
-            from .layers import cells_layer
+            from ._layers import cells_layer
 
             with step(f"writing {Path(path).name}", intervals=len(self.maps)):
                 write_geopackage(path, [cells_layer(m, f"cells_{k + 1}") for k, m in enumerate(self.maps)],
@@ -114,7 +114,7 @@ class ChangeSeries:
         if RASTER in holds:
             from ..io.geotiff import write_geotiff
             from ..io.styles import style_path, write_style
-            from .layers import when_style
+            from ._layers import when_style
 
             rasters, descriptions = [], []
             for k, m in enumerate(self.maps):

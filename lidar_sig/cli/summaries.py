@@ -18,7 +18,7 @@ def archive_summary_line(side):
 
 
 def show(done, *, quiet=False, as_json=False):
-    """Print what a job did (a :class:`lidar_sig.jobs.common.JobRun`): its JSON object with
+    """Print what a job did (a :class:`lidar_sig.jobs._common.JobRun`): its JSON object with
     ``--json``, else its lines unless ``--quiet``; an incomplete run's problems on stderr, then
     exit status 1. Each line is one line whatever the file names it shows (:func:`printable`)."""
     if as_json:

@@ -40,7 +40,7 @@ def write_sample(folder: str | Path, *, overwrite: bool = False) -> list[SampleF
     (its parent must exist). A file already there with the same bytes is left as it is; one
     that differs is refused unless ``overwrite``. All files are written, or none."""
     from ..io import atomic_output, output_group
-    from .scene import sample_las
+    from ._scene import sample_las
 
     folder = as_path(folder, "write_sample's folder")
     if folder.is_symlink() and not folder.exists():

@@ -47,11 +47,11 @@ def __dir__():
 def read(path: str | os.PathLike[str], *, columns: str | list[str] | None = None) -> PointCloud:
     """Read a point cloud (LAS/LAZ, PLY/PCD, XYZ/TXT/PTS/CSV text) into a PointCloud.
 
-    ``columns`` names the columns of a text file (see :mod:`lidar_sig.io.text`).
+    ``columns`` names the columns of a text file (see :mod:`lidar_sig.io._text`).
     """
     as_path(path, "read")
     if columns is not None:
-        from .text import parse_columns
+        from ._text import parse_columns
 
         columns = parse_columns(columns if isinstance(columns, str) else ",".join(map(str, columns)))
     path = Path(path)

@@ -15,7 +15,7 @@ from ..method.classes import recorded_table
 from ..base.errors import LidarSigError, as_path, counted, special_file
 from ..method.saliency_map import LN3
 from ..method.signature_raster import METHOD_KEYS, Frame, Signature
-from .h5datasets import described_dataset, hdf5_output
+from ._h5datasets import described_dataset, hdf5_output
 from .formats import HDF5_EXTENSIONS  # noqa: F401 (a name of this module too)
 
 FORMAT = "lidar_sig signature archive"

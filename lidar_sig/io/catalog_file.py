@@ -20,7 +20,7 @@ from ..method.crs import same_crs
 from ..base.errors import LidarSigError, as_path, special_file
 from ..metrics import FV_GRID, MAX_COLOR_BINS, METRIC_KEYS, SEMANTIC_KEYS, fv_mixture
 from ..method.signature_raster import EGEOM_BINS, METHOD_KEYS, Frame
-from .h5datasets import described_dataset, hdf5_output
+from ._h5datasets import described_dataset, hdf5_output
 
 FORMAT = "lidar_sig survey catalogue"
 FORMAT_VERSION = 1

@@ -3,7 +3,7 @@ by name, the names they are written under beside a user's own attributes, and th
 that lists them.
 
 LAS/LAZ keeps them as extra dimensions (:mod:`lidar_sig.io.las`), PLY, PCD and text as
-attributes or columns (:mod:`lidar_sig.io.table`); every writer takes :class:`Fields` (from
+attributes or columns (:mod:`lidar_sig.io._table`); every writer takes :class:`Fields` (from
 :func:`saliency_fields`, and :func:`change_fields` for a change map's points) and its names from
 :func:`output_names`.
 """

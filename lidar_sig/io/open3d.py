@@ -29,7 +29,7 @@ from ..base.errors import LidarSigError, LidarSigWarning
 from .atomic import atomic_output
 from .fields import marker, parse_marker
 from .formats import OPEN3D_EXTENSIONS  # noqa: F401 (a name of this module too)
-from .table import cloudcompare_name, plain_name, point_table
+from ._table import cloudcompare_name, plain_name, point_table
 
 LABEL_NAMES = ("label", "classification", "class")
 UNDEFINED_GREY = 0.5  # colour of undefined saliency in to_open3d: neutral mid grey

@@ -5,13 +5,13 @@ from dataclasses import dataclass
 from typing import Any
 
 from ..base.errors import counted
-from .common import JobRun
+from ._common import JobRun
 
 
 @dataclass(repr=False)
 class CatalogJob(JobRun):
     """What :func:`catalog` did (:class:`JobRun`), with the catalogue's own account
-    (:class:`~lidar_sig.survey_catalog.build.CatalogRun`: tiles added, recomputed, unchanged, failed)."""
+    (:class:`~lidar_sig.survey_catalog._build.CatalogRun`: tiles added, recomputed, unchanged, failed)."""
 
     run: Any = None
 
@@ -64,7 +64,7 @@ def catalog(inputs: Any, output: Any, *, pipeline: Any = None, execution: Any = 
 @dataclass(repr=False)
 class OutliersRun(JobRun):
     """What :func:`outliers` did (:class:`JobRun`), with the tiles' scores
-    (:class:`~lidar_sig.survey_catalog.outlier_scores.Outliers`)."""
+    (:class:`~lidar_sig.survey_catalog._outlier_scores.Outliers`)."""
 
     found: Any = None
 

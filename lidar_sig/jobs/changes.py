@@ -6,7 +6,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from ..base.errors import LidarSigError
-from .common import JobRun
+from ._common import JobRun
 
 
 @dataclass(repr=False)

@@ -4,7 +4,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from .common import JobRun
+from ._common import JobRun
 
 
 @dataclass(repr=False)
@@ -27,7 +27,7 @@ def compare(a: Any, b: Any, *, report: Any = None, plots: Any = None, overwrite:
     which an archive's recorded method must then agree with."""
     from ..comparison import compare_sources
     from ..reporting import COMPARISON_PLOTS
-    from .reports import check_report_outputs, write_report
+    from ._reports import check_report_outputs, write_report
 
     check_report_outputs(report, plots, COMPARISON_PLOTS, overwrite)
     comparison = compare_sources(a, b, pipeline, render=render, columns=columns, method_given=method_given,

@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from ..base.errors import arg, as_path, counted
-from .common import JobRun
+from ._common import JobRun
 
 
 @dataclass(repr=False)

@@ -16,13 +16,13 @@ from typing import Any
 from ..base.errors import LidarSigError, arg, as_path
 from ..io import CLOUD_EXTENSIONS, check_cloud_output, check_output, read
 from ..io.formats import POINTS, format_of, holds
-from .common import JobRun, as_sources, is_set, work_folder
+from ._common import JobRun, as_sources, is_set, work_folder
 
 
 @dataclass(repr=False)
 class SaliencyRun(JobRun):
     """What :func:`saliency` did (:class:`JobRun`), with the Result of one file (None for a
-    set; a closed :class:`~lidar_sig.tiling.set_run.TiledResult` for one run in tiles)."""
+    set; a closed :class:`~lidar_sig.tiling._set_run.TiledResult` for one run in tiles)."""
 
     result: Any = None
 

@@ -14,7 +14,7 @@ from typing import Any
 
 from ..base.errors import LidarSigError, arg
 from ..io import check_outputs, output_group, read
-from .common import JobRun, as_sources, is_set, work_folder
+from ._common import JobRun, as_sources, is_set, work_folder
 
 
 @dataclass(repr=False)
@@ -80,7 +80,7 @@ def signature(sources: Any, output: str | Path | None = None, *, png: str | Path
     check_outputs(outputs + ([str(report)] if report else []), overwrite=overwrite)  # all of them, before any work
     if report or plots:
         from ..reporting import SIGNATURE_PLOTS
-        from .reports import check_report_outputs
+        from ._reports import check_report_outputs
 
         check_report_outputs(report, plots, SIGNATURE_PLOTS, overwrite)
     render = render or RENDERINGS[0]
@@ -107,7 +107,7 @@ def signature(sources: Any, output: str | Path | None = None, *, png: str | Path
                archive=lambda path, **kw: result.write(path, points=points, **kw))
         if report or plots:
             from ..comparison import report as make_report
-            from .reports import write_report
+            from ._reports import write_report
 
             more, said = write_report(lambda: make_report(result, render=render), report, plots, overwrite)
             written += more

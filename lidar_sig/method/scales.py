@@ -72,7 +72,7 @@ class Scales:
         run (:data:`lidar_sig.base.compile.COMMON`), as (module, function names): radius scales are
         counted within each sphere; k-nearest scales are counted by the search itself (the few
         rows it leaves to a scan are counted by a kernel loaded when first needed)."""
-        return (("lidar_sig.numerics.voxels", ("count_within",)),) if self.kind == "radius" else ()
+        return (("lidar_sig.numerics._voxels", ("count_within",)),) if self.kind == "radius" else ()
 
     def resolve(self, xyz: np.ndarray) -> np.ndarray:
         """Scales for coordinates ``xyz`` in metres (:meth:`PointCloud.metric_xyz`): radii in

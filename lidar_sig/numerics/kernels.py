@@ -197,7 +197,7 @@ def order_eigenvalues(ev, out, round_off):
     """Each row of ``ev`` (M, 3) sorted descending into ``out``, values in
     [-round_off x the row's largest magnitude, 0) set to 0; rows holding NaN copied as they
     are. Returns the index of the first row with a value below that bound (clearly negative),
-    -1 when there is none (:func:`lidar_sig.plugins.kinds.descending`). One pass, no
+    -1 when there is none (:func:`lidar_sig.plugins._kinds.descending`). One pass, no
     temporaries: it runs on every block's (B, S, 3) eigenvalues."""
     for i in range(ev.shape[0]):
         a, b, c = ev[i, 0], ev[i, 1], ev[i, 2]

@@ -1,7 +1,7 @@
 """Neighbourhoods (docs/method.md, "Neighbourhoods and scales"): one query at the largest scale, in blocks of points.
 
 Every scale of a run is a prefix of the neighbour list of its largest scale, so one search per
-block of points serves them all. The search runs on a voxel grid (:mod:`lidar_sig.numerics.voxels`); the
+block of points serves them all. The search runs on a voxel grid (:mod:`lidar_sig.numerics._voxels`); the
 few queries it cannot settle within a few voxel shells (isolated outliers) go to a scan of every
 point (a few queries) or a k-d tree; k-nearest queries and the area weights' search are first
 searched again with more shells when that is cheap.
@@ -43,7 +43,7 @@ _FARTHER_VOXELS = 2**22
 WEIGHTS = ("area", "none")
 #: The compiled kernels each kind of weights calls, as (module, function names): the area
 #: weights' third-nearest search.
-WEIGHT_KERNELS = {"area": (("lidar_sig.numerics.voxels", ("third_nearest",)),), "none": ()}
+WEIGHT_KERNELS = {"area": (("lidar_sig.numerics._voxels", ("third_nearest",)),), "none": ()}
 #: k-nearest neighbourhoods take every point tied with the k-th neighbour (squared distance
 #: within this relative tolerance): coordinates quantized to LAS steps tie often, and which of
 #: two tied points is "the k-th" would otherwise depend on round-off (a rotation, a unit
@@ -77,7 +77,7 @@ def counts_within(d2, n, limits):
     distances of row ``b`` of ``d2`` are at most ``limits[b, s]`` (``limits`` (B, S), or (S,)
     for every row; ascending). Rows are sorted by distance or grouped by scale, as the search
     lists them. Every count of neighbours within a scale is this."""
-    from .voxels import count_within
+    from ._voxels import count_within
 
     limits = np.ascontiguousarray(np.broadcast_to(np.asarray(limits, dtype=np.float64),
                                                   (len(n), np.shape(limits)[-1])))
@@ -188,7 +188,7 @@ class NeighborIndex:
 
     def __init__(self, xyz, kind, scales, *, max_neighbors=512, min_neighbors=3, weights="none",
                  area_cap=None, second=None, shells=_KNN_SHELLS):
-        from .voxels import VoxelGrid
+        from ._voxels import VoxelGrid
 
         xyz = np.asarray(xyz, dtype=np.float64)
         self.kind = kind
@@ -382,7 +382,7 @@ class NeighborIndex:
         if kind == "knn" and len(todo) * len(self.xyz) <= _SCAN_ALL:
             from numba import get_num_threads
 
-            from .voxels import nearest_by_scan
+            from ._voxels import nearest_by_scan
 
             nearest_by_scan(self.xyz, rows[todo], width, get_num_threads(), d2, idx, n, todo)
             return
@@ -441,7 +441,7 @@ def _knn_counts(d2, n, ks):
     Returns counts (B, S) and sigma (B, S), the distance to the k-th neighbour (to the last
     where a row holds fewer than k; 0 in an empty row).
     """
-    from .voxels import count_ties
+    from ._voxels import count_ties
 
     ks = np.asarray(ks, dtype=np.int64)
     counts, sigma = np.empty((len(d2), len(ks)), np.int64), np.empty((len(d2), len(ks)))
@@ -476,7 +476,7 @@ def _knn_cell(k, density, volume):
     guess costs time, never correctness; docs/performance.md has the measurements). Not smaller than the side at
     which the core box holds more voxels than the grid's dense look-up table (small k on a tall
     box would otherwise fall back to binary searches)."""
-    from .voxels import LUT_CELLS
+    from ._voxels import LUT_CELLS
 
     cell = 1.5 * np.sqrt(k / (np.pi * density))
     cell = max(cell, (volume / LUT_CELLS) ** (1.0 / 3.0))

@@ -3,7 +3,7 @@ and the run's metadata, written to any format by extension (docs/method.md, "Out
 
 A cloud run as one block holds its values in memory. A LAS/LAZ file that one block would hold
 above the memory budget is run in tiles and gives a result whose per-point values stay on disk,
-in tiles, until asked for (:class:`lidar_sig.tiling.set_run.TiledResult`): both answer the same
+in tiles, until asked for (:class:`lidar_sig.tiling._set_run.TiledResult`): both answer the same
 calls, so that ``ls.Pipeline().run(path).write(out)`` is one line whatever the file's size.
 """
 from __future__ import annotations
@@ -28,7 +28,7 @@ class Result:
     which does not need a signature, saves its 0.1 s per million points).
     """
 
-    #: False: the values are in memory (see :class:`lidar_sig.tiling.set_run.TiledResult`).
+    #: False: the values are in memory (see :class:`lidar_sig.tiling._set_run.TiledResult`).
     tiled = False
 
     def __init__(self, cloud: PointCloud, saliency: Saliency, signature: Signature | None = None,

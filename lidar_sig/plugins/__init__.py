@@ -6,7 +6,7 @@ A descriptor is a class with ``name``, ``summary`` and ``saliency(batch) -> (B, 
 them under the entry-point groups ``lidar_sig.descriptors`` and ``lidar_sig.strategies``; the
 built-ins are registered the same way in this package's own metadata.
 """
-from .kinds import Descriptor, Strategy
-from .registry import available, get_descriptor, get_strategy
+from ._kinds import Descriptor, Strategy
+from ._registry import available, get_descriptor, get_strategy
 
 __all__ = ["Descriptor", "Strategy", "available", "get_descriptor", "get_strategy"]

@@ -1,6 +1,6 @@
 """Pieces the report pages share: the summary of the inputs, the warnings, the table of metrics,
 the introduction and legend of the signatures, figure captions, the class table and the top
-views; each returns an HTML fragment (:mod:`lidar_sig.reporting.page`)."""
+views; each returns an HTML fragment (:mod:`lidar_sig.reporting._page`)."""
 from __future__ import annotations
 
 import datetime
@@ -10,7 +10,7 @@ import numpy as np
 
 from ..method.cloud import kept_points
 from ..base.progress import step
-from . import page
+from . import _page as page
 
 EGEOM_CAPTION = (
     "Distribution of the geometric entropy of the points with a defined saliency; d_EMD-Info is the "
@@ -88,7 +88,7 @@ def signatures_intro(render):
 
 def class_legend(signatures):
     """The colours of the classes present in ``signatures``."""
-    from .figures import present_classes
+    from ._figures import present_classes
 
     classes = signatures[0].classes
     items = []

@@ -4,7 +4,7 @@
    work folder (:mod:`lidar_sig.tiling.sources`); one task per file part. Withheld and noise
    points are counted and left out here (unless ``keep_noise``), as in the single-block run.
 2. **Context**: the set's extent, scales and (with area weights) the area-weight cap, from a
-   pass of small tasks over the tiles (:class:`lidar_sig.tiling.core.SetContext`).
+   pass of small tasks over the tiles (:class:`lidar_sig.tiling._core.SetContext`).
 3. **Tiles**: one task per processing tile computes its core points' saliency with a checked
    halo and the tile's signature, and writes them to the work folder (each file complete or
    absent, so ``resume`` can skip finished tiles).
@@ -13,10 +13,10 @@
 
 A file that cannot be read and a tile that fails are recorded by name; the others go on. The
 results are then those of the set without the missing file, and the set's signature is not
-made: :attr:`~lidar_sig.tiling.set_run.SetRun.missing` says what is missing.
+made: :attr:`~lidar_sig.tiling._set_run.SetRun.missing` says what is missing.
 
-This module orchestrates; the tasks are in :mod:`~lidar_sig.tiling.tasks`, what a run made in
-:mod:`~lidar_sig.tiling.set_run`, the work folder in :mod:`~lidar_sig.tiling.work`.
+This module orchestrates; the tasks are in :mod:`~lidar_sig.tiling._tasks`, what a run made in
+:mod:`~lidar_sig.tiling._set_run`, the work folder in :mod:`~lidar_sig.tiling.work`.
 """
 from __future__ import annotations
 
@@ -33,12 +33,12 @@ from ..method.classes import UNLABELED
 from ..base.errors import LidarSigError, arg, as_path, counted
 from ..numerics.neighbors import AREA_CAP
 from ..base.progress import progress, step
-from .core import SetContext, Tiling, check_tile_size, check_tileable, context_of, tile_name
-from .median import sorted_median
+from ._core import SetContext, Tiling, check_tile_size, check_tileable, context_of, tile_name
+from ._median import sorted_median
 from .memory import DEFAULT_MEMORY, budget_bytes, tile_points
-from .set_run import SetRun, TiledResult, sum_signatures
+from ._set_run import SetRun, TiledResult, sum_signatures
 from .sources import Cells, cell_files, densest, expand, scan, staged, tile_side_for
-from .tasks import Plan, second_paths, second_task, stage_task, tile_task
+from ._tasks import Plan, second_paths, second_task, stage_task, tile_task
 from .work import (discard_work, forget_area_cap, fresh_work, prepare_work, remove_work, save_area_cap,
                    saved_area_cap, work_scope)
 
@@ -208,7 +208,7 @@ def _run_set(pipeline, inputs, *, work, tile_size, backend, resume, progress_ena
 def run_in_tiles(pipeline, source, execution, *, n_points, work=None, outputs=()):
     """One LAS/LAZ file whose ``n_points`` points one block would hold above the memory budget
     of ``execution``, processed in tiles (:func:`run_set`) into a
-    :class:`~lidar_sig.tiling.set_run.TiledResult`, which keeps the per-point values in the
+    :class:`~lidar_sig.tiling._set_run.TiledResult`, which keeps the per-point values in the
     work folder: ``work`` (a job's, beside its output), else a new folder of its own in the
     execution's ``work_dir`` or the temporary folder (a result kept in Python: two results never
     share one). The folder goes with the result (:meth:`TiledResult.close`), or at once when the

@@ -212,7 +212,7 @@ def discard_work(work):
 
 def saved_area_cap(work, key):
     """The area-weight cap an earlier run of the same set and method (``key``, see
-    :meth:`lidar_sig.tiling.tasks.Plan.key`) saved in ``work``, or None."""
+    :meth:`lidar_sig.tiling._tasks.Plan.key`) saved in ``work``, or None."""
     path = Path(work) / AREA_CAP_FILE
     if path.is_file():
         saved = json.loads(path.read_text())

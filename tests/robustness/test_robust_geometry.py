@@ -108,7 +108,7 @@ def test_far_outlier_no_longer_makes_every_query_scan_every_point(tmp_path):
 def test_capped_spheres_served_by_nearest_search_match_the_spherical_search():
     # the shortcut for spheres that overflow the cap gives the same neighbourhoods (distance
     # for distance: which of points tied at the cap is kept is arbitrary in both)
-    from lidar_sig.numerics.voxels import VoxelGrid
+    from lidar_sig.numerics._voxels import VoxelGrid
     from lidar_sig.numerics.neighbors import NeighborIndex
 
     pts = ls.read(need_data(TILE)).metric_xyz()[::3]

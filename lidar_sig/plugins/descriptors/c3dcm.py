@@ -1,5 +1,5 @@
 """C3DCM: the covariance tensor of a neighbourhood (docs/method.md, "C3DCM")."""
-from ..kinds import Descriptor
+from .._kinds import Descriptor
 
 
 class C3DCM(Descriptor):

@@ -2,7 +2,7 @@
 import numpy as np
 
 from ...base.errors import LidarSigError
-from ..kinds import Descriptor
+from .._kinds import Descriptor
 
 
 class T3DVT(Descriptor):

@@ -2,7 +2,7 @@
 import numpy as np
 
 from ...method.scales import knn
-from ..kinds import Strategy
+from .._kinds import Strategy
 
 
 class Multiscale(Strategy):

@@ -3,7 +3,7 @@ import numpy as np
 
 from ...method.saliency_map import geometric_entropy
 from ...method.scales import PAPER_K
-from ..kinds import Strategy
+from .._kinds import Strategy
 
 
 class OptimalScale(Strategy):

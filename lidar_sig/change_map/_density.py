@@ -2,7 +2,7 @@
 chosen from the epochs' point densities (``--cell auto``, ``--min-points auto``).
 
 A signature of few points is mostly sampling noise (docs/changes.md measures it), and the level
-of detection (:mod:`~lidar_sig.change_map.lod`) needs enough cells to learn what a survey
+of detection (:mod:`~lidar_sig.change_map._lod`) needs enough cells to learn what a survey
 difference looks like: cells of :data:`CELL_POINTS` points or more on average, never smaller
 than :data:`MIN_CELL`, and a cell compared where each epoch fills a fifth of it
 (:data:`FILL`). From 50 points/m² down to 0.24 that is 25 m cells; 30 m at 0.2, 40 m at 0.1.

@@ -7,9 +7,9 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..base.progress import step
-from . import page
-from .document import Report
-from .provenance import provenance
+from . import _page as page
+from ._document import Report
+from ._provenance import provenance
 from .sections import (EGEOM_CAPTION, SALIENCY_CAPTION, class_legend, class_table, figure_caption, made_line,
                        metrics_table, shared_span, signatures_intro, summary, top_view, top_views, warnings_list)
 
@@ -28,7 +28,7 @@ DIFFERENCE_CAPTION = (
 def comparison_report(comparison):
     """The :class:`Report` of a computed :class:`lidar_sig.comparison.Comparison`."""
     from . import render as images
-    from . import figures
+    from . import _figures as figures
 
     c = comparison
     sides = (c.a, c.b)

@@ -5,7 +5,7 @@ Two parts, combined on the log scale of the scores:
 
 - **Sampling** (per cell): the cell's points of each epoch resampled with replacement at both
   epochs' counts and compared, :data:`REPLICATES` times from each epoch
-  (:func:`lidar_sig.change_map.cells.null_metrics`). Their mean ``mu0`` is the score of
+  (:func:`lidar_sig.change_map._cells.null_metrics`). Their mean ``mu0`` is the score of
   unchanged land sampled as this cell is; ``sigma`` the spread of their logs, from their mean
   and variance as for a lognormal sample (a replicate may be 0).
 - **Survey** (over all compared cells): ``l = ln(score / mu0)`` of every cell; its median

@@ -24,9 +24,9 @@ import numpy as np
 
 from ..base.errors import LidarSigError, LidarSigWarning, a_kind, arg, as_path, reason
 from ..base.progress import progress, step
-from .distances import spreads
-from .features import COLOR_BINS, RENDER, Features, sg_image
-from .tile import result_path, tile_task
+from ._distances import spreads
+from ._features import COLOR_BINS, RENDER, Features, sg_image
+from ._tile import result_path, tile_task
 
 #: Fields of a finished tile kept in the catalogue (besides the work folder's key).
 _TILE_FIELDS = ("path", "sha256", "crs", "factors", "n_points", "n_undefined", "n_signature", "bounds", "hull",

@@ -3,7 +3,7 @@ that make the difference.
 
 - The distance between two tiles is the **screening distance** (the mean of d_BD-Img,
   d_EMD-Info, delta_FV, delta_KL and L1, each divided by its spread over the catalogue;
-  :mod:`lidar_sig.survey_catalog.distances`), for all N^2 pairs: the two image metrics would cost
+  :mod:`lidar_sig.survey_catalog._distances`), for all N^2 pairs: the two image metrics would cost
   about 30 ms a pair (an hour for the 500,000 pairs of 1,000 tiles).
 - A tile's **spatial neighbours** are the tiles of its CRS whose footprints (convex hulls) touch
   it or lie within ``reach`` metres (default a quarter of the median tile side: the eight
@@ -27,8 +27,8 @@ import numpy as np
 
 from ..base.errors import LidarSigError, positive_metres
 from ..base.views import one_line
-from .distances import combine, screening
-from .footprint import neighbours as spatial_neighbours
+from ._distances import combine, screening
+from ._footprint import neighbours as spatial_neighbours
 
 if TYPE_CHECKING:
     from ..reporting import Report
@@ -104,7 +104,7 @@ class Outliers:
 
     def embedding(self) -> np.ndarray:
         """(N, 2) classical MDS of the distance matrix, catalogue order."""
-        from .embedding import classical_mds
+        from ._embedding import classical_mds
 
         return classical_mds(self.distances)
 
@@ -217,7 +217,7 @@ def outliers(catalog, *, reach=None):
     notes = []
     if len(np.unique(crs_groups)) > 1:
         notes.append(f"the tiles are in {len(np.unique(crs_groups))} CRSs: neighbours are found within each CRS")
-    from .build import duplicate_note, duplicates
+    from ._build import duplicate_note, duplicates
 
     for kind, group in duplicates(c["sha256"], c["n_points"], c["bounds"], c["class_totals"], catalog.features.fv):
         notes.append(duplicate_note(kind, [c["name"][i] for i in group]))

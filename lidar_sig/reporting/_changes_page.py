@@ -9,8 +9,8 @@ import numpy as np
 
 from ..base.errors import counted
 from ..base.progress import step
-from . import page
-from .document import Report
+from . import _page as page
+from ._document import Report
 from .map_image import TOP, change_map_image
 from .sections import made_line, warnings_list
 

@@ -19,8 +19,8 @@ from pathlib import Path
 import numpy as np
 
 from ..base.errors import LidarSigError
-from .features import signature_features
-from .footprint import convex_hull, hull_of_hulls, polygon_area
+from ._features import signature_features
+from ._footprint import convex_hull, hull_of_hulls, polygon_area
 
 #: Points above which a tile is computed through the tiled runner (what a worker holds in one
 #: block: about 0.5 GiB, see docs/scale-out.md).

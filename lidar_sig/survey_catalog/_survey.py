@@ -14,19 +14,19 @@ import numpy as np
 
 from ..base.errors import LidarSigError, a_kind, as_path, counted
 from ..metrics import METRIC
-from .distances import SCREENING, combine, metric_keys, pair_metrics, screening
-from .features import Features, sg_image, signature_features
+from ._distances import SCREENING, combine, metric_keys, pair_metrics, screening
+from ._features import Features, sg_image, signature_features
 
 if TYPE_CHECKING:
     from ..method.signature_raster import Signature
-    from .outlier_scores import Outliers
-    from .similar_tiles import Similar
+    from ._outlier_scores import Outliers
+    from ._similar_tiles import Similar
 
 
 @dataclass(repr=False)
 class Query:
     """What a catalogue is asked about: its name, kind ("tile", "cloud" or "archive"), its
-    :class:`~lidar_sig.survey_catalog.features.Features` (one row), its Sg image, and its row in the
+    :class:`~lidar_sig.survey_catalog._features.Features` (one row), its Sg image, and its row in the
     catalogue when it is one of its tiles."""
 
     name: str
@@ -82,9 +82,9 @@ class Catalog:
     @classmethod
     def build(cls, inputs: Any, output: str | os.PathLike[str], pipeline: Any = None, **options: Any) -> Catalog:
         """Make or grow the catalogue ``output`` from LAS/LAZ tiles and folders ``inputs``
-        (:func:`lidar_sig.survey_catalog.build.build_catalog`, which takes ``options``); raises a
+        (:func:`lidar_sig.survey_catalog._build.build_catalog`, which takes ``options``); raises a
         LidarSigError naming the tiles that failed (the others are in the catalogue)."""
-        from .build import build_catalog
+        from ._build import build_catalog
 
         run = build_catalog(inputs, output, pipeline, **options)
         if not run.complete:
@@ -141,7 +141,7 @@ class Catalog:
 
     @property
     def spread(self):
-        """Each metric's spread over the catalogue's pairs (:mod:`lidar_sig.survey_catalog.distances`)."""
+        """Each metric's spread over the catalogue's pairs (:mod:`lidar_sig.survey_catalog._distances`)."""
         return dict(self.header["spread"])
 
     @property
@@ -351,15 +351,15 @@ class Catalog:
     def similar(self, query: Any, *, top: int = 10, metric: str | None = None, shortlist: int | None = None,
                 columns: Any = None) -> Similar:
         """The tiles nearest to ``query`` (see :meth:`query`; ``columns`` of a text cloud), best
-        first (:func:`lidar_sig.survey_catalog.similar_tiles.similar`)."""
-        from .similar_tiles import similar
+        first (:func:`lidar_sig.survey_catalog._similar_tiles.similar`)."""
+        from ._similar_tiles import similar
 
         return similar(self, query, top=top, metric=metric, shortlist=shortlist, columns=columns)
 
     def outliers(self, *, reach: float | None = None) -> Outliers:
         """Every tile scored by how unlike it is to its spatial neighbours and to the survey
-        (:func:`lidar_sig.survey_catalog.outlier_scores.outliers`)."""
-        from .outlier_scores import outliers
+        (:func:`lidar_sig.survey_catalog._outlier_scores.outliers`)."""
+        from ._outlier_scores import outliers
 
         return outliers(self, reach=reach)
 

@@ -17,11 +17,11 @@ from ..base.errors import LidarSigError, as_path, whole_number
 from ..metrics import METRIC, METRIC_NAMES, METRICS
 from ..base.progress import step
 from ..method.signature_raster import Frame
-from .cells import CELL_FRAME, CHANGE_KEYS, COVERAGE, cell_signature, epoch_cells
-from .epochs import Epoch
-from .grid import Grid
-from .heights import HEIGHT, HEIGHT_NAME
-from .lod import CONFIDENCE, level_of_detection, pooled_confidence
+from ._cells import CELL_FRAME, CHANGE_KEYS, COVERAGE, cell_signature, epoch_cells
+from ._epochs import Epoch
+from ._grid import Grid
+from ._heights import HEIGHT, HEIGHT_NAME
+from ._lod import CONFIDENCE, level_of_detection, pooled_confidence
 
 if TYPE_CHECKING:
     from ..reporting import Report
@@ -59,9 +59,9 @@ def score_values(table, score):
 
 
 def metric_levels(table, null, *, confidence=CONFIDENCE):
-    """{metric key: :class:`~lidar_sig.change_map.lod.Level`} of every metric, from the table's
+    """{metric key: :class:`~lidar_sig.change_map._lod.Level`} of every metric, from the table's
     observed values and the replicates ``null`` (cells, replicates, metrics) of
-    :func:`~lidar_sig.change_map.cells.null_metrics`."""
+    :func:`~lidar_sig.change_map._cells.null_metrics`."""
     return {k: level_of_detection(oriented(table[k], k), oriented(null[:, :, m], k), table["valid"],
                                   confidence=confidence)
             for m, k in enumerate(CHANGE_KEYS)}
@@ -79,7 +79,7 @@ class ChangeMap:
         ``defined_a``, ``defined_b`` (those with defined saliency), ``undefined_a``,
         ``undefined_b`` (share of the cell's points with undefined saliency), ``valid`` (both
         epochs hold ``min_points`` points with defined saliency or more), ``coverage`` (the
-        code of :data:`~lidar_sig.change_map.cells.COVERAGE`), the metrics of
+        code of :data:`~lidar_sig.change_map._cells.COVERAGE`), the metrics of
         :data:`lidar_sig.metrics.METRIC_KEYS` and ``height`` (delta_H, m), and the ranking's
         ``score``, ``lod`` (its level of detection), ``height_lod`` (delta_H's), ``z`` and
         ``significant`` (:meth:`rank_by`); NaN (False) where ``valid`` is False.
@@ -90,12 +90,12 @@ class ChangeMap:
         The metric that ranks the cells (a key of METRIC_KEYS); the table's ``score`` holds its
         values, 1 - s_SSIM for ``"ssim"``, so that a larger score always means more change.
     levels : dict
-        {metric key or "height": :class:`~lidar_sig.change_map.lod.Level`}: every metric's level of
+        {metric key or "height": :class:`~lidar_sig.change_map._lod.Level`}: every metric's level of
         detection and significance per cell.
     cell_rule, min_points_rule : str
         ``"auto"`` (chosen from the epochs' densities) or ``"given"``.
     density : tuple
-        Points per m² of each epoch (:func:`~lidar_sig.change_map.density.density`).
+        Points per m² of each epoch (:func:`~lidar_sig.change_map._density.density`).
     warnings : list
         What may make the map mislead (class schemes, too few cells for the survey part).
     """
@@ -164,7 +164,7 @@ class ChangeMap:
     def rank_by(self, score: str) -> None:
         """Fill the table's ranking fields from metric ``score`` and delta_H, the two tests of
         a cell (:meth:`tests`): ``score``, its level ``lod`` and delta_H's ``height_lod`` at the
-        confidence of each of the two tests (:func:`~lidar_sig.change_map.lod.pooled_confidence`),
+        confidence of each of the two tests (:func:`~lidar_sig.change_map._lod.pooled_confidence`),
         ``z`` the larger of their z, and ``significant`` where either exceeds its level."""
         self.score = score
         each = pooled_confidence(self.confidence, len(self.tests))
@@ -273,7 +273,7 @@ class ChangeMap:
         return out
 
     def coverage(self) -> dict[str, int]:
-        """{state: cells} of every coverage state (:data:`~lidar_sig.change_map.cells.COVERAGE`):
+        """{state: cells} of every coverage state (:data:`~lidar_sig.change_map._cells.COVERAGE`):
         compared, appeared, vanished, too few points, not covered."""
         codes = np.bincount(self.table["coverage"].astype(np.int64), minlength=len(COVERAGE))
         return {name: int(codes[code]) for code, name in COVERAGE.items()}
@@ -340,7 +340,7 @@ class ChangeMap:
         """Write by extension: ``.tif``/``.tiff`` a Cloud-Optimized GeoTIFF of the score, its
         level of detection, significance and every metric (needs rasterio: ``pip install
         lidar-sig[geo]``) with its QGIS style beside it (``.qml``: the score as a colour ramp),
-        ``.gpkg`` the cells as a GeoPackage layer (:func:`~lidar_sig.change_map.layers.cell_features`),
+        ``.gpkg`` the cells as a GeoPackage layer (:func:`~lidar_sig.change_map._layers.cell_features`),
         a point-cloud extension (``.laz``, ``.las``, ``.ply``, ``.csv``, ...) the later epoch's
         points with their saliency and their cell's change (ChangeScore, ChangeLoD,
         ChangeSignificant), ``.png`` the map, ``.html`` the report."""
@@ -352,7 +352,7 @@ class ChangeMap:
         if RASTER in holds:
             from ..io.geotiff import write_geotiff
             from ..io.styles import style_path, write_style
-            from .layers import score_style
+            from ._layers import score_style
 
             rasters, descriptions = self.bands()
             with step(f"writing {Path(path).name}", bands=len(rasters)), output_group():
@@ -361,13 +361,13 @@ class ChangeMap:
                 write_style(style_path(path), score_style(self), overwrite=overwrite)
         elif VECTOR in holds:
             from ..io.geopackage import write_geopackage
-            from .layers import cells_layer
+            from ._layers import cells_layer
 
             with step(f"writing {Path(path).name}", cells=int(self.table["valid"].sum())):
                 write_geopackage(path, [cells_layer(self)], overwrite=overwrite)
         elif POINTS in holds:
             from ..io import write_cloud
-            from .layers import point_change
+            from ._layers import point_change
 
             e = self.b
             with step(f"writing {Path(path).name}", points=len(e.cloud)):

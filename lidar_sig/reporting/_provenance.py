@@ -6,7 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..method.crs import crs_name
-from . import page
+from . import _page as page
 from .sections import scales_text
 
 

@@ -3,7 +3,7 @@ points binned by cell and coded once (their pixel in the cell frame, Egeom bin a
 signature per cell built from its points' codes, every metric of
 :func:`lidar_sig.metrics.compare` where both epochs hold enough points, and the same metrics
 between resamples of one epoch's points (the sampling part of the level of detection,
-:mod:`~lidar_sig.change_map.lod`). Nothing here runs a pipeline or ranks the cells."""
+:mod:`~lidar_sig.change_map._lod`). Nothing here runs a pipeline or ranks the cells."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -12,8 +12,8 @@ import numpy as np
 
 from ..metrics import METRIC_KEYS, compare
 from ..method.signature_raster import Frame, Signature, point_codes
-from .heights import HEIGHT, height_distance
-from .lod import REPLICATES
+from ._heights import HEIGHT, height_distance
+from ._lod import REPLICATES
 
 #: Frame of the per-cell signatures: 64 px (2 px margin) instead of 512 (docs/changes.md).
 CELL_FRAME = Frame(64, 2)

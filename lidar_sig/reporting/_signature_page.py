@@ -6,9 +6,9 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..base.progress import step
-from . import page
-from .document import Report
-from .provenance import provenance
+from . import _page as page
+from ._document import Report
+from ._provenance import provenance
 from .sections import (EGEOM_CAPTION, SALIENCY_CAPTION, class_legend, class_table, figure_caption, made_line,
                        signatures_intro, summary, top_view, top_views)
 
@@ -20,7 +20,7 @@ def signature_report(side, *, render="smooth"):
     """The :class:`Report` of one cloud: a :class:`lidar_sig.comparison.Side` (its name, its
     signature and, for a cloud, the pipeline Result)."""
     from . import render as images
-    from . import figures
+    from . import _figures as figures
 
     sig = side.signature
     label = Path(side.name).name

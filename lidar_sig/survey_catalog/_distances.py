@@ -1,7 +1,7 @@
 """The metrics between tiles of a catalogue, and the one distance that ranks them.
 
 - **Screening metrics** (``SCREENING``: d_BD-Img, d_EMD-Info, delta_FV, delta_KL, L1) come from
-  the tiles' vectors (:mod:`lidar_sig.survey_catalog.features`): a query against N tiles, or all N^2
+  the tiles' vectors (:mod:`lidar_sig.survey_catalog._features`): a query against N tiles, or all N^2
   pairs, is a few array operations. The values are the metrics' own (docs/method.md, "Metrics"), equal to
   :func:`lidar_sig.metrics.compare`'s to rounding (a sum taken in another order); a test checks
   every pair of its catalogue.
@@ -62,7 +62,7 @@ class TileOperand:
     from its stored vectors (Features of one row) and its Sg image."""
 
     def __init__(self, features, sg, mask):
-        from .features import COLOR_BINS
+        from ._features import COLOR_BINS
 
         self.color, self.egeom, self.fv, self.totals = (features.color[0], features.egeom[0], features.fv[0],
                                                         features.totals[0])

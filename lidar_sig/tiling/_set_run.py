@@ -17,9 +17,9 @@ from ..base.progress import step
 from ..pipeline.result import Result
 from ..method.saliency_map import Saliency
 from ..method.signature_raster import Signature
-from .core import SetContext, Tiling
+from ._core import SetContext, Tiling
 from .sources import ID_BITS
-from .tasks import Plan, points_paths, result_path
+from ._tasks import Plan, points_paths, result_path
 
 
 @dataclass(repr=False)

@@ -13,10 +13,10 @@ from ...method.cloud import PointCloud
 from ...method.crs import las_units
 from ...base.errors import LidarSigError, LidarSigWarning
 from ..atomic import atomic_output, stop_if_interrupted
-from .lasdata import check_las_output, to_lasdata
-from .copc import without_copc
+from ._lasdata import check_las_output, to_lasdata
+from ._copc import without_copc
 from ..fields import saliency_fields
-from .dims import add_fields, extend_ranges, set_extra_bytes_ranges
+from ._dims import add_fields, extend_ranges, set_extra_bytes_ranges
 
 
 def write_las(path, cloud, fields, *, overwrite=False):
@@ -45,7 +45,7 @@ def write_las(path, cloud, fields, *, overwrite=False):
 
 
 def with_fields(cloud, fields):
-    """The LAS 1.4 LasData written for ``cloud`` (see :func:`lidar_sig.io.las.lasdata.to_lasdata`)
+    """The LAS 1.4 LasData written for ``cloud`` (see :func:`lidar_sig.io.las._lasdata.to_lasdata`)
     with the per-point ``fields`` as extra dimensions, and the notes on what changed."""
     las, notes = to_lasdata(cloud)
     notes += add_fields(las, fields, path=cloud.path)

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from ..method.signature_raster import Signature
-from .core import SetContext, Tiling, tile_name, tile_saliency, tile_second_distances
+from ._core import SetContext, Tiling, tile_name, tile_saliency, tile_second_distances
 from .sources import Cells, load_cells, source_of, stage_part
 from .work import FINISHED
 
@@ -122,7 +122,7 @@ def stage_task(work, source, part, start, stop, cells, noise_codes):
 
 def second_task(plan, ij):
     """Second-neighbour distances of one tile's core points (a task), kept in the work folder
-    (:func:`second_paths`): for the set's median (:func:`lidar_sig.tiling.median.sorted_median`)
+    (:func:`second_paths`): for the set's median (:func:`lidar_sig.tiling._median.sorted_median`)
     and for the tiles, which take them instead of searching again (:meth:`Plan.second_of`);
     returns how many locations."""
     ids, point_d, location_d = tile_second_distances(plan.load_points, plan.tiling, ij, plan.ctx)

@@ -6,8 +6,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..base.progress import step
-from . import page
-from .paths import check_plots_folder, check_report_path
+from . import _page as page
+from ._paths import check_plots_folder, check_report_path
 
 
 @dataclass(repr=False)

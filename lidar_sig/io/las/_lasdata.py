@@ -11,9 +11,9 @@ import numpy as np
 
 from ...numerics.bounds import bounds
 from ...base.errors import LidarSigError
-from ..table import point_table
-from .copc import drop_copc
-from .upgrade import upgrade_to_14
+from .._table import point_table
+from ._copc import drop_copc
+from ._upgrade import upgrade_to_14
 
 
 def to_lasdata(cloud):

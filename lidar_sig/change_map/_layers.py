@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..metrics import METRIC, METRIC_KEYS
-from .cells import COVERAGE as STATES
+from ._cells import COVERAGE as STATES
 
 #: Each covered cell's coverage, in the legend's order; cells neither epoch covers are left out.
 COVERAGE = ("compared", "appeared", "vanished", "too few points")
@@ -22,7 +22,7 @@ CLASS_CHANGE_MIN = 1.0
 
 def coverage(table):
     """(cells,) text: each cell's coverage state, the name of the table's ``coverage`` code
-    (:data:`lidar_sig.change_map.cells.COVERAGE`: compared, appeared, vanished, too few points);
+    (:data:`lidar_sig.change_map._cells.COVERAGE`: compared, appeared, vanished, too few points);
     "" where neither epoch holds a point."""
     names = np.array([STATES.get(code, "") for code in range(max(STATES) + 1)], dtype=object)
     names[0] = ""  # not covered: no layer feature

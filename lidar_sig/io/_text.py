@@ -22,7 +22,7 @@ from ..base.errors import LidarSigError, LidarSigWarning, arg, counted
 from .atomic import atomic_output
 from .fields import marker, parse_marker
 from .formats import TEXT_EXTENSIONS  # noqa: F401 (a name of this module too)
-from .table import cloudcompare_name, plain_name, point_table
+from ._table import cloudcompare_name, plain_name, point_table
 
 LAYOUTS = {
     3: ("x", "y", "z"),

@@ -12,7 +12,7 @@ from ...method.cloud import PointCloud
 from ...method.crs import las_units
 from ...base.errors import LidarSigError, LidarSigWarning, counted, reason
 from ..formats import LAS_EXTENSIONS  # noqa: F401 (a name of this module too)
-from .dims import lidar_sig_dims
+from ._dims import lidar_sig_dims
 
 
 def read_las(path):

@@ -16,12 +16,12 @@ from ..base.errors import LidarSigError, LidarSigWarning, amount, counted, whole
 from ..metrics import METRIC, METRIC_KEYS, METRIC_NAMES
 from ..base.progress import step
 from ..method.signature_raster import Frame, method_differences
-from .cells import CELL_FRAME, SEED, bin_points, cell_table, null_metrics, observed_metrics
-from .density import LEAST_DENSITY, MIN_POINTS_FLOOR, RECALL_BELOW, auto_cell, auto_min_points, density
-from .epochs import Epoch, check_same_crs, read_epoch
-from .grid import MAX_CELLS, Grid, check_cell
-from .lod import CONFIDENCE, MIN_CELLS, REPLICATES
-from .maps import LABEL_FREE_SCORE, SCORE, ChangeMap, metric_levels
+from ._cells import CELL_FRAME, SEED, bin_points, cell_table, null_metrics, observed_metrics
+from ._density import LEAST_DENSITY, MIN_POINTS_FLOOR, RECALL_BELOW, auto_cell, auto_min_points, density
+from ._epochs import Epoch, check_same_crs, read_epoch
+from ._grid import MAX_CELLS, Grid, check_cell
+from ._lod import CONFIDENCE, MIN_CELLS, REPLICATES
+from ._maps import LABEL_FREE_SCORE, SCORE, ChangeMap, metric_levels
 from .series import ChangeSeries
 
 if TYPE_CHECKING:
@@ -63,7 +63,7 @@ def changes(a: Any, b: Any, *more: Any, cell: float | str = AUTO, pipeline: Pipe
         consecutive pair).
     cell : float or "auto"
         Cell side in metres (converted to the CRS unit); ``"auto"`` (default) chooses it from
-        the smallest density of the epochs (:mod:`~lidar_sig.change_map.density`).
+        the smallest density of the epochs (:mod:`~lidar_sig.change_map._density`).
     pipeline : Pipeline, optional
         The method of the saliency; default ``Pipeline()`` (docs/method.md).
     min_points : int or "auto"

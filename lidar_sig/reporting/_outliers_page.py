@@ -11,8 +11,8 @@ import numpy as np
 
 from ..base.errors import counted
 from ..base.progress import step
-from . import page
-from .document import Report
+from . import _page as page
+from ._document import Report
 from .sections import class_legend, made_line, scales_text
 
 #: Top outliers whose signatures are shown beside their neighbours', neighbours shown each, rows
@@ -23,12 +23,12 @@ TABLE_ROWS = 25
 
 
 def outliers_report(outliers, *, top=None):
-    """The :class:`Report` of computed :class:`lidar_sig.survey_catalog.outlier_scores.Outliers`; ``top``
+    """The :class:`Report` of computed :class:`lidar_sig.survey_catalog._outlier_scores.Outliers`; ``top``
     outliers (default TOP_SHOWN) are shown beside their neighbours."""
     from . import render as images
     from ..method.crs import crs_name
     from ..metrics import METRIC_NAMES
-    from . import figures
+    from . import _figures as figures
 
     o = outliers
     cat = o.catalog

@@ -1,7 +1,7 @@
 """The tiles of a catalogue most like a query, best first, with every metric's value.
 
 1. **Screening**: the screening metrics between the query and every tile, from the tiles'
-   vectors (:func:`lidar_sig.survey_catalog.distances.screening`): a few array operations for N tiles.
+   vectors (:func:`lidar_sig.survey_catalog._distances.screening`): a few array operations for N tiles.
 2. **Shortlist**: the ``max(SHORTLIST_FACTOR * top, SHORTLIST_MIN)`` tiles nearest by the
    screening distance (by the chosen metric itself when it is a screening metric).
 3. **Full metrics** for the shortlist, by the metrics' own functions (s_SSIM needs each tile's
@@ -29,8 +29,8 @@ import numpy as np
 
 from ..base.errors import LidarSigError, arg, whole_number
 from ..base.views import one_line, short_name
-from .distances import IMAGE, SCREENING, as_distance, combine, pair_metrics, screening
-from .features import sg_image
+from ._distances import IMAGE, SCREENING, as_distance, combine, pair_metrics, screening
+from ._features import sg_image
 
 #: The shortlist holds this many times the tiles asked for ...
 SHORTLIST_FACTOR = 4

@@ -393,7 +393,7 @@ def tile_second_distances(load, tiling, ij, ctx, *, halo=None):
         if halo_.whole or len(support) >= 3:  # fewer: the second neighbour is outside
             # a grid sized for SECOND_GRID_K neighbours: the 3-nearest search is fastest on it
             index = NeighborIndex(support, "knn", np.array([min(SECOND_GRID_K, len(support))]), min_neighbors=1)
-            # queries in the grid's order: each bounds the next (lidar_sig.numerics.voxels)
+            # queries in the grid's order: each bounds the next (lidar_sig.numerics._voxels)
             wanted = np.zeros(len(support), bool)
             wanted[loc] = True
             rows = np.flatnonzero(wanted[index.order])

@@ -6,9 +6,9 @@ from pathlib import Path
 
 from ..base.errors import counted
 from ..base.progress import step
-from . import page
-from .changes_page import cells_table, settings_text
-from .document import Report
+from . import _page as page
+from ._changes_page import cells_table, settings_text
+from ._document import Report
 from .map_image import TOP, change_map_image, when_map_image
 from .sections import made_line, warnings_list
 
