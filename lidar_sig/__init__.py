@@ -6,15 +6,21 @@ coordinates of a fixed triangle, makes an image: the geometric signature Sg, or 
 semantic class, the augmented semantic signature Sas; metrics between signatures compare clouds.
 
 The public names, listed in ``__init__.pyi`` (which editors and type checkers read), are loaded
-on first use (PEP 562, through ``lazy_loader``), so that ``import lidar_sig`` and the start of
+on first use (PEP 562; the stub is read with ``ast``), so that ``import lidar_sig`` and the start of
 the command line are quick and a Ctrl-C at that moment is handled like any other.
 """
 __version__ = "0.1.0"
 
-import ast
-import importlib
-import warnings
-from pathlib import Path
+# When this package is the command line starting, Ctrl-C and SIGTERM wait from here until it
+# handles them (lidar_sig/base/start.py); a program that imports lidar_sig is left alone
+from .base import start
+
+start.hold()
+
+import ast  # noqa: E402
+import importlib  # noqa: E402
+import warnings  # noqa: E402
+from pathlib import Path  # noqa: E402
 
 # numba probes the TBB threading layer first and warns when an older TBB (such as the one
 # Open3D ships) is on the path; it then uses OpenMP or its own work queue, which is all we need.

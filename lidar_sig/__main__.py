@@ -12,6 +12,8 @@ import os
 import signal
 import sys
 
+from .base import start
+
 SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
 
@@ -37,6 +39,9 @@ def main(argv=None):
             # module); a Ctrl-C while it loads is said like one while the libraries load
             from .base import errors  # noqa: F401
             signal.signal(signal.SIGTERM, _terminate)
+            # Ctrl-C and SIGTERM were held since the package's first line: one that came is
+            # delivered now, to the handlers above (lidar_sig/base/start.py)
+            start.let_go()
             from .cli import main as cli_main
         except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM while the command line loads
             signum = getattr(exc, "signum", signal.SIGINT)

@@ -98,7 +98,7 @@ def test_a_file_over_the_budget_runs_on_a_worker_per_core_and_gives_the_same_fil
     assert proc.returncode == 0 and "1 process:" in proc.stdout, proc.stderr
     proc = lidar_sig_cli("saliency", EPOCH1, "-o", two, "--memory", SMALL)  # default: a worker per core
     assert proc.returncode == 0, proc.stderr
-    cores = os.cpu_count() or 1
+    cores = len(os.sched_getaffinity(0))  # the cores this process may use
     assert (f"{cores} local processes" if cores > 1 else "1 process:") in proc.stdout
     # the same tiles on other processes: the same arithmetic, so the same bytes
     assert np.array_equal(saliency_of(one)[0], saliency_of(two)[0], equal_nan=True)
@@ -215,7 +215,7 @@ def test_a_tiled_run_that_fails_or_is_interrupted_leaves_nothing(tmp_path, monke
         raise RuntimeError("a tile failed")
 
     # one core: the tiles run in the command's own process, where the failing task is patched in
-    monkeypatch.setattr("lidar_sig.tiling.backends.os.cpu_count", lambda: 1)
+    monkeypatch.setattr("lidar_sig.tiling.backends.cores", lambda: 1)
     monkeypatch.setattr(tiling_run, "tile_task", fails)
     proc = lidar_sig_cli("saliency", EPOCH1, "-o", tmp_path / "out.laz", "--memory", SMALL)
     assert proc.returncode == 2 and "could not be processed in tiles" in proc.stderr, proc.stderr

@@ -16,11 +16,15 @@ FACE = contextvars.ContextVar("lidar_sig_face", default="python")
 
 
 class LidarSigError(ValueError):
-    """A problem with the user's input, options or output path; the message names the fix."""
+    """A problem with the user's input, options or output path; the message names the fix.
+
+    The message is one line whatever it names: a line break or another control character in a
+    file name is shown escaped (:func:`printable`), so that it cannot split the message into two
+    lines (the second would read as another message); ``path`` keeps the name as given."""
 
     def __init__(self, message, *, path=None):
         self.path = None if path is None else str(path)
-        super().__init__(f"{self.path}: {message}" if self.path else message)
+        super().__init__(printable(f"{self.path}: {message}" if self.path else message))
 
 
 class LidarSigWarning(UserWarning):
@@ -73,24 +77,79 @@ def whole_number(value, what, *, low=0, high=None):
 
 def positive_metres(value, what):
     """``value`` as a float if it is a positive finite number (not a bool); else a
-    LidarSigError saying that ``what`` must be a positive number of metres."""
+    LidarSigError saying that ``what`` must be a positive number of metres (a whole number too
+    large for a float, such as 10**400, included)."""
     import math
 
     import numpy as np
 
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
-            or not math.isfinite(value) or value <= 0:
-        raise LidarSigError(f"{what} must be a positive number of metres, got {value!r}")
-    return float(value)
+    number = None
+    if not isinstance(value, bool) and isinstance(value, (int, float, np.integer, np.floating)):
+        try:
+            number = float(value)
+        except OverflowError:  # an int beyond the largest float
+            number = None
+    if number is None or not math.isfinite(number) or number <= 0:
+        raise LidarSigError(f"{what} must be a positive number of metres, got {brief(value)}")
+    return number
+
+
+def brief(value: object) -> str:
+    """The repr of ``value`` for a message, at most about 50 characters (10**400 has 401 digits)."""
+    text = repr(value)
+    return text if len(text) <= 40 else f"{text[:20]}...{text[-8:]} ({len(text):,} characters)"
 
 
 def as_path(value, what):
-    """``value`` (a str or path-like, not empty) as a Path; else a LidarSigError saying that
-    ``what`` takes a path and what it got (its type, not its repr: an array's is many lines)."""
+    """``value`` (a str or path-like, not empty, whose names the file system can hold: see
+    :func:`check_name_lengths`) as a Path; else a LidarSigError saying that ``what`` takes a
+    path and what it got (its type, not its repr: an array's is many lines)."""
     if isinstance(value, (str, os.PathLike)) and str(value) != "":
-        return Path(value)
-    got = "an empty path" if isinstance(value, str) else a_kind(value)
+        path = Path(value)
+        check_name_lengths(path)
+        return path
+    got = "an empty path" if isinstance(value, (str, os.PathLike)) else a_kind(value)
     raise LidarSigError(f"{what} takes a file path, got {got}")
+
+
+#: Longest name of a file or folder, in bytes, where the file system does not say (ext4, XFS,
+#: Btrfs, tmpfs and APFS take 255).
+NAME_MAX = 255
+#: Longest path, in bytes, that the system takes (Linux's PATH_MAX).
+PATH_MAX = 4096
+
+
+def check_name_lengths(path: str | os.PathLike[str], room: int = 0) -> None:
+    """Refuse ``path`` when one of its names is longer than its file system takes (255 bytes on
+    most: about 85 CJK characters), or ``room`` bytes less for the last one (an output gets a
+    temporary file named after it beside it), or when the whole path is longer than the system
+    takes: a LidarSigError naming the path and the fix, instead of the system's "File name too
+    long" at the first look at it."""
+    path = Path(path)
+    size = len(os.fsencode(os.path.abspath(path)))
+    if size >= PATH_MAX:
+        raise LidarSigError(f"the path is {size:,} bytes long, more than the {PATH_MAX - 1:,} the system takes; "
+                            "give a shorter path", path=path)
+    names = path.parts
+    for i, name in enumerate(names):
+        last = i == len(names) - 1
+        limit = _name_limit(path.parent if last else Path(*names[:i]) if i else Path(".")) - (room if last else 0)
+        length = len(os.fsencode(name))
+        if length > limit:
+            what = "the name" if last else f"the folder name {name[:12]}..."
+            why = f"at most {limit} here" + (" (a temporary file named after it is written beside it)" if room else "")
+            raise LidarSigError(f"{what} is {length} bytes long, {why}; give a shorter name", path=path)
+
+
+def _name_limit(folder):
+    """The longest file name (bytes) the file system of ``folder`` (or of its nearest folder
+    that exists) takes."""
+    for where in (folder, *folder.parents):
+        try:
+            return int(os.pathconf(where, "PC_NAME_MAX"))
+        except (OSError, ValueError, AttributeError):  # no such folder; no pathconf (Windows)
+            continue
+    return NAME_MAX
 
 
 def special_file(path):
@@ -125,8 +184,26 @@ def counted(n, noun, plural=None):
 
 def amount(n):
     """A whole number for a message: "12,345"; "2.5e+23" from 1e15 on, which no count of points
-    or cells reaches (an absurd option, say a cell of 1e12 m, would otherwise print 25 digits)."""
-    return f"{n:,}" if abs(n) < 1e15 else f"{float(n):.3g}"
+    or cells reaches (an absurd option, say a cell of 1e12 m, would otherwise print 25 digits);
+    "about 1e+400" beyond the largest float."""
+    if abs(n) < 1e15:
+        return f"{n:,}"
+    try:
+        return f"{float(n):.3g}"
+    except OverflowError:
+        return f"about 1e+{len(str(abs(int(n)))) - 1}"
+
+
+#: Characters that end a line (str.splitlines splits there) or drive a terminal: shown escaped.
+_UNPRINTABLE = {c: f"\\x{c:02x}" for c in [*range(32), *range(127, 160)]}
+_UNPRINTABLE.update({ord("\n"): "\\n", ord("\r"): "\\r", ord("\t"): "\\t", 0x2028: "\\u2028", 0x2029: "\\u2029"})
+
+
+def printable(text: object) -> str:
+    """``text`` as one line a terminal shows as it is: line breaks, tabs and other control
+    characters (a file may be named "a\\nb") written as Python writes them in a string (``\\n``,
+    ``\\t``, ``\\x1b``). Messages, notes, printed lines and reprs pass through it."""
+    return str(text).translate(_UNPRINTABLE)
 
 
 def reason(exc):

@@ -31,7 +31,11 @@ def short_name(name: Any) -> str:
 
 
 def one_line(text: str, limit: int = REPR_LIMIT) -> str:
-    """``text`` (a ``<...>`` repr) cut to ``limit`` characters, ending ``...>`` when cut."""
+    """``text`` (a ``<...>`` repr) on one line (a line break in a file name shown as ``\\n``,
+    :func:`lidar_sig.base.errors.printable`), cut to ``limit`` characters, ending ``...>`` when cut."""
+    from .errors import printable
+
+    text = printable(text)
     return text if len(text) <= limit else text[:limit - 4] + "...>"
 
 

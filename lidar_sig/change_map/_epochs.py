@@ -10,7 +10,7 @@ import numpy as np
 
 from ..method.cloud import PointCloud
 from ..method.crs import crs_name, same_crs
-from ..base.errors import LidarSigError, a_kind
+from ..base.errors import LidarSigError, a_kind, as_path
 
 
 @dataclass
@@ -55,6 +55,8 @@ def read_epoch(source, *, columns=None):
         return source
     if isinstance(source, Epoch):
         return source.cloud
+    if isinstance(source, (str, Path)):
+        as_path(source, "an epoch")  # a name the system cannot take is named first
     if isinstance(source, (str, Path)) and Path(source).is_dir():
         # regular files only, as a set of tiles takes them (a FIFO named *.laz would be waited on)
         paths = sorted(p for p in Path(source).iterdir() if p.suffix.lower() in CLOUD_EXTENSIONS and p.is_file())

@@ -11,6 +11,7 @@ import click
 
 from . import (catalog, changes, compare, info, list_plugins, outliers, resilience, saliency,  # noqa: F401
                sample, signature, similar)  # (registers the commands)
+from ..base.errors import printable
 from .group import cli
 
 
@@ -24,7 +25,7 @@ def main(argv=None):
         return 0
     except click.ClickException as exc:  # bad option or argument: one line, not click's three
         command = f"lidar-sig {exc.ctx.info_name}" if getattr(exc, "ctx", None) and exc.ctx.parent else "lidar-sig"
-        message = exc.format_message().rstrip(".")
+        message = printable(exc.format_message().rstrip("."))  # a value with a line break stays on one line
         click.echo(f"lidar-sig: error: {message}{' ' if message.endswith('?') else '; '}see `{command} --help`",
                    err=True)
         return exc.exit_code

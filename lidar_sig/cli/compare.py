@@ -3,6 +3,7 @@ import json
 
 import click
 
+from ..base.errors import printable
 from .group import cli
 from .options import (columns_option, execution_options, json_option, overwrite_option, pipeline_options,
                       render_option, report_options)
@@ -33,7 +34,7 @@ def compare(a, b, as_json, report, plots, render, overwrite, columns, execution,
                        columns=columns, execution=execution, method_given=method_given)
     result = done.comparison
     for note in result.warnings:
-        click.echo(f"lidar-sig: warning: {note}", err=True)
+        click.echo(printable(f"lidar-sig: warning: {note}"), err=True)
     if as_json:
         click.echo(json.dumps(done.to_dict()))
         return

@@ -8,7 +8,7 @@ import warnings
 
 import click
 
-from ..base.errors import Interrupted, LidarSigError, LidarSigWarning, speaking
+from ..base.errors import Interrupted, LidarSigError, LidarSigWarning, printable, speaking
 from ..io.atomic import recording_outputs
 from ..base.progress import environment_setting, say
 
@@ -16,7 +16,7 @@ from ..base.progress import environment_setting, say
 def show_note(message, category, filename, lineno, file=None, line=None, _shown=warnings.showwarning):
     """Show a LidarSigWarning as one note line (``warnings.showwarning``'s signature); others as usual."""
     if issubclass(category, LidarSigWarning):
-        say(f"lidar-sig: note: {message}")  # above a step line that may be showing
+        say(f"lidar-sig: note: {printable(message)}")  # above a step line that may be showing
     else:
         _shown(message, category, filename, lineno, file, line)
 
@@ -36,8 +36,8 @@ class _Group(click.Group):
         except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM as Interrupted
             signum = exc.signum if isinstance(exc, Interrupted) else signal.SIGINT
             kept = f"; its work is kept in {', '.join(written.work)} for --resume" if written.work else ""
-            click.echo(f"lidar-sig: interrupted ({signal.Signals(signum).name}); {_outputs_left(written)}{kept}",
-                       err=True)
+            click.echo(printable(f"lidar-sig: interrupted ({signal.Signals(signum).name}); {_outputs_left(written)}"
+                                 f"{kept}"), err=True)
             ctx.exit(128 + signum)
 
 

@@ -229,14 +229,14 @@ def execution_options(func=None, *, tiles=True, work_dir=True):
                               help="Memory budget of each process, e.g. 1GiB, 800MiB, 1.5G (a bare number is GiB): "
                                    "a LAS/LAZ file that needs more as one block is processed in tiles sized to it "
                                    "[default: 1GiB]."),
-                 click.option("--workers", type=click.IntRange(1, 1024), default=None,
+                 click.option("--workers", type=click.IntRange(min=1), default=None,
                               help="Local worker processes for tiles (a set, or one file processed in tiles because "
                                    "of --memory) [default: all cores; 1: this process alone]."),
                  click.option("--scheduler", default=None, metavar="ADDRESS", callback=not_empty("an address"),
                               help="Run the tiles on this dask.distributed scheduler (e.g. tcp://host:8786) instead "
                                    "of local processes; needs the dask extra.")]
     else:
-        opts += [click.option("--workers", type=click.IntRange(1, 1024), default=None,
+        opts += [click.option("--workers", type=click.IntRange(min=1), default=None,
                               help="Local worker processes [default: all cores; 1: this process alone]."),
                  click.option("--scheduler", default=None, metavar="ADDRESS", callback=not_empty("an address"),
                               help="Run the tasks on this dask.distributed scheduler (e.g. tcp://host:8786) instead "

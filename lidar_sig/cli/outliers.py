@@ -4,7 +4,7 @@ import json
 
 import click
 
-from ..base.errors import counted
+from ..base.errors import counted, printable
 from ..base.progress import settings as progress_settings
 from .group import cli
 from .options import overwrite_option
@@ -40,7 +40,7 @@ def outliers(catalogue, output, report, reach, top, as_json, overwrite, quiet):
     click.echo(f"{counted(len(found.results), 'tile')}, neighbours within {found.reach:.3g} m; "
                "score = mean robust z of the median screening distance to the neighbours and to the survey")
     for note in found.notes:
-        click.echo(f"lidar-sig: note: {note}", err=True)
+        click.echo(printable(f"lidar-sig: note: {note}"), err=True)
     click.echo(f"{'rank':>4}  {'score':>6}  {'z neighb.':>9}  {'z survey':>8}  tile  (classes that make the difference)")
     for r in found.results[:top]:
         near = "-" if r["z_neighbours"] is None else f"{r['z_neighbours']:.2f}"

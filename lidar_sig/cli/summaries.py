@@ -3,7 +3,7 @@ import json
 
 import click
 
-from ..base.errors import counted
+from ..base.errors import counted, printable
 
 
 def archive_summary_line(side):
@@ -20,13 +20,13 @@ def archive_summary_line(side):
 def show(done, *, quiet=False, as_json=False):
     """Print what a job did (a :class:`lidar_sig.jobs._common.JobRun`): its JSON object with
     ``--json``, else its lines unless ``--quiet``; an incomplete run's problems on stderr, then
-    exit status 1."""
+    exit status 1. Each line is one line whatever the file names it shows (:func:`printable`)."""
     if as_json:
         click.echo(json.dumps(done.to_dict()))
     elif not quiet:
         for line in done.lines:
-            click.echo(line)
+            click.echo(printable(line))
     if not done.complete:
         for line in done.problems():
-            click.echo(f"lidar-sig: {line}", err=True)
+            click.echo(f"lidar-sig: {printable(line)}", err=True)
         raise click.exceptions.Exit(1)

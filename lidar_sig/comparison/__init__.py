@@ -10,6 +10,7 @@ PointCloud, a Signature or a pipeline Result; :class:`Side` holds one as compare
 """
 from __future__ import annotations
 
+import os
 import warnings
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -17,7 +18,7 @@ from typing import TYPE_CHECKING, Any
 
 from ..method.class_maps import class_scheme_warnings
 from ..method.cloud import PointCloud
-from ..base.errors import LidarSigError, LidarSigWarning, a_kind, arg, counted
+from ..base.errors import LidarSigError, LidarSigWarning, a_kind, arg, as_path, counted
 from ..metrics import compare as compare_signatures
 from ..base.progress import step
 from ..method.signature_raster import RENDERINGS, Signature, method_differences
@@ -222,6 +223,9 @@ def compare_sources(a: Any, b: Any, pipeline: Any = None, *, render: str | None 
 
     pipeline = pipeline_or_default(pipeline)
     execution = as_execution(execution)
+    for x, what in zip((a, b), "ab"):  # a path the system cannot take is named first
+        if isinstance(x, (str, os.PathLike)):
+            as_path(x, what)
     names = [input_name(x) for x in (a, b)]
     as_set = execution.tiles_asked
     # archives first: an archive's method is the one its other side is computed with, and that

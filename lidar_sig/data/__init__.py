@@ -12,6 +12,7 @@ installed package:
 from __future__ import annotations
 
 import io
+import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -42,6 +43,9 @@ def write_sample(folder: str | Path, *, overwrite: bool = False) -> list[SampleF
     from ._scene import sample_las
 
     folder = as_path(folder, "write_sample's folder")
+    if folder.is_symlink() and not folder.exists():
+        raise LidarSigError(f"is a link to {os.readlink(folder)}, which does not exist; give a folder for the "
+                            "sample, or make the one it links to", path=folder)
     if folder.exists() and not folder.is_dir():
         raise LidarSigError("is a file, not a folder; give a folder for the sample", path=folder)
     if not folder.exists() and not folder.parent.is_dir():
@@ -56,6 +60,9 @@ def write_sample(folder: str | Path, *, overwrite: bool = False) -> list[SampleF
         path = folder / name
         if path.is_file() and path.read_bytes() == data:
             continue
+        if path.is_dir():  # not replaced, even with overwrite: it may hold anything
+            raise LidarSigError("is a folder where the sample writes a file; move it away, or give another folder",
+                                path=path)
         if (path.exists() or path.is_symlink()) and not overwrite:
             raise LidarSigError(f"exists and is not the sample's file; pass {arg('overwrite', True)} to "
                                 "replace it, or give another folder", path=path)

@@ -32,7 +32,7 @@ import threading
 import time
 from pathlib import Path
 
-from ..base.errors import Interrupted, LidarSigError, arg
+from ..base.errors import Interrupted, LidarSigError, arg, check_name_lengths
 
 _HOST = socket.gethostname().replace(".", "-")[:32] or "host"
 # Outputs written inside an output_group, waiting to be renamed: [(tmp, path, overwrite)]
@@ -50,13 +50,16 @@ _REASONS = {
     errno.EROFS: "the output folder is on a read-only file system; write elsewhere",
     errno.EACCES: "permission denied in the output folder; write elsewhere or change its permissions",
     errno.EPERM: "the output folder does not allow writing (read-only or immutable); write elsewhere",
+    errno.ENAMETOOLONG: "the name is too long for the file system; give a shorter name",
 }
 
 
 def check_output(path, *, overwrite=False):
-    """Refuse an output path that exists (unless ``overwrite``), is a folder, or whose folder is
-    missing or not writable; return it as a Path."""
+    """Refuse an output path that exists (unless ``overwrite``), is a folder, whose folder is
+    missing or not writable, or whose name leaves no room for the temporary file named after it
+    (:func:`temp_name`); return it as a Path."""
     path = Path(path)
+    check_name_lengths(path, room=TEMP_ROOM + len(path.suffix.encode()))
     if path.is_dir():
         raise LidarSigError("output is a folder; give a file name", path=path)
     if os.path.lexists(path) and not overwrite:  # a link to a missing file exists too: it would be replaced
@@ -81,6 +84,11 @@ def check_outputs(paths, *, overwrite=False):
             raise LidarSigError(f"is given twice (also as {seen[key]}); give each output its own name", path=path)
         seen[key] = path
     return list(seen.values())
+
+
+#: Bytes a temporary file's name adds to its output's, besides the extension (see :func:`temp_name`):
+#: the dots, the host (up to 32), the process (up to 7 digits), 8 random characters and ".tmp".
+TEMP_ROOM = 55
 
 
 def temp_name(path):
@@ -164,14 +172,17 @@ def hold(path, doing, errors=None):
     """Lock ``path`` for this run (:func:`exclusive_output`) until :func:`release`: the file
     descriptor of its lock ``.NAME.lock`` beside it; a run holding it already is named in a
     LidarSigError (``doing``: what that run does with it). ``errors``: the context that turns
-    a file-system error into a LidarSigError (default :func:`os_errors`, for an output)."""
+    a file-system error into a LidarSigError (default :func:`os_errors`, for an output); a lock
+    that cannot be made whole (a full disk) is removed, and one that is not a file of ours (a
+    folder, a link, which is never followed) is refused, naming it."""
     import fcntl
 
     path = Path(path)
-    lock = path.parent / f".{path.name}.lock"
+    lock = lock_path(path)
     while True:
+        _check_lock(lock)
         with (errors or os_errors)(path):
-            fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o644)
+            fd = os.open(lock, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW | os.O_CLOEXEC, 0o644)
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
@@ -185,19 +196,44 @@ def hold(path, doing, errors=None):
                                 "file system", path=path) from None
         # the run that held it may have removed the file between our open and our lock: lock anew
         with contextlib.suppress(OSError):
-            if os.path.samestat(os.fstat(fd), os.stat(lock)):
+            if os.path.samestat(os.fstat(fd), os.lstat(lock)):
                 break
         os.close(fd)
-    os.ftruncate(fd, 0)
-    os.write(fd, f"process {os.getpid()} on {socket.gethostname()}, since {time.strftime('%H:%M:%S')}".encode())
+    try:
+        with (errors or os_errors)(path):  # who holds it, for the message of a run refused meanwhile
+            os.ftruncate(fd, 0)
+            os.write(fd, f"process {os.getpid()} on {socket.gethostname()}, since {time.strftime('%H:%M:%S')}".encode())
+    except BaseException:  # a full disk: no lock left behind, not even empty
+        release(path, fd)
+        raise
     return fd
 
 
-def release(path, fd):
-    """Let go of ``path``, held by :func:`hold` as ``fd`` (its lock file removed)."""
+def lock_path(path: str | os.PathLike[str]) -> Path:
+    """The lock file of ``path`` (:func:`hold`): ``.NAME.lock`` beside it."""
     path = Path(path)
+    return path.parent / f".{path.name}.lock"
+
+
+def _check_lock(lock):
+    """Refuse a lock path that is not a regular file (a folder, a link, a FIFO put there): it
+    is not ours to lock, follow or remove."""
+    try:
+        mode = os.lstat(lock).st_mode
+    except OSError:
+        return
+    if not stat.S_ISREG(mode):
+        kind = ("a folder" if stat.S_ISDIR(mode) else "a link" if stat.S_ISLNK(mode)
+                else "not a regular file")
+        raise LidarSigError(f"is {kind} where lidar-sig keeps the lock of {lock.name[1:-5]}; remove it, then run "
+                            "this command again", path=lock)
+
+
+def release(path, fd):
+    """Let go of ``path``, held by :func:`hold` as ``fd`` (its lock file removed: while it is
+    held, no other run removes or replaces it)."""
     with contextlib.suppress(OSError):
-        os.unlink(path.parent / f".{path.name}.lock")
+        os.unlink(lock_path(path))
     with contextlib.suppress(OSError):
         os.close(fd)
 

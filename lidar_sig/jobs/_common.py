@@ -54,15 +54,15 @@ class JobRun:
 
     def problems(self) -> list[str]:
         """The lines that say what is missing and what to do (stderr of an incomplete run)."""
-        from ..base.errors import counted
+        from ..base.errors import counted, printable
 
         if self.complete:
             return []
         out = [f"missing: {line}" for line in self.missing] + [f"not written: {line}" for line in self.not_written]
-        work = f" (work kept in {self.work})" if self.work else ""
-        out.append(f"{counted(len(self.written), 'output')} written; the run is incomplete{work}: fix or replace the "
-                   f"files above and run the same job again with {arg('resume', True)}")
-        return out
+        fix = "fix or replace the files above and run the same job again"
+        again = f" (work kept in {self.work}): {fix} with {arg('resume', True)}" if self.work else f": {fix}"
+        out.append(f"{counted(len(self.written), 'output')} written; the run is incomplete{again}")
+        return [printable(line) for line in out]  # one line each, whatever the file names
 
     def to_dict(self) -> dict[str, Any]:
         return {"written": list(self.written), "not_written": list(self.not_written), "missing": list(self.missing),

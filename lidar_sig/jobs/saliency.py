@@ -80,9 +80,12 @@ def saliency(sources: Any, output: str | Path, *, pipeline: Any = None, executio
     if over or execution.tiles_asked:
         from ..tiling.run_set import run_in_tiles
 
+        from ..tiling.work import work_scope
+
         check_las_output(output, over, execution)
         work = work_folder(execution, output.with_name(f".{output.name}.lidar-sig-work"))
-        with run_in_tiles(pipeline, source, execution, n_points=over, work=work, outputs=[output]) as result:
+        with work_scope(work), run_in_tiles(pipeline, source, execution, n_points=over, work=work,
+                                            outputs=[output]) as result:
             result.write(output, overwrite=overwrite)
         lines = result.summary_lines()
     else:
@@ -118,9 +121,7 @@ def output_name(outdir: Path, source: Any) -> Path:
 
 
 def _of_set(sources, outdir, pipeline, execution, overwrite, resume):
-    from ..tiling.run_set import run_set
     from ..tiling.sources import expand, scan
-    from ..tiling.work import remove_work
 
     start = time.perf_counter()
     files = expand(sources)  # the inputs first: an empty folder is named, not the output
@@ -141,29 +142,39 @@ def _of_set(sources, outdir, pipeline, execution, overwrite, resume):
     made = make_folder(outdir)
     work = work_folder(execution, outdir / ".lidar-sig-work")
     try:
+        job = _write_set(sources, outputs, work, pipeline, execution, overwrite, resume)
+    finally:  # a folder made for this run and left empty (an error, or nothing written) goes
+        if made and outdir.is_dir() and not any(outdir.iterdir()):
+            outdir.rmdir()
+    job.seconds = time.perf_counter() - start
+    return job
+
+
+def _write_set(sources, outputs, work, pipeline, execution, overwrite, resume):
+    """The set run in tiles and each input's output written, within the scope of the work folder
+    (let go at the end; kept only with work worth resuming, which the job's result names)."""
+    from ..tiling.run_set import run_set
+    from ..tiling.work import remove_work, work_scope
+
+    with work_scope(work):
         for path in outputs.values():  # before the work; a resumed run rewrites what it must
             check_output(path, overwrite=overwrite or resume)
         with execution.backend() as backend:
             run = run_set(pipeline, sources, work=work, tile_size=execution.tile_size, backend=backend,
                           resume=resume, outputs=list(outputs.values()), memory=execution.memory)
-    except BaseException:
-        if made and not any(outdir.iterdir()):
-            outdir.rmdir()
-        raise
-    job = SaliencyRun(lines=run.summary(), work=str(work))
-    for source in run.sources:
-        if source.path in run.failed_sources or run.plan is None:
-            continue
-        if run.write_points(source, outputs[source.path], overwrite=overwrite or resume):
-            job.written.append(str(outputs[source.path]))
-        else:
-            job.not_written.append(f"{outputs[source.path]} (a tile holding some of its points is missing)")
-    job.missing = run.missing
-    job.lines += [f"wrote {path}" for path in job.written]
-    if job.complete:
-        remove_work(work)
-        job.work = None
-    job.seconds = time.perf_counter() - start
+        job = SaliencyRun(lines=run.summary())
+        for source in run.sources:
+            if source.path in run.failed_sources or run.plan is None:
+                continue
+            if run.write_points(source, outputs[source.path], overwrite=overwrite or resume):
+                job.written.append(str(outputs[source.path]))
+            else:
+                job.not_written.append(f"{outputs[source.path]} (a tile holding some of its points is missing)")
+        job.missing = run.missing
+        job.lines += [f"wrote {path}" for path in job.written]
+        if job.complete:
+            remove_work(work)
+    job.work = str(work) if not job.complete and Path(work).is_dir() else None  # kept for a resumed run
     return job
 
 

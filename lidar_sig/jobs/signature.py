@@ -89,11 +89,12 @@ def signature(sources: Any, output: str | Path | None = None, *, png: str | Path
         return _of_set(sources, output, ext, png, sg, render, pipeline, execution, overwrite, resume, start)
     if over:
         from ..tiling.run_set import run_in_tiles
+        from ..tiling.work import work_scope
 
         first = Path(outputs[0])
         work = work_folder(execution, first.with_name(f".{first.name}.lidar-sig-work"))
-        with run_in_tiles(pipeline, sources[0], execution, n_points=over, work=work, outputs=outputs) as result, \
-                output_group():  # all outputs or none
+        with work_scope(work), run_in_tiles(pipeline, sources[0], execution, n_points=over, work=work,
+                                            outputs=outputs) as result, output_group():  # all outputs or none
             _write(result.signature, output, ext, png, sg, render, overwrite, archive=result.write)
         return SignatureRun(written=outputs, signature=result.signature, result=result,
                             lines=result.summary_lines() + [f"wrote {', '.join(outputs)}"],
@@ -133,26 +134,27 @@ def _write(sig, output, ext, png, sg, render, overwrite, *, archive):
 def _of_set(sources, output, ext, png, sg, render, pipeline, execution, overwrite, resume, start):
     from ..io import write_archive
     from ..tiling.run_set import run_set
-    from ..tiling.work import remove_work
+    from ..tiling.work import remove_work, work_scope
 
     outputs = [str(p) for p in (output, png, sg) if p]
     first = Path(outputs[0])
     work = work_folder(execution, first.with_name(first.name + ".work"))
-    with execution.backend() as backend:
-        run = run_set(pipeline, sources, work=work, tile_size=execution.tile_size, backend=backend, resume=resume,
-                      outputs=outputs, memory=execution.memory)
-    job = SignatureRun(lines=run.summary(), work=str(work), missing=run.missing)
-    if run.complete:
-        sig = job.signature = run.signature
-        with output_group():  # all outputs or none
-            _write(sig, output, ext, png, sg, render, overwrite,
-                   archive=lambda path, **kw: write_archive(path, sig, sources=run.source_records(),
-                                                            tiling=run.tiling_record(), **kw))
-        job.written = outputs
-        job.lines.append(f"wrote {', '.join(outputs)}")
-        remove_work(work)
-        job.work = None
-    else:
-        job.not_written = ["the set's signature (it would lack the points above)"]
+    with work_scope(work):  # let go at the end; kept only with work worth resuming, which the result names
+        with execution.backend() as backend:
+            run = run_set(pipeline, sources, work=work, tile_size=execution.tile_size, backend=backend,
+                          resume=resume, outputs=outputs, memory=execution.memory)
+        job = SignatureRun(lines=run.summary(), missing=run.missing)
+        if run.complete:
+            sig = job.signature = run.signature
+            with output_group():  # all outputs or none
+                _write(sig, output, ext, png, sg, render, overwrite,
+                       archive=lambda path, **kw: write_archive(path, sig, sources=run.source_records(),
+                                                                tiling=run.tiling_record(), **kw))
+            job.written = outputs
+            job.lines.append(f"wrote {', '.join(outputs)}")
+            remove_work(work)
+        else:
+            job.not_written = ["the set's signature (it would lack the points above)"]
+    job.work = str(work) if not job.complete and Path(work).is_dir() else None  # kept for a resumed run
     job.seconds = time.perf_counter() - start
     return job

@@ -309,19 +309,25 @@ class Pipeline:
         ``labels``, one class code per point) or an Open3D point cloud.
 
         A LAS/LAZ file that one block would hold above the memory budget of ``execution`` (a
-        :class:`lidar_sig.Execution`; default 1 GiB per process) is processed in tiles with
-        halos, with the same results: the Result then keeps its per-point values on disk, in
-        tiles, until they are asked for, and ``write`` streams them into a LAS/LAZ file
-        (docs/scale-out.md). The file's header alone decides, before any point is read."""
+        :class:`lidar_sig.Execution`; default 1 GiB per process), or any LAS/LAZ file when the
+        execution asks for tiles (a ``tile_size``, ``workers`` or a ``scheduler``), is processed
+        in tiles with halos, with the same results, its scratch files in a new folder inside
+        the execution's ``work_dir`` (default the temporary folder): the Result then keeps its
+        per-point values on disk, in tiles, until they are asked for, and ``write`` streams them
+        into a LAS/LAZ file (docs/scale-out.md). The file's header alone decides, before any
+        point is read."""
         from ..tiling.execution import as_execution
 
         execution = as_execution(execution)
         if isinstance(cloud, (str, os.PathLike)):
             n = execution.over_budget(cloud, self)
-            if n is not None:
+            if n is not None or execution.tiles_asked:
                 from ..tiling.run_set import run_in_tiles
 
                 return run_in_tiles(self, cloud, execution, n_points=n)
+        elif execution.tiles_asked:
+            raise LidarSigError(f"tiles are made of a LAS/LAZ file: give its path to run {a_kind(cloud)} in tiles, "
+                                f"or leave out {arg('tile_size')}, {arg('workers')} and {arg('scheduler')}")
         cloud = as_point_cloud(cloud, labels, columns)
         sal, stats = self.saliency(cloud)
         classes = self.classes if cloud.labels is not None else UNLABELED

@@ -5,7 +5,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from ..base.errors import LidarSigError, arg
+from ..base.errors import LidarSigError, arg, as_path
 
 HTML_EXTENSIONS = (".html", ".htm")
 
@@ -24,7 +24,7 @@ def check_report_path(path, *, overwrite=True):
 def check_plots_folder(folder, names, *, overwrite=False):
     """Refuse a plots folder that is a file, whose parent is missing or not writable, or that
     holds a file of ``names`` already (unless ``overwrite``): before any computing."""
-    folder = Path(folder)
+    folder = as_path(folder, "the plots folder")
     if folder.exists() and not folder.is_dir():
         raise LidarSigError("is a file, not a folder for the plots; give a folder", path=folder)
     parent = folder if folder.is_dir() else folder.parent

@@ -77,6 +77,7 @@ def build_catalog(inputs, output, pipeline=None, *, backend=None, work=None, res
     from ..io.atomic import exclusive_output
     from ..pipeline.flow import pipeline_or_default
     from ..tiling.sources import expand
+    from ..tiling.work import work_scope
 
     start = time.perf_counter()
     given = pipeline is not None
@@ -92,9 +93,11 @@ def build_catalog(inputs, output, pipeline=None, *, backend=None, work=None, res
         raise LidarSigError("give at least one LAS/LAZ tile or folder of tiles")
     files = [str(f) for f in expand(inputs)]
     check_output(output, overwrite=True)  # its folder; the catalogue itself is read once held
+    work = Path(as_path(work, "work")) if work is not None else output.with_name(output.name + ".work")
     # one run at a time: two runs growing it at once would each write the tiles it read and its
-    # own, and the last to finish would drop the other's
-    with exclusive_output(output, "making or growing"):
+    # own, and the last to finish would drop the other's; the work folder is let go at the end
+    # (kept only with finished tiles, for a resumed run)
+    with exclusive_output(output, "making or growing"), work_scope(work):
         return _build(files, output, pipeline, given, start, backend=backend, work=work, resume=resume,
                       overwrite=overwrite, method_given=method_given, progress_enabled=progress_enabled)
 
@@ -105,7 +108,7 @@ def _build(files, output, pipeline, given, start, *, backend, work, resume, over
     from ..io import check_output
     from ..io.catalog_file import is_catalog, read_catalog
     from ..tiling.backends import InProcess
-    from ..tiling.work import prepare_work, remove_work
+    from ..tiling.work import WorkFolderError, prepare_work, remove_work
 
     old = None
     if output.exists() and not overwrite:
@@ -119,7 +122,7 @@ def _build(files, output, pipeline, given, start, *, backend, work, resume, over
     backend = backend or InProcess()
     if not callable(getattr(backend, "run", None)):
         raise LidarSigError(f"backend must be one of lidar_sig.executor(...), got {a_kind(backend)}")
-    work = Path(work) if work is not None else output.with_name(output.name + ".work")
+    named = work  # as the user gave it, for messages
     work = prepare_work(work, resume, keep=[*files, output])
     run = CatalogRun(str(output), execution=backend.description, grown=old is not None)
     pipeline.announce_compilation()  # the workers compile in silence
@@ -130,6 +133,9 @@ def _build(files, output, pipeline, given, start, *, backend, work, resume, over
     finished = []
     for (_, path, _, _), summary, err in progress(backend.run(tile_task, tasks), total=len(tasks), desc="tiles",
                                                   enabled=progress_enabled, unit="tile"):
+        if isinstance(err, WorkFolderError):  # every tile would fail so: the run stops, naming the folder
+            raise LidarSigError(f"cannot be used as the work folder ({err}); free some space or give "
+                                f"{arg('work_dir')} another folder", path=named)
         if err is not None:
             run.failed[path] = _reason(err)
         elif summary.get("unchanged"):

@@ -204,12 +204,13 @@ class Catalog:
         return hits[0] if hits else None
 
     def counts(self, rows):
-        """{row: (C, H, W) int64 count raster} of the tiles ``rows``."""
+        """{row: (C, H, W) int64 count raster} of the tiles ``rows`` (rows, names or paths, as
+        for :meth:`tile`; a LidarSigError names one the catalogue does not hold)."""
         from ..io.catalog_file import read_counts
 
         shape = (len(self.classes), self.frame.size, self.frame.size)
         out = {}
-        for i, (at, values) in read_counts(self.path, rows, self.columns["counts_offsets"]).items():
+        for i, (at, values) in read_counts(self.path, self._rows(rows), self.columns["counts_offsets"]).items():
             flat = np.zeros(int(np.prod(shape)), np.int64)
             flat[at] = values
             out[i] = flat.reshape(shape)
@@ -230,19 +231,35 @@ class Catalog:
                          int(c["n_undefined"][i]), metadata, c["class_totals"][i].astype(np.int64))
 
     def total_rasters(self, rows):
-        """{row: (H, W) float64 points per pixel, all classes} of the tiles ``rows``."""
+        """{row: (H, W) float64 points per pixel, all classes} of the tiles ``rows`` (as for
+        :meth:`counts`)."""
         from ..io.catalog_file import read_counts
 
         pixels = self.frame.size ** 2
+        rows = self._rows(rows)
         return {i: np.bincount(at % pixels, weights=values, minlength=pixels).reshape(self.frame.size, -1)
                 for i, (at, values) in read_counts(self.path, rows, self.columns["counts_offsets"]).items()}
 
     def sg(self, rows):
-        """{row: Sg image} of the tiles ``rows`` (made from their counts, kept once made)."""
+        """{row: Sg image} of the tiles ``rows`` (as for :meth:`counts`; made from their counts,
+        kept once made)."""
+        rows = self._rows(rows)
         todo = [i for i in rows if i not in self._sg]
         for i, total in self.total_rasters(todo).items():
             self._sg[i] = sg_image(total, self.features.n_points[i], self.frame)
         return {i: self._sg[i] for i in rows}
+
+    def _rows(self, tiles):
+        """The rows of ``tiles`` (one tile, or a list or array of rows, names or paths), each
+        checked as by :meth:`_row`: a negative row would be another tile, counted from the end."""
+        if isinstance(tiles, (str, int, np.integer)):
+            tiles = [tiles]
+        try:
+            tiles = list(tiles)
+        except TypeError:
+            raise LidarSigError(f"rows must be a list of the catalogue's rows or tile names, got {a_kind(tiles)}") \
+                from None
+        return [self._row(t.item() if isinstance(t, np.generic) else t) for t in tiles]
 
     def _row(self, tile):
         i = self.index(tile)

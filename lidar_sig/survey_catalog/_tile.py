@@ -33,8 +33,10 @@ def result_path(work, path):
     """The file of the tile ``path``'s result in the work folder."""
     import hashlib
 
+    from ..tiling.work import FINISHED
+
     tag = hashlib.sha1(str(path).encode()).hexdigest()[:12]
-    return Path(work) / "tiles" / f"{Path(path).stem}.{tag}.npz"
+    return Path(work) / FINISHED / f"{Path(path).stem}.{tag}.npz"
 
 
 def tile_key(sha256, pipeline):
@@ -72,16 +74,23 @@ def tile_task(work, path, pipeline, known_sha256=None):
               "tiled": tiled, "seconds": round(time.perf_counter() - t0, 3)}
     flat = signature.counts.ravel()
     nz = np.flatnonzero(flat)
-    out.parent.mkdir(parents=True, exist_ok=True)
     tmp = out.with_name(f".{out.stem}.{os.getpid()}.tmp.npz")
-    np.savez(tmp, key=np.array(key), path=np.array(path), sha256=np.array(sha), crs=np.array(crs or ""),
-             factors=np.asarray(factors, np.float64), n_points=n_points, n_undefined=int(signature.n_undefined),
-             n_signature=int(signature.n_points),
-             bounds=np.asarray(bounds, np.float64), hull=hull, area=area,
-             density=n_points / area if area > 0 else np.nan, class_totals=signature.class_totals,
-             egeom=signature.egeom_counts, counts_at=nz, counts=flat[nz], fv=features.fv[0],
-             color=features.color[0], meta=np.array(json.dumps(record)))
-    os.replace(tmp, out)  # a tile's result exists whole or not at all
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        np.savez(tmp, key=np.array(key), path=np.array(path), sha256=np.array(sha), crs=np.array(crs or ""),
+                 factors=np.asarray(factors, np.float64), n_points=n_points, n_undefined=int(signature.n_undefined),
+                 n_signature=int(signature.n_points),
+                 bounds=np.asarray(bounds, np.float64), hull=hull, area=area,
+                 density=n_points / area if area > 0 else np.nan, class_totals=signature.class_totals,
+                 egeom=signature.egeom_counts, counts_at=nz, counts=flat[nz], fv=features.fv[0],
+                 color=features.color[0], meta=np.array(json.dumps(record)))
+        os.replace(tmp, out)  # a tile's result exists whole or not at all
+    except OSError as exc:  # the work folder's disk (full, read-only) failed, not the tile
+        from ..base.errors import reason
+        from ..tiling.work import WorkFolderError
+
+        tmp.unlink(missing_ok=True)
+        raise WorkFolderError(f"{exc.strerror or reason(exc)} while keeping the result of {Path(path).name}") from None
     return {"path": path, "sha256": sha, "n_points": n_points}
 
 
@@ -127,6 +136,7 @@ def _through_tiles(path, pipeline, work):
     sub.parent.mkdir(exist_ok=True)  # inside the catalogue's work folder, which exists
     run = run_set(quiet, [path], work=sub, backend=InProcess(), progress_enabled=False)
     if not run.complete:
+        remove_work(sub)  # a resumed catalogue computes the tile anew
         raise LidarSigError("could not be computed in tiles: " + "; ".join(run.missing), path=path)
     signature = _in_table(run.signature, pipeline.classes)
     hulls = []

@@ -142,7 +142,8 @@ class SetRun:
 
 class TiledResult(Result):
     """The :class:`~lidar_sig.pipeline.result.Result` of one LAS/LAZ file that one block would hold
-    above the memory budget, run in tiles with halos (the same values as one block): its
+    above the memory budget (or whose tiles were asked for), run in tiles with halos (the same
+    values as one block): its
     per-point values stay in the run's work folder, in tiles, until they are asked for
     (``saliency`` and ``cloud`` read them all into memory); ``write`` streams them into a
     LAS/LAZ file chunk by chunk and refuses other point formats, which would hold them all. The work folder is

@@ -15,6 +15,7 @@ import numpy as np
 from ..method.signature_raster import Signature
 from ._core import SetContext, Tiling, tile_name, tile_saliency, tile_second_distances
 from .sources import Cells, load_cells, source_of, stage_part
+from .work import FINISHED
 
 
 #: Per-point results: (Cl, Cs, Cp) and the chosen scale index (-1: none or undefined).
@@ -86,13 +87,13 @@ class Plan:
 def result_path(work, ij):
     """The file of tile ``ij``'s result in the work folder (its statistics and signature; it is
     written last, so that its presence means the tile's per-point files are whole)."""
-    return Path(work) / "tiles" / f"{tile_name(*ij)}.npz"
+    return Path(work) / FINISHED / f"{tile_name(*ij)}.npz"
 
 
 def points_paths(work, ij):
     """The files of tile ``ij``'s per-point results: the point identifiers, ascending, and
     their (Cl, Cs, Cp) and chosen scale index (records of POINT_VALUES), in the same order."""
-    folder = Path(work) / "tiles"
+    folder = Path(work) / FINISHED
     return folder / f"{tile_name(*ij)}.ids.npy", folder / f"{tile_name(*ij)}.values.npy"
 
 

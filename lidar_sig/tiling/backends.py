@@ -23,6 +23,15 @@ def _init_worker(threads):
     numba.set_num_threads(max(1, min(threads, numba.config.NUMBA_NUM_THREADS)))
 
 
+def cores() -> int:
+    """The cores this process may run on (those the system lets it use, e.g. in a container or
+    under ``taskset``; else all of the machine's)."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except (AttributeError, OSError):  # not on Linux
+        return os.cpu_count() or 1
+
+
 class InProcess:
     """Run tasks one after the other in this process (``--workers 1``)."""
 
@@ -49,7 +58,7 @@ class LocalProcesses:
     def __init__(self, workers):
         self.workers = int(workers)  # how many tasks run at once
         self.description = f"{self.workers} local processes"
-        threads = max(1, (os.cpu_count() or 1) // self.workers)
+        threads = max(1, cores() // self.workers)
         self.pool = cf.ProcessPoolExecutor(self.workers, mp_context=multiprocessing.get_context("spawn"),
                                            initializer=_init_worker, initargs=(threads,))
 
@@ -129,5 +138,5 @@ def executor(workers=None, scheduler=None):
         return DaskCluster(scheduler)
     if workers is not None:
         workers = whole_number(workers, arg("workers"), low=1)
-    n = workers or os.cpu_count() or 1
+    n = workers or cores()
     return InProcess() if n == 1 else LocalProcesses(n)

@@ -8,7 +8,6 @@ LAS/LAZ file runs as one block or in tiles) and, for work in tiles, their size, 
 from __future__ import annotations
 
 import contextlib
-import math
 import os
 import warnings
 from collections.abc import Iterator
@@ -16,11 +15,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ..base.errors import LidarSigError, LidarSigWarning, a_kind, arg, whole_number
+from ..base.errors import LidarSigError, LidarSigWarning, a_kind, arg, check_name_lengths, positive_metres, whole_number
 from .memory import DEFAULT_MEMORY, budget_bytes, one_block_note, points_over_budget, size
 
-#: Most local worker processes.
-MAX_WORKERS = 1024
+#: Most local worker processes per core: above the cores, workers take turns on them while each
+#: holds its own memory (32 workers on 2 cores: 5.4 GB and 4 times slower than one), so a few
+#: per core are allowed (with a note) and more are refused (docs/scale-out.md, "Options").
+WORKERS_PER_CORE = 4
 
 
 @dataclass(frozen=True)
@@ -37,13 +38,15 @@ class Execution:
         Side of the processing tiles in metres; given, a set of files or a file is processed
         in tiles whatever its size.
     workers : int, optional
-        Local worker processes of a run in tiles (default: all cores; 1: this process alone).
+        Local worker processes of a run in tiles (default: one per core; 1: this process
+        alone); more than the cores is said in a note, more than 4 per core refused.
     scheduler : str, optional
         Address of a dask.distributed scheduler (``tcp://host:8786``) to run the tiles on
         instead of local processes (needs the dask extra).
     work_dir : str or Path, optional
         Scratch folder of a run in tiles, seen by every worker at this path (default: beside
-        the output, or a temporary folder for a result kept in Python).
+        the output); for a result kept in Python (``Pipeline.run``, ``compare``), a folder that
+        exists, in which each run makes its own (default: the temporary folder).
     """
 
     memory: int | str = DEFAULT_MEMORY
@@ -55,12 +58,9 @@ class Execution:
     def __post_init__(self) -> None:
         object.__setattr__(self, "memory", budget_bytes(self.memory))
         if self.tile_size is not None:
-            if isinstance(self.tile_size, bool) or not isinstance(self.tile_size, (int, float)) \
-                    or not math.isfinite(self.tile_size) or self.tile_size <= 0:
-                raise LidarSigError(f"{arg('tile_size')} must be a positive number of metres, got {self.tile_size!r}")
-            object.__setattr__(self, "tile_size", float(self.tile_size))
+            object.__setattr__(self, "tile_size", positive_metres(self.tile_size, arg("tile_size")))
         if self.workers is not None:
-            object.__setattr__(self, "workers", whole_number(self.workers, arg("workers"), low=1, high=MAX_WORKERS))
+            object.__setattr__(self, "workers", _checked_workers(self.workers))
         if self.scheduler is not None and (not isinstance(self.scheduler, str) or not self.scheduler.strip()):
             raise LidarSigError(f"{arg('scheduler')} must be an address such as tcp://host:8786, got "
                                 f"{a_kind(self.scheduler) if not isinstance(self.scheduler, str) else 'an empty text'}")
@@ -68,15 +68,19 @@ class Execution:
             raise LidarSigError(f"give {arg('workers')} or {arg('scheduler')}, not both (the cluster has its own workers)")
         if self.work_dir is not None:
             if not isinstance(self.work_dir, (str, os.PathLike)) or not str(self.work_dir):
-                raise LidarSigError(f"{arg('work_dir')} must be a folder path, got {a_kind(self.work_dir)}")
+                got = "an empty path" if isinstance(self.work_dir, str) else a_kind(self.work_dir)
+                raise LidarSigError(f"{arg('work_dir')} must be a folder path, got {got}")
+            check_name_lengths(self.work_dir)
             object.__setattr__(self, "work_dir", Path(self.work_dir))
 
     def __repr__(self) -> str:
+        from ..base.views import one_line
+
         where = (f"Dask {self.scheduler}" if self.scheduler else "all cores" if self.workers is None
                  else f"{self.workers} process{'es' if self.workers > 1 else ''}")
         tiles = f", tiles of {self.tile_size:g} m" if self.tile_size else ""
         work = f", work in {self.work_dir}" if self.work_dir else ""
-        return f"Execution({size(int(self.memory))} per process, {where}{tiles}{work})"
+        return one_line(f"<Execution {size(int(self.memory))} per process, {where}{tiles}{work}>")
 
     @property
     def tiles_asked(self) -> bool:
@@ -109,6 +113,26 @@ class Execution:
             yield backend
         finally:
             backend.close()
+
+
+def _checked_workers(workers: Any) -> int:
+    """``workers`` as an int: a whole number from 1 to :data:`WORKERS_PER_CORE` per core of this
+    machine (LidarSigError naming the value, the cores and the fix otherwise), with a note when
+    it is more than the cores."""
+    from .backends import cores
+
+    workers = whole_number(workers, arg("workers"), low=1)
+    n_cores = cores()
+    most = WORKERS_PER_CORE * n_cores
+    if workers > most:
+        raise LidarSigError(f"{arg('workers', workers)} is more than {WORKERS_PER_CORE} per core of this machine "
+                            f"({n_cores} cores: at most {most}); workers beyond the cores only take turns on them, "
+                            f"each holding its own memory: give at most {n_cores}, or leave it out for one per core")
+    if workers > n_cores:
+        warnings.warn(f"{arg('workers', workers)} is more than the {n_cores} cores of this machine: the workers "
+                      f"take turns on them, each holding its own memory; a run is fastest with at most {n_cores}",
+                      LidarSigWarning, stacklevel=4)  # the call of Execution(...)
+    return workers
 
 
 def as_execution(execution: Execution | None) -> Execution:

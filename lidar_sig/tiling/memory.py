@@ -22,8 +22,9 @@ import math
 import re
 from pathlib import Path
 
-from ..base.errors import LidarSigError, arg, counted
+from ..base.errors import LidarSigError, arg, brief, counted
 
+TIB = 2**40
 GIB = 2**30
 MIB = 2**20
 #: Memory budget per process when none is given: 1 GiB.
@@ -40,6 +41,8 @@ TILE_BYTES_PER_POINT = 300
 CORE_SHARE = 0.85
 #: Fewest points a processing tile may hold under a budget: a smaller budget is refused.
 MIN_BUDGET_TILE_POINTS = 20_000
+#: Largest budget: 1 PiB, more than any machine holds (a larger one is a mistake).
+MAX_MEMORY = 2**50
 
 _UNITS = {"": GIB, "k": 2**10, "m": MIB, "g": GIB, "t": 2**40}
 _PATTERN = re.compile(r"^\s*([0-9]*\.?[0-9]+(?:e[+-]?[0-9]+)?)\s*([kmgt]?)(?:i?b)?\s*$", re.IGNORECASE)
@@ -49,17 +52,20 @@ def budget_bytes(value):
     """Bytes of a memory budget given as a whole number of bytes or as a size ``1GiB``,
     ``800MiB``, ``1.5G``, ``2GB`` or a bare number of GiB in text (units are binary: 1G = 1GiB
     = 2**30 bytes); LidarSigError naming the value and the fix otherwise, and for a budget too
-    small to run a tile in."""
+    small to run a tile in or larger than any machine (:data:`MAX_MEMORY`)."""
     if isinstance(value, (int, float)) and not isinstance(value, bool):
-        shown = f"{value!r} bytes"
-        budget = int(value) if math.isfinite(value) and value > 0 else None
+        shown = f"{brief(value)} bytes"
+        number = value if isinstance(value, int) else value if math.isfinite(value) else math.nan
     else:
         match = _PATTERN.match(str(value)) if isinstance(value, str) else None
-        number = float(match.group(1)) if match else math.nan
-        shown = repr(value)
-        budget = int(number * _UNITS[match.group(2).lower()]) if math.isfinite(number) and number > 0 else None
-    if budget is None:
+        number = float(match.group(1)) * _UNITS[match.group(2).lower()] if match else math.nan
+        shown = brief(value)
+    if not number > 0:  # not a number, or not positive (an int too large for a float passes: capped below)
         raise LidarSigError(f"{arg('memory')} must be a positive size such as 1GiB, 800MiB or 2G, got {shown}")
+    if number > MAX_MEMORY:  # an int of any size, or a float up to inf
+        raise LidarSigError(f"{arg('memory')} must be at most {size(MAX_MEMORY)} (more than any machine holds), "
+                            f"got {shown}")
+    budget = int(number)
     least = BASE_BYTES + TILE_BYTES_PER_POINT * MIN_BUDGET_TILE_POINTS
     if budget < least:
         raise LidarSigError(f"{arg('memory', value)} is less than a process needs to run a tile ({size(least)}); "
@@ -108,7 +114,9 @@ def tile_points(budget):
 
 
 def size(n_bytes):
-    """A memory size for messages: "1 GiB", "1.5 GiB", "800 MiB"."""
+    """A memory size for messages: "1 GiB", "1.5 GiB", "800 MiB", "2 TiB"."""
+    if n_bytes >= 1000 * GIB:
+        return f"{n_bytes / TIB:.4g} TiB"
     if n_bytes >= GIB:
         return f"{n_bytes / GIB:.3g} GiB"
     return f"{n_bytes / MIB:.0f} MiB"

@@ -40,7 +40,7 @@ from ._set_run import SetRun, TiledResult, sum_signatures
 from .sources import Cells, cell_files, densest, expand, scan, staged, tile_side_for
 from ._tasks import Plan, second_paths, second_task, stage_task, tile_task
 from .work import (discard_work, forget_area_cap, fresh_work, prepare_work, remove_work, save_area_cap,
-                   saved_area_cap)
+                   saved_area_cap, work_scope)
 
 #: Staging cells per tile side.
 CELLS_PER_TILE = 4
@@ -59,7 +59,19 @@ def run_set(pipeline: Any, inputs: Any, *, work: str | os.PathLike[str], tile_si
     in ``work`` (the :class:`SetRun` reads them from there); the command line removes it after a
     complete run, in Python :func:`lidar_sig.tiling.work.remove_work` does. With ``resume``, staged files and finished
     tiles of an earlier run of the same set, grid and method are reused. Returns a
-    :class:`SetRun`."""
+    :class:`SetRun`.
+
+    The work folder is held by this run (another run is refused) until it returns or raises,
+    or until its job ends (:func:`lidar_sig.tiling.work.work_scope`); then it is let go, and
+    kept only when it holds what a resumed run reuses."""
+    as_path(work, "run_set's work (a folder for the run's scratch files)")
+    with work_scope(work):
+        return _run_set(pipeline, inputs, work=work, tile_size=tile_size, backend=backend, resume=resume,
+                        progress_enabled=progress_enabled, outputs=outputs, memory=memory)
+
+
+def _run_set(pipeline, inputs, *, work, tile_size, backend, resume, progress_enabled, outputs, memory):
+    """:func:`run_set` within the scope of its work folder."""
     from .backends import InProcess
 
     check_tileable(pipeline)
@@ -68,7 +80,6 @@ def run_set(pipeline: Any, inputs: Any, *, work: str | os.PathLike[str], tile_si
     sized = tile_size is None  # sized to the memory budget
     if not sized:
         tile_size = check_tile_size(tile_size)
-    as_path(work, "run_set's work (a folder for the run's scratch files)")
     if isinstance(inputs, (str, os.PathLike)):
         inputs = [inputs]
     if not inputs:
@@ -85,15 +96,15 @@ def run_set(pipeline: Any, inputs: Any, *, work: str | os.PathLike[str], tile_si
         extent = (hi[:2] - lo[:2]) * np.asarray(factors[:2])  # metres
         area = max(float(np.prod(extent)), 1e-12)
         n_points = sum(s.n_points for s in good)
-        if sized:  # from the headers: a tile's block within the budget, 2 tiles per worker at least
+        least = tile_side_for(MIN_TILE_POINTS, n_points / area)  # smaller tiles: the halos would be most of the work
+        if sized:  # from the headers: a tile's block within the budget, 2 tiles per worker at least (if not too small)
             tile_size = min(tile_side_for(tile_points(memory), n_points / area),
-                            tile_side_for(n_points / (2 * backend.workers), n_points / area))
+                            max(tile_side_for(n_points / (2 * backend.workers), n_points / area), least))
         n_tiles = math.prod(max(1, math.ceil(e / tile_size)) for e in extent)
-        if n_tiles > max(4, n_points / MIN_TILE_POINTS):  # halos would outweigh the tiles' own points
-            raise LidarSigError(f"tiles of {tile_size:g} m would hold about {n_points / n_tiles:,.0f} points "
-                                f"each ({n_tiles:,} tiles); give a {arg('tile_size')} of at least "
-                                f"{tile_side_for(MIN_TILE_POINTS, n_points / area):.3g} m, or none for the "
-                                "default")
+        if not sized and n_tiles > max(4, n_points / MIN_TILE_POINTS):
+            raise LidarSigError(f"{arg('tile_size', tile_size)} is too small for these files: its tiles would hold "
+                                f"about {n_points / n_tiles:,.0f} points each, fewer than {MIN_TILE_POINTS}; give "
+                                f"at least {least:.3g} m, or leave it out for the default")
     work = prepare_work(work, resume, keep=[*files, *outputs])
     run = SetRun(sources, execution=backend.description)
     for s in sources:

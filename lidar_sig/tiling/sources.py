@@ -27,8 +27,9 @@ import numpy as np
 
 from ..numerics.bounds import bounds
 from ..method.cloud import MAX_COORDINATE, check_magnitude, kept_points
-from ..base.errors import LidarSigError, arg, counted, reason, special_file
+from ..base.errors import LidarSigError, arg, as_path, counted, reason, special_file
 from ..io import LAS_EXTENSIONS
+from .work import STAGED
 
 #: Bits of a point identifier that hold its index in its file (files up to 10^12 points).
 ID_BITS = 40
@@ -44,7 +45,7 @@ def expand(inputs):
     """The LAS/LAZ files of ``inputs`` (files and folders; a folder's files sorted by name)."""
     files = []
     for given in inputs:
-        p = Path(given)
+        p = as_path(given, "the inputs")
         if p.is_dir():
             found = sorted(q for q in p.iterdir() if q.is_file() and q.suffix.lower() in LAS_EXTENSIONS)
             if not found:
@@ -162,11 +163,11 @@ class Cells:
 
 
 def part_dir(work, source_id, part):
-    return Path(work) / "stage" / f"s{source_id}p{part}"
+    return Path(work) / STAGED / f"s{source_id}p{part}"
 
 
 def part_record(work, source_id, part):
-    return Path(work) / "stage" / f"s{source_id}p{part}.json"
+    return Path(work) / STAGED / f"s{source_id}p{part}.json"
 
 
 def file_identity(path):

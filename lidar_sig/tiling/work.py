@@ -1,25 +1,44 @@
 """The work folder of a tiled run: made, refused when it would hold something else or one of the
-run's inputs and outputs, removed after a complete run; and what a resumed run reads back from
-it besides the staged files and the tiles' results (the area-weight cap, which goes with the
-tiles' second-neighbour distances kept beside it)."""
+run's inputs and outputs, held by one run at a time and let go when its job ends (:func:`work_scope`),
+removed after a complete run or when it holds nothing worth resuming; and what a resumed run
+reads back from it besides the staged files and the tiles' results (the area-weight cap, which
+goes with the tiles' second-neighbour distances kept beside it)."""
 from __future__ import annotations
 
 import contextlib
+import contextvars
 import errno
 import json
+import os
 import shutil
+from collections.abc import Iterator
 from pathlib import Path
 
-from ..base.errors import LidarSigError, arg
+from ..base.errors import LidarSigError, arg, check_name_lengths
 from ..io.atomic import hold, keeping_work, release
 
 #: File that marks a folder as a work folder of ours (only such a folder is ever removed).
 WORK_MARK = "LIDAR_SIG_WORK"
 #: File of the set's area-weight cap, for a resumed run.
 AREA_CAP_FILE = "area_cap.json"
+#: Sub-folder of the staged parts of a set's files (each with its record, ``.json``).
+STAGED = "stage"
+#: Sub-folder of the finished tiles (each with its result, ``.npz``, written last).
+FINISHED = "tiles"
+#: Bytes the lock of a work folder adds to its name (``.NAME.lock`` beside it).
+LOCK_ROOM = 6
+
+
+class WorkFolderError(LidarSigError):
+    """A task could not write to the work folder (no space left, read-only): a failure of the
+    run, not of the tile it was computing; the run stops and names the folder."""
+
+
 # Work folders this process holds (path -> the descriptor of its lock): one run at a time
 # works in a folder; the system lets go of the lock when the process ends, however it ends.
 _HELD = {}
+# Work folders whose job is under way in this context (:func:`work_scope`): their end is its end
+_SCOPES = contextvars.ContextVar("lidar_sig_work_scopes", default=frozenset())
 
 
 def prepare_work(work, resume, keep=()):
@@ -27,8 +46,10 @@ def prepare_work(work, resume, keep=()):
     anything but an earlier run's work, that is or holds one of the paths ``keep`` (inputs and
     outputs: the folder is removed after a complete run), whose parent does not exist (a run
     never makes folders above its own), or that cannot be written (a read-only or immutable
-    place, a path under a file, /proc): each a LidarSigError naming the folder and the fix."""
+    place, a path under a file, /proc): each a LidarSigError naming the folder and the fix. The
+    folder is held by this run until the end of its :func:`work_scope`."""
     given = Path(work)
+    check_name_lengths(given, room=LOCK_ROOM)
     work = given.resolve()
     for p in keep:
         p = Path(p).resolve()
@@ -38,8 +59,10 @@ def prepare_work(work, resume, keep=()):
     if work.exists() and not work.is_dir():
         raise LidarSigError(f"is a file, not a folder; give {arg('work_dir')} a new or empty folder", path=given)
     if not work.parent.is_dir():
-        raise LidarSigError(f"cannot be the work folder: its parent folder does not exist; create it first, or "
-                            f"give {arg('work_dir')} another folder", path=given)
+        file = file_in_the_way(work.parent)
+        why = (f"{file} is a file, not a folder;" if file else
+               "its parent folder does not exist; create it first, or")
+        raise LidarSigError(f"cannot be the work folder: {why} give {arg('work_dir')} another folder", path=given)
     if str(work) not in _HELD:  # another run working there would lose its tiles, or read ours
         _HELD[str(work)] = hold(work, "working in", errors=lambda _: _work_errors(given))
     try:
@@ -65,6 +88,74 @@ def prepare_work(work, resume, keep=()):
     return work
 
 
+def file_in_the_way(folder: Path) -> Path | None:
+    """The first part of the path ``folder`` that is a file (so that no folder can be made
+    there: ``afile/sub``), or None."""
+    for part in reversed([folder, *folder.parents]):
+        if part.exists() and not part.is_dir():
+            return part
+    return None
+
+
+@contextlib.contextmanager
+def work_scope(work: str | os.PathLike[str]) -> Iterator[None]:
+    """The block of a job that uses the work folder ``work`` (the run in tiles, then the outputs
+    written from it). However the block ends, a folder this run held (:func:`prepare_work`) is
+    let go at its end: its lock removed, so that a resumed run or another may use it at once.
+    The folder itself (a job removes it after a complete run) is kept when it holds what a
+    resumed run reuses (:func:`resumable`) and removed otherwise; after a user error
+    (LidarSigError), only finished tiles are worth keeping (the run as asked cannot go on: a
+    run with the fix starts again from the tiles), and the error then says where they are kept.
+    A block inside another for the same folder (a run in tiles inside its job) leaves this to
+    the outer one."""
+    key = str(Path(work).resolve())
+    if key in _SCOPES.get():
+        yield
+        return
+    token = _SCOPES.set(_SCOPES.get() | {key})
+    try:
+        yield
+    except LidarSigError as exc:
+        if _settle(work, resumable(work, finished_only=True)):
+            kept = LidarSigError(f"{exc}; its finished tiles are kept in {work} for {arg('resume', True)}")
+            kept.path = exc.path
+            raise kept from None
+        raise
+    except BaseException:
+        _settle(work, resumable(work))
+        raise
+    else:
+        _settle(work, resumable(work))
+    finally:
+        _SCOPES.reset(token)
+
+
+def _settle(work, keep):
+    """At the end of a job: a work folder this run held is let go, and removed unless
+    ``keep``; True when it is kept (and was this run's)."""
+    if str(Path(work).resolve()) not in _HELD:  # not this run's: left as it is
+        return False
+    if keep:
+        let_go(work)
+        return True
+    remove_work(work)
+    return False
+
+
+def resumable(work: str | os.PathLike[str], finished_only: bool = False) -> bool:
+    """True when the work folder ``work`` holds what a resumed run reuses: a finished tile or
+    (unless ``finished_only``) a staged part of a file."""
+    work = Path(work)
+    if not (work / WORK_MARK).is_file():
+        return False
+    wanted = [(FINISHED, ".npz")] + ([] if finished_only else [(STAGED, ".json")])
+    for sub, ext in wanted:
+        with contextlib.suppress(OSError):
+            if any(p.suffix == ext and not p.name.startswith(".") for p in (work / sub).iterdir()):
+                return True
+    return False
+
+
 @contextlib.contextmanager
 def _work_errors(work):
     """A file-system error on the work folder as a LidarSigError naming it and the fix."""
@@ -73,8 +164,10 @@ def _work_errors(work):
     except OSError as exc:
         why = {errno.EROFS: "it is on a read-only file system", errno.EACCES: "permission denied",
                errno.EPERM: "the folder does not allow writing (immutable?)", errno.ENOTDIR: "a part of it is a file",
-               errno.ENOSPC: "no space left on the device"}.get(exc.errno, exc.strerror or str(exc))
-        raise LidarSigError(f"cannot be used as the work folder ({why}); give {arg('work_dir')} a folder you can "
+               errno.ENOSPC: "no space left on the device", errno.EDQUOT: "the disk quota is exceeded",
+               errno.ENAMETOOLONG: "its name is too long for the file system"}.get(exc.errno, exc.strerror or str(exc))
+        fix = "free some space or give" if exc.errno in (errno.ENOSPC, errno.EDQUOT) else "give"
+        raise LidarSigError(f"cannot be used as the work folder ({why}); {fix} {arg('work_dir')} a folder you can "
                             "write to", path=work) from None
 
 
@@ -82,17 +175,16 @@ def remove_work(work):
     """Remove a work folder of ours (after a complete run), and let go of it."""
     if (Path(work) / WORK_MARK).is_file():
         shutil.rmtree(work, ignore_errors=True)
+    keeping_work(Path(work).resolve(), kept=False)
     let_go(work)
 
 
 def let_go(work):
     """Let another run use the work folder ``work``, which this run held (it stays on disk,
     for a resumed run, unless removed)."""
-    work = Path(work).resolve()
-    keeping_work(work, kept=False)
-    fd = _HELD.pop(str(work), None)
+    fd = _HELD.pop(str(Path(work).resolve()), None)
     if fd is not None:
-        release(work, fd)
+        release(Path(work).resolve(), fd)
 
 
 def fresh_work(base):
@@ -102,8 +194,10 @@ def fresh_work(base):
     import tempfile
 
     if base is not None and not Path(base).is_dir():
-        raise LidarSigError(f"{arg('work_dir')} must be a folder that exists (each run in tiles makes its own "
-                            "folder in it)", path=base)
+        file = file_in_the_way(Path(base))
+        why = "is a file" if file == Path(base) else f"{file} is a file" if file else "does not exist"
+        raise LidarSigError(f"{why}: {arg('work_dir')} must be a folder that exists (each run in tiles makes its "
+                            "own folder in it)", path=base)
     with _work_errors(Path(base) if base is not None else Path(tempfile.gettempdir())):
         return Path(tempfile.mkdtemp(prefix="lidar-sig-work-", dir=base))
 
@@ -112,6 +206,7 @@ def discard_work(work):
     """Remove a temporary work folder made for one run (all of it: it was made new and holds
     nothing else)."""
     shutil.rmtree(work, ignore_errors=True)
+    keeping_work(Path(work).resolve(), kept=False)
     let_go(work)
 
 

@@ -212,3 +212,64 @@ def test_sigterm_while_click_parses_is_said_as_sigterm(monkeypatch, capsys):
     assert main(["plugins"]) == 128 + signal.SIGTERM
     lines = capsys.readouterr().err.strip().splitlines()
     assert len(lines) == 1 and "interrupted (SIGTERM)" in lines[0], lines
+
+
+def _after_the_package_starts(count):
+    """A test of import-log lines (``-X importtime``): true from the ``count``-th import to end
+    since lidar_sig/__init__.py began loading lazy_loader, its first import of a library (the
+    signal then lands in lidar_sig/__init__.py, the start of __main__ or the loading of the
+    command line, by ``count``)."""
+    seen = {"started": False, "after": 0}
+
+    def wanted(line):
+        if not line.startswith("import time:"):
+            return False
+        name = line.split("|")[-1].strip()
+        seen["started"] = seen["started"] or name == "lazy_loader"
+        if seen["started"]:
+            seen["after"] += 1
+        return seen["after"] >= count
+    return wanted
+
+
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
+@pytest.mark.parametrize("count, delay", [(1, 0.0), (1, 0.001), (2, 0.0), (4, 0.0), (4, 0.003), (8, 0.0),
+                                          (16, 0.0), (16, 0.01)])
+def test_a_signal_while_the_package_loads_is_one_line(tmp_path, signum, count, delay):
+    # Ctrl-C while lidar_sig/__init__.py loaded lazy_loader was a KeyboardInterrupt traceback, and
+    # SIGTERM until __main__ installed its handler ended the process silently (status -15)
+    out = tmp_path / "sample"
+    proc = start("sample", out, python=("-X", "importtime"))
+    read = wait_for_lines(proc, _after_the_package_starts(count))
+    time.sleep(delay)
+    proc.send_signal(signum)
+    assert_interrupted(proc, signum, read)
+    assert not out.exists()
+
+
+WORKER_MASK = """import multiprocessing, signal, sys
+import lidar_sig
+
+
+def blocked():
+    return sorted(int(s) for s in signal.pthread_sigmask(signal.SIG_BLOCK, []))
+
+
+if __name__ == "__main__":
+    print("program", blocked())
+    with multiprocessing.get_context("spawn").Pool(1) as pool:
+        print("worker", pool.apply(blocked))
+"""
+
+
+def test_the_signals_held_at_the_start_are_held_in_the_program_only_not_in_its_workers(tmp_path):
+    # a worker process of a run in tiles runs the lidar-sig script again (as __mp_main__) with the
+    # command's arguments: it must not hold Ctrl-C and SIGTERM, which only the command line lets go
+    script = tmp_path / "lidar-sig"  # the program's name: what the start looks for
+    script.write_text(WORKER_MASK)
+    done = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=120,
+                          stdin=subprocess.DEVNULL, preexec_fn=_interruptible)
+    assert done.returncode == 0, done.stderr
+    held = sorted([int(signal.SIGINT), int(signal.SIGTERM)])
+    # this script never runs the command line, which would let them go: the program holds them still
+    assert done.stdout.splitlines() == [f"program {held}", "worker []"], done.stdout
