@@ -203,12 +203,13 @@ def test_geotiff_has_the_crs_transform_bands_metadata_and_no_data(sample_run):
         assert [a, b, c, d, e, f] == info["grid"]["transform"]
         assert src.nodata == -9999.0 and src.profile["compress"] == "deflate"
         names = src.descriptions
-        assert names[0].startswith("score: delta_KL") and len(names) == 17
+        assert names[0].startswith("score: delta_KL") and len(names) == 18
         assert names[1].startswith("lod: level of detection") and names[2].startswith("significant:")
         assert {n.split(":")[0] for n in names[3:11]} == {"d_BD-Img", "s_SSIM", "d_EMD-Info", "d_EMD-Img",
                                                           "delta_FV", "delta_KL", "L1", "delta_H"}
-        assert names[-1].startswith("coverage:") and names[11].startswith("height_lod:")
-        height, height_lod = src.read(11), src.read(12)
+        assert names[16].startswith("coverage:") and names[11].startswith("height_lod:")
+        assert names[17].startswith("lod_ratio:")  # added last: the seventeen before keep their numbers
+        height, height_lod, lod_ratio = src.read(11), src.read(12), src.read(18)
         tags = src.tags()
         score, lod, significant = src.read(1), src.read(2), src.read(3)
         points_a = src.read(names.index("points of epoch A") + 1)
@@ -227,6 +228,10 @@ def test_geotiff_has_the_crs_transform_bands_metadata_and_no_data(sample_run):
         assert height_lod[r, k] == pytest.approx(cell["height_lod"], rel=1e-6)
         assert significant[r, k] == float(cell["significant"])
         assert cell["significant"] == (cell["score"] > cell["lod"] or cell["height"] > cell["height_lod"])
+        # how far the cell lies from its levels: above 1 exactly where it changed significantly
+        assert lod_ratio[r, k] == pytest.approx(max(cell["score"] / cell["lod"], cell["height"] / cell["height_lod"]),
+                                                rel=1e-6)
+        assert (lod_ratio[r, k] > 1) == cell["significant"]
         assert isinstance(cell["significant"], bool)
         assert set(cell["significant_metrics"]) <= set(METRIC_KEYS) | {"height"}
         assert points_a[r, k] == cell["points_a"]
@@ -327,6 +332,10 @@ def test_python_api_table_transform_and_ranking():
     for group in (significant, ~significant):  # then by z
         assert (np.diff(t["z"][order][group]) <= 0).all()
     assert np.array_equal(t["significant"], (t["score"] > t["lod"]) | (t["height"] > t["height_lod"]))
+    assert np.array_equal(t["lod_ratio"] > 1, t["significant"]) and np.isnan(t["lod_ratio"][~t["valid"]]).all()
+    compared = t[t["valid"]]
+    expected = np.maximum(compared["score"] / compared["lod"], compared["height"] / compared["height_lod"])
+    np.testing.assert_allclose(compared["lod_ratio"], expected, rtol=1e-6)
     # each of the two tests at 97.5%, so that together they keep 95%
     assert np.array_equal(t["lod"], cm.levels["kl"].lod_at(0.975), equal_nan=True)
     assert (t["lod"][t["valid"]] > cm.levels["kl"].lod[t["valid"]]).all()
@@ -553,8 +562,8 @@ def test_three_epochs_give_a_series_computed_once_per_epoch(tmp_path, monkeypatc
     series.save(tmp_path / "series.tif")
     with rasterio.open(tmp_path / "series.tif") as src:
         names = src.descriptions
-        assert len(names) == 2 * 17 + 1 and names[-1].startswith("when:")
-        assert names[0].startswith("interval 1 (") and names[17].startswith("interval 2 (")
+        assert len(names) == 2 * 18 + 1 and names[-1].startswith("when:")
+        assert names[0].startswith("interval 1 (") and names[18].startswith("interval 2 (")
         assert np.array_equal(src.read(len(names)) == -9999.0, ~valid.reshape(src.shape))
         assert src.tags()["epoch_3"]
     html = series.report().html()

@@ -80,17 +80,83 @@ def test_a_map_larger_than_a_tile_gets_overviews_and_stays_valid(tmp_path):
     assert leftovers(tmp_path) == []
 
 
-def test_the_style_beside_the_map_draws_the_score_as_one_band_with_a_legend(outputs):
-    out, info = outputs
-    qml = ET.parse(out / "map.qml").getroot()
-    renderer = qml.find("pipe/rasterrenderer")
-    assert renderer.get("type") == "singlebandpseudocolor" and renderer.get("band") == "1"
-    items = renderer.findall("rastershader/colorrampshader/item")
-    values = [float(i.get("value")) for i in items]
-    top = max(c["score"] for c in info["top"])
-    assert values[0] == 0.0 and values[-1] == pytest.approx(top, rel=1e-9) and values == sorted(values)
-    assert items[0].get("label").endswith("delta_KL as unchanged land") and "highest score" in items[-1].get("label")
-    assert [i.get("color") for i in (items[0], items[-1])] == ["#ffffcc", "#800026"]  # YlOrRd, as the PNG map
+def ramp_of(qml_path):
+    """(band, [(upper bound, colour, label)]) of a change map's style: the band it draws and its
+    classes, as QGIS reads the QML."""
+    renderer = ET.parse(qml_path).getroot().find("pipe/rasterrenderer")
+    assert renderer.get("type") == "singlebandpseudocolor"
+    shader = renderer.find("rastershader/colorrampshader")
+    assert shader.get("colorRampType") == "DISCRETE"  # classes: a value takes the first bound it does not exceed
+    return int(renderer.get("band")), [(float(i.get("value")), i.get("color"), i.get("label"))
+                                       for i in shader.findall("item")]
+
+
+def drawn(ramp, value):
+    """The colour QGIS gives ``value`` in a discrete ramp."""
+    return next(colour for bound, colour, _ in ramp if value <= bound)
+
+
+@pytest.fixture(scope="module")
+def three_maps(outputs, tmp_path_factory):
+    """The sample pair at 8 m cells (the command's), the same pair at 16 m cells (another
+    highest score) and epoch 1 against itself (no change: every score 0), each as its GeoTIFF,
+    its style and its compared cells' (lod_ratio, significant)."""
+    import rasterio
+
+    out = tmp_path_factory.mktemp("three")
+    maps = {"8 m": out / "m8.tif", "16 m": out / "m16.tif", "no change": out / "same.tif"}
+    done = [run("changes", SAMPLES / "epoch1.laz", ALIGNED, "--cell", "16", "-o", maps["16 m"], "-q"),
+            run("changes", SAMPLES / "epoch1.laz", SAMPLES / "epoch1.laz", "--cell", "8", "-o", maps["no change"],
+                "-q")]
+    assert all(d.returncode == 0 for d in done), [d.stderr for d in done]
+    shutil.copy(outputs[0] / "map.tif", maps["8 m"])
+    shutil.copy(outputs[0] / "map.qml", out / "m8.qml")
+    found = {}
+    for name, path in maps.items():
+        with rasterio.open(path) as src:
+            band = src.descriptions.index(next(d for d in src.descriptions if d.startswith("lod_ratio:"))) + 1
+            ratio, score, significant = src.read(band), src.read(1), src.read(3)
+        valid = significant != -9999.0
+        found[name] = {"qml": path.with_suffix(".qml"), "band": band, "ratio": ratio[valid],
+                       "significant": significant[valid] == 1, "top": float(score[valid].max())}
+    return found
+
+
+def test_the_map_s_colours_say_how_far_a_cell_is_from_its_level_the_same_on_every_map(three_maps):
+    maps = three_maps
+    assert maps["8 m"]["top"] != pytest.approx(maps["16 m"]["top"], rel=0.05) and maps["no change"]["top"] == 0
+    ramps = {name: ramp_of(m["qml"]) for name, m in maps.items()}
+    for name, (band, ramp) in ramps.items():
+        assert band == maps[name]["band"]  # the style draws lod_ratio, not the score
+        assert ramp == ramps["8 m"][1]  # the same classes, colours and legend on every map
+    ramp = ramps["8 m"][1]
+    bounds = [bound for bound, _, _ in ramp]
+    assert bounds == sorted(bounds) and 1.0 in bounds and bounds[-1] == float("inf")
+    assert not any("highest" in label for _, _, label in ramp)  # nothing drawn from the map's own maximum
+    below = {colour for bound, colour, _ in ramp if bound <= 1.0}
+    above = {colour for bound, colour, _ in ramp if bound > 1.0}
+    assert not below & above  # the level of detection is a break in the colours
+    assert all(c[1:3] == c[3:5] == c[5:7] for c in below)  # not significant: greys
+    assert all(int(c[1:3], 16) > int(c[5:7], 16) for c in above)  # significant: warm, yellow to dark red
+    # the same distance from the level gives the same colour on every map
+    for ratio in (0.0, 0.3, 0.99, 1.0, 1.01, 3.0, 50.0, 400.0):
+        assert len({drawn(r, ratio) for _, r in ramps.values()}) == 1
+    # each compared cell: a significant cell is drawn above the break, any other below it
+    for name, m in maps.items():
+        colours = [drawn(ramp, float(v)) for v in m["ratio"]]
+        assert [c in above for c in colours] == m["significant"].tolist(), name
+    assert maps["8 m"]["significant"].sum() >= 5 and not maps["no change"]["significant"].any()
+    assert {drawn(ramp, float(v)) for v in maps["no change"]["ratio"]} <= below  # no warm colour without change
+
+
+def test_gdal_reads_a_map_without_a_significant_cell_without_an_error(three_maps, tmp_path):
+    if shutil.which("gdalinfo") is None:
+        pytest.skip("gdalinfo is not installed (Debian: apt-get install gdal-bin)")
+    copy = tmp_path / "same.tif"  # gdalinfo -stats writes its .aux.xml beside the file
+    shutil.copy(three_maps["no change"]["qml"].with_suffix(".tif"), copy)
+    done = subprocess.run(["gdalinfo", "-stats", str(copy)], capture_output=True, text=True)
+    assert done.returncode == 0 and "ERROR" not in done.stdout + done.stderr, done.stderr
+    assert "STATISTICS_MAXIMUM=0" in done.stdout  # band 3, significant: 0 in every compared cell
 
 
 def test_a_style_file_in_the_way_is_refused_before_any_work(tmp_path):
@@ -125,24 +191,27 @@ def test_the_cells_geopackage_has_an_index_a_style_and_the_command_s_cells(outpu
     gpkg = out / "cells.gpkg"
     with sqlite3.connect(gpkg) as con:
         rows = con.execute('SELECT fid, row, col, coverage, points_a, points_b, score, lod, significant, "rank", '
-                           "top_class, top_class_change FROM cells").fetchall()
+                           "top_class, top_class_change, lod_ratio FROM cells").fetchall()
     index = check_geopackage(gpkg, "cells", len(rows))
     assert {r[0] for r in rows} == {i[0] for i in index}
     compared = {(c["row"], c["col"]): c for c in info["top"]}
     seen = set()
-    for fid, row, col, coverage, points_a, points_b, score, lod, significant, rank, top_class, change in rows:
+    for fid, row, col, coverage, points_a, points_b, score, lod, significant, rank, top_class, change, ratio in rows:
         if coverage == "compared":
             cell = compared[(row, col)]
             seen.add((row, col))
             assert (score, lod, bool(significant), rank) == (pytest.approx(cell["score"]), pytest.approx(cell["lod"]),
                                                             cell["significant"], cell["rank"])
             assert (points_a, points_b) == (cell["points_a"], cell["points_b"])
+            assert ratio == pytest.approx(max(cell["score"] / cell["lod"], cell["height"] / cell["height_lod"]))
+            assert (ratio > 1) == cell["significant"]  # the break of the map's colours
             classes = cell["classes"]  # {class: [points in A, points in B]}
             if top_class is not None:  # the class whose share changed most, in points of share
                 na, nb = (sum(v[k] for v in classes.values()) for k in (0, 1))
                 assert change == pytest.approx(100 * (classes[top_class][1] / nb - classes[top_class][0] / na))
         else:
-            assert score is None and significant is None and rank is None and points_a + points_b > 0
+            assert score is None and significant is None and rank is None and ratio is None
+            assert points_a + points_b > 0
             if coverage == "appeared":
                 assert points_a == 0 and points_b >= info["min_points"]
             elif coverage == "vanished":

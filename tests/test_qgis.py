@@ -5,6 +5,7 @@ outputs drawn in their styles, a run cancelled and errors turned into QgsProcess
 (tests/qgis_driver.py does the QGIS side). Pictures of the map as QGIS draws it are kept where
 LIDAR_SIG_SCREENSHOTS points, as the report's are. The parts of the provider that need no QGIS
 (reading the command's lines, running and cancelling it) are tested here with this Python."""
+import ast
 import importlib.util
 import json
 import os
@@ -25,6 +26,9 @@ QGIS_PYTHON = "/usr/bin/python3"
 DRIVER = ROOT / "tests" / "qgis_driver.py"
 LIDAR_SIG = Path(sys.executable).with_name("lidar-sig")  # the command the provider runs
 TILES = ("test_data_77055_627755_LA93_IGN69.laz", "test_data_77060_627755_LA93_IGN69.laz")
+ALIGNED = SAMPLES / "epoch2_aligned.laz"
+#: The provider's algorithms, one per job of the command.
+JOBS = ("saliency", "signature", "compare", "changes", "catalog", "similar", "outliers")
 
 
 def load_command_module():
@@ -101,6 +105,27 @@ def test_the_plugin_zip_holds_the_provider_its_metadata_and_the_license(tmp_path
 
     assert f"version={lidar_sig.__version__}\n" in metadata and "hasProcessingProvider=yes" in metadata
     assert list(tmp_path.iterdir()) == [tmp_path / "plugin.zip"]
+    # an icon for the provider and each algorithm; each command's page, which Help opens
+    assert {f"lidar_sig_provider/icons/{name}.svg" for name in ("lidar_sig", *JOBS)} <= names
+    assert {f"lidar_sig_provider/help/{job}.html" for job in JOBS} <= names
+    with zipfile.ZipFile(tmp_path / "plugin.zip") as z:
+        page = z.read("lidar_sig_provider/help/changes.html").decode()
+        icon = z.read("lidar_sig_provider/icons/changes.svg").decode()
+    assert "<h1><code>lidar-sig changes</code>: where epochs differ" in page
+    assert "<pre><code>$ lidar-sig changes" in page
+    assert '<a href="../changes.md' not in page  # a page not in the plugin keeps only its link's text
+    assert icon.startswith("<svg") and icon.rstrip().endswith("</svg>")
+
+
+def test_the_provider_and_its_algorithms_do_not_import_each_other():
+    folder = ROOT / "qgis" / "lidar_sig_provider"
+
+    def imports(name):
+        tree = ast.parse((folder / f"{name}.py").read_text())
+        return {node.module for node in ast.walk(tree) if isinstance(node, ast.ImportFrom) and node.level == 1}
+
+    assert "provider" not in imports("algorithms") and "algorithms" in imports("provider")
+    assert "settings" in imports("algorithms") and "settings" in imports("provider")
 
 
 # -- in QGIS ------------------------------------------------------------------------------------
@@ -171,8 +196,7 @@ def epochs(tmp_path_factory):
 def test_the_provider_loads_and_lists_one_algorithm_per_job(qgis):
     found = qgis("algorithms")
     assert found["provider"] == "lidar_sig"
-    assert found["algorithms"] == sorted(f"lidarsig:{job}" for job in ("saliency", "signature", "compare", "changes",
-                                                                         "catalog", "similar", "outliers"))
+    assert found["algorithms"] == sorted(f"lidarsig:{job}" for job in JOBS)
     assert all(found["help"].values()) and found["groups"] == ["Change maps", "Point clouds", "Survey catalogues"]
     assert {"EPOCH_A", "EPOCH_B", "OUTPUT", "CELLS", "POINTS", "REPORT", "OPTIONS"} <= \
         set(found["parameters"]["lidarsig:changes"])
@@ -181,51 +205,212 @@ def test_the_provider_loads_and_lists_one_algorithm_per_job(qgis):
     offered = json.loads(run("plugins", "--json").stdout)
     assert found["choices"]["lidarsig:saliency:DESCRIPTOR"] == list(offered["descriptors"])
     assert found["choices"]["lidarsig:saliency:STRATEGY"] == list(offered["strategies"])
-    assert found["choices"]["lidarsig:changes:SCORE"] == list(offered["metrics"])
+    # the metrics by the names the legends and the help use (delta_KL), run by the command's keys (kl)
+    assert found["choices"]["lidarsig:changes:SCORE"] == [m["name"] for m in offered["metrics"].values()]
+    assert "delta_KL" in found["choices"]["lidarsig:changes:SCORE"]
+    assert "kl" not in found["choices"]["lidarsig:changes:SCORE"]
+    # icons, and Help opening the command's page in the plugin
+    assert all(valid and Path(svg).is_file() and svg.endswith(".svg") for valid, svg in found["icons"].values())
+    assert len({svg for _, svg in found["icons"].values()}) == len(JOBS) + 1
+    for job in JOBS:
+        url = found["help_url"][f"lidarsig:{job}"]
+        assert url.startswith("file://") and url.endswith(f"/lidar_sig_provider/help/{job}.html")
+        assert Path(url[len("file://"):]).is_file()
+        # the More options hint names --classes only where the command takes it
+        takes = "--classes" in run(job, "--help").stdout
+        assert ("--classes" in found["options"][f"lidarsig:{job}"]) == takes, job
 
 
-def test_changes_in_qgis_loads_the_map_and_the_cells_in_their_styles(qgis, epochs, tmp_path):
+def lod_ratio_band(path):
+    """The number of the change map's band lod_ratio, from its description, its values and
+    those of band 3 (significant)."""
+    import rasterio
+
+    with rasterio.open(path) as src:
+        band = 1 + next(k for k, d in enumerate(src.descriptions) if d.startswith("lod_ratio:"))
+        return band, src.read(band), src.read(3)
+
+
+def test_changes_in_qgis_loads_the_map_and_the_cells_above_it_in_their_styles(qgis, epochs, tmp_path):
     a, b, edits = epochs
     shots = Path(os.environ["LIDAR_SIG_SCREENSHOTS"]) if os.environ.get("LIDAR_SIG_SCREENSHOTS") else None
     picture = tmp_path / "qgis_change_map.png"
+    # "map.tif" sorts after "cells.gpkg": Processing adds the map last, on top, unless put back;
+    # 10 m cells, so that the edits span cells at several distances from their levels
     found = qgis("changes", a=a, b=b, map=tmp_path / "map.tif", cells=tmp_path / "cells.gpkg",
-                 points=tmp_path / "later.laz", picture=picture)
+                 points=tmp_path / "later.laz", picture=picture, cell=10)
     # the command's own answer for the same epochs
-    done = run("changes", a, b, "--json", "--top", "100000", "-q")
+    done = run("changes", a, b, "--cell", "10", "--json", "--top", "100000", "-q")
     assert done.returncode == 0, done.stderr
     info = json.loads(done.stdout)
     significant = sorted([c["row"], c["col"]] for c in info["top"] if c["significant"])
-    assert len(significant) == 3  # the three edits (docs/changes.md; tests/test_change_lod.py)
-    assert found["results"]["SIGNIFICANT"] == 3 and found["results"]["COMPARED"] == info["grid"]["valid"]
+    assert len(significant) >= 3  # each of the three edits in one cell or more
+    assert found["results"]["SIGNIFICANT"] == len(significant)
+    assert found["results"]["COMPARED"] == info["grid"]["valid"]
     loaded = {Path(layer["source"].split("|")[0]).name: layer for layer in found["loaded"]}
     raster, cells = loaded["map.tif"], loaded["cells.gpkg"]
-    assert raster["valid"] and raster["renderer"] == "singlebandpseudocolor" and raster["band"] == 1
-    import rasterio
-
-    with rasterio.open(tmp_path / "map.tif") as written:  # every band of the file, the score drawn
-        assert raster["legend"][0][1] == "0: delta_KL as unchanged land" and raster["bands"] == written.count
+    band, _, _ = lod_ratio_band(tmp_path / "map.tif")
+    # the map drawn as one band, how far each cell lies from its level, never as bands 1-3 in RGB
+    assert raster["valid"] and raster["renderer"] == "singlebandpseudocolor" and raster["band"] == band
+    assert raster["legend"][0][1] == "under 0.25 x its level of detection" and raster["bands"] == band
+    assert [item[0] for item in raster["legend"]][2:4] == [1.0, 2.0]  # the break: at the level of detection
     assert cells["valid"] and cells["renderer"] == "RuleRenderer" and cells["labels"]
-    assert cells["rules"][0] == "changed significantly" and cells["crs"] == "EPSG:2154"
+    assert cells["rules"][0].startswith("changed significantly") and cells["crs"] == "EPSG:2154"
     assert cells["significant"] == significant  # the cells layer's significant cells are the command's
+    # the cells lie above the map, whatever order Processing added them in
+    order = [Path(source.split("|")[0]).name for source in found["order"]]
+    assert order.index("cells.gpkg") < order.index("map.tif")
     # each file opened by itself draws the same way
-    assert found["alone"]["map"]["renderer"] == "singlebandpseudocolor" and found["alone"]["map"]["band"] == 1
+    assert found["alone"]["map"]["renderer"] == "singlebandpseudocolor" and found["alone"]["map"]["band"] == band
     assert found["alone"]["cells"]["renderer"] == "RuleRenderer"
     # progress and the command line in the Processing log
     assert "cell metrics" in found["stages"] and "level of detection" in found["stages"]
     assert max(found["progress"]) == 100 and any(0 < p < 100 for p in found["progress"])
     assert any(kind == "command" and "lidar-sig changes" in text for kind, text in found["log"])
+    assert not any(kind == "error" for kind, _ in found["log"])
     assert (tmp_path / "later.laz").exists() and (tmp_path / "map.qml").exists()
-    # the picture of the map as QGIS draws it: the ramp's darkest red where the top cell is
+    # the picture of the project as QGIS draws it: the edited cells in warm colours, outlined
+    # near black above the raster; the others grey
     assert found["picture"] is True
     import cv2
 
-    image = cv2.imread(str(picture))[:, :, ::-1]
+    image = cv2.imread(str(picture))[:, :, ::-1].astype(int)
     assert image.shape[1] > 1500
-    dark_red = np.all(np.abs(image.astype(int) - [128, 0, 38]) < 30, axis=2).sum()
-    assert dark_red > 500, dark_red  # the highest score's colour and the significant cells' outline
+    inside = image[110:1000, 60:1040]  # the map item of the print layout (8-178 mm x 16-172 mm at 150 dpi)
+
+    def near(rgb):
+        return int(np.all(np.abs(inside - rgb) < 24, axis=2).sum())
+
+    warm = sum(near(rgb) for rgb in ([254, 217, 118], [253, 141, 60], [240, 59, 32], [189, 0, 38], [103, 0, 13]))
+    assert warm > 4000 * len(significant), warm  # cells of ~90 x 90 px
+    assert near([20, 20, 20]) > 300 * len(significant), near([20, 20, 20])  # their outlines, above the map
+    assert near([240, 240, 240]) + near([212, 212, 212]) > 100000  # the many cells far below their level
     if shots is not None:  # keep the artefact where CI or a person looks
         shots.mkdir(parents=True, exist_ok=True)
         shutil.copy(picture, shots / "qgis_change_map.png")
+
+
+@pytest.fixture(scope="module")
+def unchanged(epochs, tmp_path_factory):
+    """The first epoch resampled as a second survey of unchanged land: 80% of the points kept,
+    everything moved 0.3 m (as the edited epoch, without its edits)."""
+    from edited_epoch import KEEP, SHIFT, write_las
+
+    from lidar_sig.change_map import read_epoch
+    from lidar_sig.method.cloud import PointCloud
+
+    one = read_epoch([epochs[0]])
+    keep = np.random.default_rng(5).random(len(one.xyz)) < KEEP
+    two = PointCloud(np.round(one.xyz[keep] + np.asarray(SHIFT), 3), one.labels[keep], path="resampled",
+                     crs=one.crs, units=one.units)
+    path = tmp_path_factory.mktemp("unchanged") / "resampled.laz"
+    write_las(two, path)
+    return path
+
+
+def test_every_algorithm_with_temporary_outputs_returns_files_that_exist(qgis, epochs, unchanged, tmp_path):
+    a, b, _ = epochs
+    catalogue = tmp_path / "samples.h5"
+    assert run("catalog", SAMPLES, "-o", catalogue, "--workers", "1", "-q").returncode == 0
+    out = tmp_path / "out"
+    out.mkdir()
+    found = qgis("temporary", cloud=SAMPLES / "epoch1.laz", a=a, b=b, same=unchanged, folder=SAMPLES,
+                 catalogue=catalogue, out=out)
+    outputs = {"saliency": {"OUTPUT"}, "signature": {"OUTPUT", "PNG", "REPORT"}, "compare": {"METRICS", "REPORT"},
+               "changes": {"OUTPUT", "CELLS", "POINTS", "REPORT"}, "no change": {"OUTPUT", "CELLS"},
+               "catalog": {"OUTPUT"}, "similar": {"OUTPUT"}, "outliers": {"OUTPUT", "REPORT"},
+               "model": {"similar:similar tiles"}}
+    assert set(found) == {f"{name} {how}" for name in outputs for how in ("run", "load")}
+    for name, done in found.items():
+        assert set(done["exist"]) == outputs[name.rsplit(" ", 1)[0]], name  # a path for every output ...
+        assert all(done["exist"].values()), (name, done["results"])  # ... and a file there
+        assert done["errors"] == [] and done["gdal"] == [], name  # nothing "not correctly generated"
+    # processing.run loads nothing; runAndLoadResults loads the layers, styled, the cells above the map
+    assert all(found[f"{name} run"]["loaded"] == [] for name in outputs)
+    for name in ("changes", "no change"):
+        cells, raster = found[f"{name} load"]["loaded"]  # top first
+        assert (cells["name"], raster["name"]) == ("Cells", "Change map")
+        assert raster["renderer"] == "singlebandpseudocolor" and raster["band"] == raster["bands"] == 18
+        assert cells["renderer"] == "RuleRenderer" and cells["labels"]
+        assert raster["source"] == found[f"{name} load"]["results"]["OUTPUT"]
+    assert found["no change load"]["loaded"][0]["significant"] == []
+    [tiles] = found["outliers load"]["loaded"]
+    assert tiles["renderer"] == "RuleRenderer" and tiles["rules"][0] == "stands out (score 3.5 or more)"
+    # the model's similar read the catalogue its catalog wrote: the two other sample tiles
+    [table] = found["model load"]["loaded"]
+    assert table["features"] == 2 and [layer["features"] for layer in found["similar load"]["loaded"]] == [2]
+
+
+def test_the_dialog_s_default_run_loads_a_map_without_change_styled_below_its_cells(qgis, epochs, unchanged,
+                                                                                   tmp_path):
+    # as the dialog runs it: temporary outputs, a background task, then its loading of the layers
+    found = qgis("dialog", a=epochs[0], b=unchanged, out=tmp_path)
+    assert found["ok"] and found["results"]["SIGNIFICANT"] == 0 and all(found["exist"].values())
+    assert set(found["exist"]) == {"OUTPUT", "CELLS"}
+    cells, raster = found["loaded"]  # top first
+    assert cells["source"].split("|")[0] == found["results"]["CELLS"] and cells["renderer"] == "RuleRenderer"
+    assert raster["source"] == found["results"]["OUTPUT"] and raster["renderer"] == "singlebandpseudocolor"
+    assert raster["band"] == 18 and cells["significant"] == []
+    assert found["errors"] == [] and found["gdal"] == []  # no "band 3: dfMax should be strictly greater than dfMin"
+
+
+def test_a_command_that_wrote_nothing_or_bad_options_fail_in_one_line(qgis, tmp_path):
+    found = qgis("nothing", a=SAMPLES / "epoch1.laz", b=ALIGNED, folder=SAMPLES, out=tmp_path,
+                 map=tmp_path / "map.tif", cells=tmp_path / "cells.gpkg")
+    for name, output, what in (("changes --help", "map.tif", "Change map"), ("catalog --help", "c.h5", "Catalogue"),
+                               ("signature --help", "s.h5", "Signature archive"),
+                               ("changes /bin/true", "map.tif", "Change map"),
+                               ("saliency /bin/true", "a.laz", "Point cloud with saliency")):
+        message = found[name]
+        assert message is not None, name  # not a success
+        assert message.startswith(f"{tmp_path / output}: lidar-sig {name.split()[0]} ended without writing"), message
+        assert f"({what})" in message and "More options" in message and "\n" not in message, message
+    assert found["a quote"].startswith("More options '--classes \"paper' cannot be read (no closing quotation)")
+    assert "\n" not in found["a quote"] and "Traceback" not in found["a quote"]
+    assert found["files"] == []
+
+
+def test_a_cancelled_catalogue_can_be_resumed_with_its_file_not_as_a_temporary_output(qgis, tmp_path):
+    folder = need_data(IGN)
+    found = qgis("resume", folder=folder, catalogue=tmp_path / "survey.h5", percent=50)
+    assert found["file"].startswith("cancelled: lidar-sig: interrupted (SIGTERM)")
+    assert found["file"].endswith(f"kept in {tmp_path / 'survey.h5.work'}; to reuse it, run again with the same "
+                                  "output and Resume ticked")
+    # ticked, the run passes --resume and the command reuses the tiles the cancelled run finished
+    assert any(kind == "command" and text.endswith(" --resume") for kind, text in found["resumed"]["log"])
+    assert any(kind == "info" and "reused from the work folder" in text for kind, text in found["resumed"]["log"])
+    assert found["resumed"]["exists"]
+    assert "--resume" not in found["temporary"] and "a temporary output cannot be resumed" in found["temporary"]
+
+
+def test_qgis_draws_every_map_in_the_same_colours_for_the_same_distance_from_its_level(qgis, tmp_path):
+    # two maps with different highest scores, and a map with no change (epoch 1 against itself)
+    maps = {"8 m": ("--cell", "8"), "16 m": ("--cell", "16"), "no change": ("--cell", "8")}
+    paths, cells = {}, {}
+    for name, options in maps.items():
+        paths[name] = tmp_path / f"{name.replace(' ', '_')}.tif"
+        later = SAMPLES / "epoch1.laz" if name == "no change" else ALIGNED
+        done = run("changes", SAMPLES / "epoch1.laz", later, *options, "-o", paths[name], "-q")
+        assert done.returncode == 0, done.stderr
+        _, ratio, significant = lod_ratio_band(paths[name])
+        cells[name] = {(r, c): (float(ratio[r, c]), significant[r, c] == 1)
+                       for r, c in zip(*np.nonzero(ratio != -9999.0))}
+    values = sorted({ratio for found in cells.values() for ratio, _ in found.values()})
+    found = qgis("shades", maps=[str(p) for p in paths.values()], values=values, pixels=9)
+    first = found[str(paths["8 m"])]["values"]
+    drawn = {True: set(), False: set()}
+    for name, path in paths.items():
+        seen = found[str(path)]
+        assert seen["gdal"] == [], seen["gdal"]  # no "band 3: dfMax should be strictly greater than dfMin"
+        assert seen["values"] == first  # each map's style gives each distance the colour the first's gives it
+        for (r, c), (ratio, significant) in cells[name].items():
+            assert seen["cells"][f"{r},{c}"] == first[repr(ratio)]  # drawn as the style says
+            drawn[significant].add(seen["cells"][f"{r},{c}"])
+    assert not drawn[True] & drawn[False]  # a significant cell never looks like one that is not
+    assert len(drawn[True]) >= 2 and all(int(c[1:3], 16) > int(c[5:7], 16) for c in drawn[True])  # warm
+    assert all(c[1:3] == c[3:5] == c[5:7] for c in drawn[False])  # greys
+    assert not any(significant for _, significant in cells["no change"].values())
+    assert {found[str(paths["no change"])]["cells"][f"{r},{c}"] for r, c in cells["no change"]} <= drawn[False]
 
 
 def test_cancelling_in_qgis_stops_the_command_and_leaves_no_output(qgis, epochs, tmp_path):

@@ -42,9 +42,10 @@ COVERS = 0.5
 #: divided by its density, so that a sparser survey does not look absent).
 ALMOST_NONE = 0.1
 #: The ranking's fields, filled by the ranking: the score, its level of detection, delta_H's
-#: level, z (the larger of the two tests') and the significance.
+#: level, z (the larger of the two tests'), how far the cell lies from its levels (lod_ratio)
+#: and the significance.
 RANKING_FIELDS = (("score", np.float64), ("lod", np.float64), ("height_lod", np.float64), ("z", np.float64),
-                  ("significant", bool))
+                  ("lod_ratio", np.float64), ("significant", bool))
 
 
 @dataclass
@@ -126,7 +127,7 @@ def cell_table(grid, binned, min_points, densities=(1.0, 1.0)):
         table[f"undefined_{tag}"] = b.undefined / np.maximum(n, 1)
     table["valid"] = (table["defined_a"] >= min_points) & (table["defined_b"] >= min_points)
     table["coverage"] = coverage(table["points_a"], table["points_b"], table["valid"], min_points, densities)
-    for k in CHANGE_KEYS + ("score", "lod", "height_lod", "z"):
+    for k in CHANGE_KEYS + ("score", "lod", "height_lod", "z", "lod_ratio"):
         table[k] = np.nan
     return table
 

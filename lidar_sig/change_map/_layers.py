@@ -15,6 +15,20 @@ COVERAGE = ("compared", "appeared", "vanished", "too few points")
 COVERAGE_MEANS = {"compared": "compared", "appeared": "appeared: only the later epoch has points",
                   "vanished": "vanished: only the earlier epoch has points",  # enough to compare, both
                   "too few points": "too few points to compare"}
+#: The classes of the change map's colours, the same on every map: (upper bound of lod_ratio,
+#: RGB, legend) ascending; a cell takes the first class whose bound it does not exceed. lod_ratio
+#: is how far a cell lies from its level of detection (1 at the level), so the break at 1 is
+#: the significance test itself: greys up to 1 (not significant), ColorBrewer YlOrRd above.
+LEVEL_CLASSES = ((0.25, (240, 240, 240), "under 0.25 x its level of detection"),
+                 (0.5, (212, 212, 212), "0.25 to 0.5 x"),
+                 (1.0, (166, 166, 166), "0.5 to 1 x: not significant"),
+                 (2.0, (254, 217, 118), "1 to 2 x: changed significantly"),
+                 (5.0, (253, 141, 60), "2 to 5 x"),
+                 (20.0, (240, 59, 32), "5 to 20 x"),
+                 (100.0, (189, 0, 38), "20 to 100 x"),
+                 (float("inf"), (103, 0, 13), "over 100 x"))
+#: Outline of the cells that changed significantly: near black, seen on every class's colour.
+SIGNIFICANT_OUTLINE = (20, 20, 20)
 #: Classes listed per cell as changed most, at most, and the least change listed (points of share).
 CLASSES_LISTED = 3
 CLASS_CHANGE_MIN = 1.0
@@ -43,7 +57,7 @@ def class_changes(names, counts_a, counts_b):
 def cell_features(cm):
     """[(ring (5, 2), fields)] of every cell either epoch covers: row, col, coverage
     (:func:`coverage`), points of each epoch, rank (most changed first, compared cells), score, level of detection, z,
-    significant (1/0; NULL where not compared), the metrics in which it changed significantly,
+    lod_ratio, significant (1/0; NULL where not compared), the metrics in which it changed significantly,
     every metric, and the classes that changed most (share of B minus share of A, points)."""
     t = cm.table
     state = coverage(t)
@@ -60,7 +74,7 @@ def cell_features(cm):
         fields = {"row": int(rec["row"]), "col": int(rec["col"]), "coverage": str(state[i]),
                   "points_a": int(rec["points_a"]), "points_b": int(rec["points_b"]),
                   "rank": int(ranks[i]) if compared else None, "score": _number(rec["score"]),
-                  "lod": _number(rec["lod"]), "z": _number(rec["z"]),
+                  "lod": _number(rec["lod"]), "z": _number(rec["z"]), "lod_ratio": _number(rec["lod_ratio"]),
                   "significant": int(rec["significant"]) if compared else None,
                   "significant_metrics": ", ".join(k for k in METRIC_KEYS if k in cm.levels
                                                    and cm.levels[k].significant[i]) if compared else None,
@@ -75,6 +89,7 @@ def cell_features(cm):
 #: SQL types of the cells' fields that may be NULL in every cell.
 CELL_TYPES = {"rank": "INTEGER", "significant": "INTEGER", "significant_metrics": "TEXT", "top_class": "TEXT",
               "top_class_change": "REAL", "classes_changed": "TEXT", "score": "REAL", "lod": "REAL", "z": "REAL",
+              "lod_ratio": "REAL",
               **{k: "REAL" for k in METRIC_KEYS}}
 
 
@@ -88,14 +103,14 @@ def cells_layer(cm, name="cells"):
 
 
 def cells_style():
-    """The QGIS style of the cells (QML): the cells that changed significantly outlined in dark
-    red and labelled with their rank, the other compared cells thin grey, appeared and vanished
-    cells hatched, those with too few points dashed; no fill where compared, so that the score
-    map shows through."""
+    """The QGIS style of the cells (QML): the cells that changed significantly (lod_ratio above 1,
+    the break of the map's colours, :data:`LEVEL_CLASSES`) outlined near black and labelled with
+    their rank, the other compared cells thin grey, appeared and vanished cells hatched, those
+    with too few points dashed; no fill where compared, so that the map's colours show through."""
     from ..io.styles import Rule, polygon_qml
 
     return polygon_qml([
-        Rule("changed significantly", '"significant" = 1', (128, 0, 38), 0.7),
+        Rule("changed significantly: above its level of detection", '"significant" = 1', SIGNIFICANT_OUTLINE, 0.7),
         Rule("compared, not significantly changed", "\"coverage\" = 'compared' AND \"significant\" = 0",
              (110, 110, 110), 0.2),
         Rule(COVERAGE_MEANS["appeared"], "\"coverage\" = 'appeared'", (33, 102, 172), 0.4, fill=(33, 102, 172),
@@ -106,22 +121,13 @@ def cells_style():
     ], label_expression='if("significant" = 1, "rank", NULL)')
 
 
-def score_style(cm, band=1):
-    """The QGIS style of the change map's GeoTIFF (QML): band ``band`` (the score) as a
-    single-band pseudocolour, the PNG map's colours (ColorBrewer YlOrRd) from 0 to the highest
-    score, its legend naming the ranking metric."""
+def level_style(band):
+    """The QGIS style of the change map's GeoTIFF (QML): band ``band`` (lod_ratio) as a
+    single-band pseudocolour in the fixed classes :data:`LEVEL_CLASSES`, the same on every map
+    (it does not depend on the map's values), with the significance test the break at 1."""
     from ..io.styles import raster_qml
-    from ..reporting.map_image import SEQUENTIAL
 
-    scores = cm.table["score"][cm.table["valid"]]
-    top = float(np.nanmax(scores)) if len(scores) and np.isfinite(scores).any() else 1.0
-    top = top if top > 0 else 1.0
-    ranking = METRIC[cm.score].distance_name
-    values = np.linspace(0.0, top, len(SEQUENTIAL))
-    labels = [f"{v:.4g}" for v in values]
-    labels[0] = f"0: {ranking} as unchanged land"
-    labels[-1] = f"{top:.4g}: the highest score"
-    return raster_qml(band, [(v, tuple(c), label) for v, c, label in zip(values, SEQUENTIAL, labels)])
+    return raster_qml(band, list(LEVEL_CLASSES), ramp="discrete")
 
 
 def when_style(series, band):
@@ -133,7 +139,7 @@ def when_style(series, band):
     stops = [(0.0, (255, 255, 255), "0: compared, never significantly changed")]
     stops += [(float(k + 1), tuple(INTERVALS[k % len(INTERVALS)]), f"{k + 1}: {series.interval_name(k)}")
               for k in range(len(series.maps))]
-    return raster_qml(band, stops, interpolated=False)
+    return raster_qml(band, stops, ramp="exact")
 
 
 def point_change(cm):

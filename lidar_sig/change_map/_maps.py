@@ -37,6 +37,12 @@ LABEL_FREE_SCORE = "fv"
 #: Bands of the change map's GeoTIFF before the metrics and after them.
 BANDS = ("score", "lod", "significant")
 COUNT_BANDS = ("height_lod", "points_a", "points_b", "undefined_a", "undefined_b", "coverage")
+#: Bands after those, so that the first seventeen keep their numbers: how far each cell lies from
+#: its level of detection (the band the map's style draws).
+LEVEL_BANDS = ("lod_ratio",)
+#: The smallest float32 above 1: the lod_ratio of a significant cell whose quotient rounds to 1,
+#: so that "above 1" is "significant" in the table and in the GeoTIFF's float32 band alike.
+ABOVE_ONE = float(np.nextafter(np.float32(1.0), np.float32(2.0)))
 #: Names of what the change map compares: the metrics' and delta_H's.
 NAMES = {**METRIC_NAMES, HEIGHT: HEIGHT_NAME}
 
@@ -81,8 +87,9 @@ class ChangeMap:
         epochs hold ``min_points`` points with defined saliency or more), ``coverage`` (the
         code of :data:`~lidar_sig.change_map._cells.COVERAGE`), the metrics of
         :data:`lidar_sig.metrics.METRIC_KEYS` and ``height`` (delta_H, m), and the ranking's
-        ``score``, ``lod`` (its level of detection), ``height_lod`` (delta_H's), ``z`` and
-        ``significant`` (:meth:`rank_by`); NaN (False) where ``valid`` is False.
+        ``score``, ``lod`` (its level of detection), ``height_lod`` (delta_H's), ``z``,
+        ``lod_ratio`` (the larger of score / lod and delta_H / height_lod: above 1 exactly where
+        significant) and ``significant`` (:meth:`rank_by`); NaN (False) where ``valid`` is False.
     classes_a, classes_b : (cells, C) int64
         Points of each class of ``class_table`` per cell, in each epoch.
     grid : Grid
@@ -165,16 +172,20 @@ class ChangeMap:
         """Fill the table's ranking fields from metric ``score`` and delta_H, the two tests of
         a cell (:meth:`tests`): ``score``, its level ``lod`` and delta_H's ``height_lod`` at the
         confidence of each of the two tests (:func:`~lidar_sig.change_map._lod.pooled_confidence`),
-        ``z`` the larger of their z, and ``significant`` where either exceeds its level."""
+        ``z`` the larger of their z, ``significant`` where either exceeds its level, and
+        ``lod_ratio`` the larger of score / lod and delta_H / height_lod: how far the cell lies
+        from its levels (1 at the level), above 1 exactly where significant."""
         self.score = score
         each = pooled_confidence(self.confidence, len(self.tests))
         t = self.table
         t["score"] = score_values(t, score)
         t["lod"] = self.levels[score].lod_at(each)
         t["height_lod"] = self.levels[HEIGHT].lod_at(each)
-        with np.errstate(invalid="ignore"):
+        with np.errstate(invalid="ignore", divide="ignore"):
             t["z"] = np.fmax(self.levels[score].z, self.levels[HEIGHT].z)
             t["significant"] = t["valid"] & ((t["score"] > t["lod"]) | (t[HEIGHT] > t["height_lod"]))
+            ratio = np.fmax(t["score"] / t["lod"], t[HEIGHT] / t["height_lod"])
+        t["lod_ratio"] = np.where(t["valid"], np.where(t["significant"], np.fmax(ratio, ABOVE_ONE), ratio), np.nan)
 
     @property
     def names(self) -> dict[str, str]:
@@ -323,9 +334,9 @@ class ChangeMap:
     def bands(self, prefix=""):
         """(rasters, descriptions) of the GeoTIFF's bands: the score, its level of detection,
         significant (0/1), every metric and delta_H, delta_H's level, the points of each epoch,
-        their undefined shares and the coverage state; NaN where there is no data. ``prefix``
-        starts each description (a series' interval)."""
-        names = BANDS + CHANGE_KEYS + COUNT_BANDS
+        their undefined shares, the coverage state and lod_ratio; NaN where there is no data.
+        ``prefix`` starts each description (a series' interval)."""
+        names = self.band_names
         rasters = []
         for n in names:
             r = self.raster(n)
@@ -336,10 +347,15 @@ class ChangeMap:
             rasters.append(r)
         return rasters, [prefix + _band_description(n, self.score, self.confidence) for n in names]
 
+    @property
+    def band_names(self) -> tuple[str, ...]:
+        """The names of the GeoTIFF's bands, in order (:meth:`bands`)."""
+        return BANDS + CHANGE_KEYS + COUNT_BANDS + LEVEL_BANDS
+
     def save(self, path: str | os.PathLike[str], *, overwrite: bool = False) -> None:
         """Write by extension: ``.tif``/``.tiff`` a Cloud-Optimized GeoTIFF of the score, its
         level of detection, significance and every metric (needs rasterio: ``pip install
-        lidar-sig[geo]``) with its QGIS style beside it (``.qml``: the score as a colour ramp),
+        lidar-sig[geo]``) with its QGIS style beside it (``.qml``: lod_ratio in fixed colours),
         ``.gpkg`` the cells as a GeoPackage layer (:func:`~lidar_sig.change_map._layers.cell_features`),
         a point-cloud extension (``.laz``, ``.las``, ``.ply``, ``.csv``, ...) the later epoch's
         points with their saliency and their cell's change (ChangeScore, ChangeLoD,
@@ -352,13 +368,14 @@ class ChangeMap:
         if RASTER in holds:
             from ..io.geotiff import write_geotiff
             from ..io.styles import style_path, write_style
-            from ._layers import score_style
+            from ._layers import level_style
 
             rasters, descriptions = self.bands()
             with step(f"writing {Path(path).name}", bands=len(rasters)), output_group():
                 write_geotiff(path, rasters, descriptions, self.grid.transform, self.crs, overwrite=overwrite,
                               tags=self.metadata_tags())
-                write_style(style_path(path), score_style(self), overwrite=overwrite)
+                write_style(style_path(path), level_style(self.band_names.index("lod_ratio") + 1),
+                            overwrite=overwrite)
         elif VECTOR in holds:
             from ..io.geopackage import write_geopackage
             from ._layers import cells_layer
@@ -414,5 +431,7 @@ def _band_description(name, score, confidence=CONFIDENCE):
             "undefined_a": "share of A's points with undefined saliency",
             "undefined_b": "share of B's points with undefined saliency",
             "coverage": "coverage: " + ", ".join(f"{k} {v}" for k, v in COVERAGE.items())
-                        + " (only B covers the cell: appeared; only A: vanished)"}
+                        + " (only B covers the cell: appeared; only A: vanished)",
+            "lod_ratio": f"lod_ratio: how far the cell lies from its level of detection; the larger of score / lod "
+                         f"and {HEIGHT_NAME} / height_lod; 1 at the level, above 1 exactly where significant"}
     return text.get(name) or names[name]

@@ -8,6 +8,7 @@ written; QGIS 3.x fills in the rest (tests/test_qgis.py opens them in QGIS).
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from xml.sax.saxutils import quoteattr
 
@@ -22,16 +23,18 @@ def _hex(rgb):
     return "#" + "".join(f"{int(round(c)):02x}" for c in rgb)
 
 
-def raster_qml(band, stops, *, interpolated=True):
+def raster_qml(band, stops, *, ramp="interpolated"):
     """A single-band pseudocolour style of ``band`` (1-based): ``stops`` [(value, (r, g, b),
-    label)], ascending, each an entry of the legend; colours interpolated linearly between the
-    stops (``interpolated``) or each value its own colour (discrete classes). No-data pixels
-    stay transparent."""
+    label)], ascending, each an entry of the legend. ``ramp`` says how values between stops are
+    drawn: "interpolated" (linearly between the stops), "exact" (each value its own colour:
+    discrete codes) or "discrete" (classes: a value takes the colour of the first stop it does
+    not exceed; the last stop may be ``inf``). No-data pixels stay transparent."""
     values = [float(v) for v, _, _ in stops]
-    kind = "INTERPOLATED" if interpolated else "EXACT"
+    kind = {"interpolated": "INTERPOLATED", "exact": "EXACT", "discrete": "DISCRETE"}[ramp]
     items = "".join(f"<item value={quoteattr(repr(v))} label={quoteattr(label)} color={quoteattr(_hex(rgb))} "
                     'alpha="255"/>' for v, (_, rgb, label) in zip(values, stops))
-    lo, hi = min(values), max(values)
+    finite = [v for v in values if math.isfinite(v)]
+    lo, hi = min(finite), max(finite)
     return (_HEAD + '<qgis styleCategories="Symbology"><pipe>'
             f'<rasterrenderer type="singlebandpseudocolor" band="{int(band)}" opacity="1" alphaBand="-1" '
             f'classificationMin={quoteattr(repr(lo))} classificationMax={quoteattr(repr(hi))} nodataColor="">'

@@ -1,22 +1,25 @@
 """The provider's algorithms, one per job of the ``lidar-sig`` command: each gathers its
-parameters into the command's arguments, runs it (:mod:`.command`), and hands its outputs to
-QGIS: layers added to the project in their own styles, tables of the numbers it printed as JSON."""
+parameters into the command's arguments, runs it (:mod:`.command`), checks that it wrote every
+output, and hands its outputs to QGIS: layers added to the project in their own styles and
+order, tables of the numbers it printed as JSON."""
 import json
 import re
 import shlex
 from pathlib import Path
 
-from qgis.core import (QgsCoordinateReferenceSystem, QgsFeature, QgsField, QgsFields, QgsProcessing,
+from qgis.core import (QgsCoordinateReferenceSystem, QgsFeature, QgsField, QgsFields, QgsLayerTree, QgsProcessing,
                        QgsProcessingAlgorithm, QgsProcessingContext, QgsProcessingException,
                        QgsProcessingLayerPostProcessorInterface, QgsProcessingOutputNumber, QgsProcessingOutputString,
-                       QgsProcessingParameterEnum, QgsProcessingParameterFeatureSink,
+                       QgsProcessingParameterBoolean, QgsProcessingParameterEnum, QgsProcessingParameterFeatureSink,
                        QgsProcessingParameterFile, QgsProcessingParameterFileDestination, QgsProcessingParameterNumber,
                        QgsProcessingParameterRasterDestination, QgsProcessingParameterString,
-                       QgsProcessingParameterVectorDestination, QgsProcessingUtils, QgsProviderRegistry, QgsWkbTypes)
+                       QgsProcessingParameterVectorDestination, QgsProcessingUtils, QgsProviderRegistry, QgsRasterLayer,
+                       QgsWkbTypes)
 from qgis.PyQt.QtCore import QVariant
 
 from . import command
-from .provider import executable_setting
+from .resources import help_url, icon, icon_path
+from .settings import executable_setting
 
 CLOUDS = "Point clouds (*.laz *.las *.ply *.pcd *.xyz *.txt *.pts *.csv);;All files (*.*)"
 CLOUDS_OR_ARCHIVES = ("Point clouds and signature archives (*.laz *.las *.ply *.pcd *.xyz *.txt *.pts *.csv *.h5 "
@@ -27,29 +30,80 @@ HTML = "HTML files (*.html)"
 #: A destination that is no file: a provider's URI ("ogr:dbname=...", "postgres:...", "memory:"; a
 #: Windows drive is one letter).
 NOT_A_FILE = re.compile(r"^[A-Za-z]{2,}:|dbname=")
+#: Where the executable is set, for messages.
+SETTING = "Settings > Options > Processing > Providers > lidar_sig"
 
 
 def offered(kind):
-    """The names of the ``kind`` ("descriptors", "strategies" or "metrics") that the lidar-sig
-    run by the provider offers, in its order (:func:`command.listing`): a plugin installed
-    beside lidar_sig shows up here; [] when lidar-sig cannot be run (a job's run says why)."""
+    """{key: description} of the ``kind`` ("descriptors", "strategies" or "metrics") that the
+    lidar-sig run by the provider offers, in its order (:func:`command.listing`): a plugin
+    installed beside lidar_sig shows up here; {} when lidar-sig cannot be run (a job's run says
+    why)."""
     try:
         executable = command.find_executable(executable_setting())
     except command.CommandError:
-        return []
-    return list(command.listing(executable).get(kind, {}))
+        return {}
+    return dict(command.listing(executable).get(kind, {}))
+
+
+def metric_names():
+    """{name shown: the command's key} of the metrics offered (``delta_KL``: ``kl``), the key
+    where lidar-sig gives no name."""
+    return {value.get("name") or key: key for key, value in offered("metrics").items()}
 
 
 def choice(name, description, options):
     """A parameter that picks one of ``options`` by name (a script gives the name, e.g.
     ``"STRATEGY": "optimal"``), not set by default: the command then uses its own default."""
-    return QgsProcessingParameterEnum(name, description, options, allowMultiple=False, defaultValue=None,
+    return QgsProcessingParameterEnum(name, description, list(options), allowMultiple=False, defaultValue=None,
                                       optional=True, usesStaticStrings=True)
 
 
-class DefaultStyle(QgsProcessingLayerPostProcessorInterface):
-    """Draws a loaded output in the style it carries: the ``.qml`` beside a GeoTIFF, the default
-    row of a GeoPackage's ``layer_styles`` (Processing loads its outputs without them)."""
+def missing(path):
+    """Whether the output file ``path`` (a layer's source may end in ``|layername=...``) is not
+    there; a destination that is no file (a database table QGIS wrote) is not checked."""
+    return bool(path) and not NOT_A_FILE.search(path) and not Path(path.split("|")[0]).exists()
+
+
+class LoadOrder:
+    """The layers one run adds to the project, top first (the cells above the change map).
+    Processing adds a run's layers in the order of their paths, each on top of the others, so
+    the opaque raster could hide the cells; once each is added, the run's layers that share its
+    group of the layer tree are put back in this order where the topmost of them was."""
+
+    def __init__(self, paths):
+        self.paths = [p for p in paths if p]
+        self.ids = {}
+
+    def place(self, path, layer, project):
+        """Note that ``layer`` (from ``path``) was added to ``project``, and order the run's
+        layers added so far (each moved as a copy of its node, then the node removed: QGIS keeps
+        a layer in the project while a node shows it)."""
+        self.ids[path] = layer.id()
+        node = project.layerTreeRoot().findLayer(layer.id()) if project is not None else None
+        if node is None or node.parent() is None:
+            return
+        parent = node.parent()
+        wanted = [self.ids[p] for p in self.paths if p in self.ids]  # top first
+        here = {child.layerId(): (index, child) for index, child in enumerate(parent.children())
+                if QgsLayerTree.isLayer(child) and child.layerId() in wanted}
+        if len(here) < 2:
+            return
+        top = min(index for index, _ in here.values())
+        for k, layer_id in enumerate(layer_id for layer_id in wanted if layer_id in here):
+            parent.insertChildNode(top + k, here[layer_id][1].clone())
+        for _, child in here.values():
+            parent.removeChildNode(child)
+
+
+class StyledLayer(QgsProcessingLayerPostProcessorInterface):
+    """Draws a loaded output in the style it carries (the ``.qml`` beside a GeoTIFF, the default
+    row of a GeoPackage's ``layer_styles``: Processing loads its outputs without them) and puts
+    it in its place among the run's layers (:class:`LoadOrder`)."""
+
+    def __init__(self, path, order):
+        super().__init__()
+        self.path, self.order = path, order
 
     def postProcessLayer(self, layer, context, feedback):  # noqa: N802 - QGIS's name
         message, loaded = layer.loadDefaultStyle()
@@ -57,6 +111,7 @@ class DefaultStyle(QgsProcessingLayerPostProcessorInterface):
             layer.triggerRepaint()
         elif feedback is not None:
             feedback.pushInfo(f"{layer.name()}: no style of its own ({message})")
+        self.order.place(self.path, layer, context.project())
 
 
 #: The post-processors given to QGIS, by layer path: one per layer (QGIS takes each over and
@@ -65,14 +120,16 @@ _STYLERS = {}
 
 
 class LidarSigAlgorithm(QgsProcessingAlgorithm):
-    """A job of the ``lidar-sig`` command. A subclass sets ``job``, ``label``, ``group_name``
-    and ``help`` and defines :meth:`parameters` and :meth:`arguments`, and :meth:`results`
-    when the command's JSON gives outputs."""
+    """A job of the ``lidar-sig`` command. A subclass sets ``job``, ``label``, ``group_name``,
+    ``help`` and ``more_example`` and defines :meth:`parameters` and :meth:`arguments`, and
+    :meth:`results` when the command's JSON gives outputs."""
 
     job = ""
     label = ""
     group_name = ""
     help = ""
+    #: Options of this job's command a user may add in More options, as an example ("": none).
+    more_example = "--classes paper --k 10,20,30"
 
     def name(self):
         return self.job
@@ -86,18 +143,29 @@ class LidarSigAlgorithm(QgsProcessingAlgorithm):
     def groupId(self):
         return self.group_name.lower().replace(" ", "_")
 
+    def icon(self):
+        return icon(self.job)
+
+    def svgIconPath(self):
+        return icon_path(self.job)
+
+    def helpUrl(self):
+        return help_url(self.job)
+
     def shortHelpString(self):
         return (self.help + "<p>Runs <code>lidar-sig " + self.job + "</code> (the executable set in Settings &gt; "
                 "Options &gt; Processing &gt; Providers &gt; lidar_sig, or lidar-sig on PATH); its progress and notes "
-                "appear in this log, Cancel stops it with nothing half-written.</p>")
+                "appear in this log, Cancel stops it with nothing half-written. Help opens the command's page "
+                f"(docs/commands/{self.job}.md).</p>")
 
     def createInstance(self):
         return type(self)()
 
     def initAlgorithm(self, config=None):
         self.parameters()
-        options = QgsProcessingParameterString("OPTIONS", "More options of lidar-sig " + self.job + " (as on the "
-                                               "command line, e.g. --classes paper)", optional=True)
+        example = f", e.g. {self.more_example}" if self.more_example else ""
+        options = QgsProcessingParameterString("OPTIONS", f"More options of lidar-sig {self.job} (as on the command "
+                                               f"line{example})", optional=True)
         options.setFlags(options.flags() | options.FlagAdvanced)
         self.addParameter(options)
 
@@ -105,17 +173,17 @@ class LidarSigAlgorithm(QgsProcessingAlgorithm):
         """Add the job's parameters."""
         raise NotImplementedError
 
-    def arguments(self, parameters, context):
-        """The command's arguments after ``lidar-sig``."""
+    def arguments(self, parameters, context, outputs):
+        """The command's arguments after ``lidar-sig``; ``outputs`` are :meth:`destinations`."""
         raise NotImplementedError
 
-    def results(self, parameters, context, feedback, finished):
-        """The algorithm's outputs from the finished run."""
-        return {}
+    def results(self, parameters, context, feedback, finished, outputs):
+        """The algorithm's outputs from the finished run: by default the files it wrote."""
+        return dict(outputs)
 
     def processAlgorithm(self, parameters, context, feedback):
-        argv = [str(a) for a in self.arguments(parameters, context)]
-        argv += shlex.split(self.parameterAsString(parameters, "OPTIONS", context) or "")
+        outputs = self.destinations(parameters, context)
+        argv = [str(a) for a in self.arguments(parameters, context, outputs)] + self.more_options(parameters, context)
         try:
             executable = command.find_executable(executable_setting())
         except command.CommandError as exc:
@@ -132,14 +200,69 @@ class LidarSigAlgorithm(QgsProcessingAlgorithm):
         try:
             finished = command.run([executable, *argv], on_progress=progress, on_note=feedback.pushWarning,
                                    on_line=feedback.pushConsoleInfo, cancelled=feedback.isCanceled)
+        except command.Cancelled as exc:
+            raise QgsProcessingException(self.cancelled(exc.message, outputs)) from None
         except command.CommandError as exc:  # the command's one line, naming the file and the fix
             raise QgsProcessingException(exc.message) from None
         if finished.stdout and not finished.stdout.lstrip().startswith("{"):
             for line in finished.stdout.splitlines():
                 feedback.pushInfo(line)
-        return self.results(parameters, context, feedback, finished)
+        self.check_written(outputs)
+        results = self.results(parameters, context, feedback, finished, outputs)
+        destinations = {d.name() for d in self.destinationParameterDefinitions()}
+        self.check_written({k: v for k, v in results.items() if k in destinations and isinstance(v, str)})
+        return results
 
     # -- helpers -------------------------------------------------------------------------------
+
+    def destinations(self, parameters, context):
+        """{name: path, or None where an optional output is not asked for} of every file the
+        command writes, asked of QGIS once per run, for the command and the results alike: each
+        ask of a temporary output makes a new path. A layer's ask also has QGIS load it once the
+        run ends."""
+        found = {}
+        for definition in self.destinationParameterDefinitions():
+            name, kind = definition.name(), definition.type()
+            if kind in ("rasterDestination", "vectorDestination"):
+                found[name] = self.layer_file(parameters, name, context) or None
+            elif kind == "fileDestination":
+                found[name] = self.parameterAsFileOutput(parameters, name, context) or None
+        return found
+
+    def check_written(self, outputs):
+        """Refuse a run that did not write an output it returns ({name: path}): a command that
+        printed only its help (More options ``--help``) or an executable that is not lidar-sig."""
+        for name, path in outputs.items():
+            if missing(path):
+                what = self.parameterDefinition(name).description()
+                raise QgsProcessingException(f"{path}: lidar-sig {self.job} ended without writing this output "
+                                             f"({what}); check More options (--help, for one, only prints help) and "
+                                             f"that the executable set in {SETTING} is lidar-sig")
+
+    def more_options(self, parameters, context):
+        """The words of More options, split as a shell does; an unbalanced quote is refused in
+        one line."""
+        text = self.parameterAsString(parameters, "OPTIONS", context) or ""
+        try:
+            return shlex.split(text)
+        except ValueError as exc:  # "No closing quotation", "No escaped character"
+            why = str(exc)[:1].lower() + str(exc)[1:]
+            raise QgsProcessingException(f"More options {text!r} cannot be read ({why}); close the quote, or put a "
+                                         "backslash before a quote meant as a character") from None
+
+    def cancelled(self, message, outputs):
+        """The message of a cancelled run. Where the command says its work is kept "for
+        --resume", say how this algorithm can reuse it: through its Resume parameter with the
+        same output file, not with a temporary output (a new path each run), and not at all
+        where it has no such parameter."""
+        if " for --resume" not in message:
+            return message
+        if self.parameterDefinition("RESUME") is None:
+            return message.replace(" for --resume", " for the command's --resume (this algorithm starts over)")
+        if (outputs.get("OUTPUT") or "").startswith(QgsProcessingUtils.tempFolder()):
+            return message.replace(" for --resume", ", but a temporary output cannot be resumed: save the output to a "
+                                   "file to resume an interrupted run")
+        return message.replace(" for --resume", "; to reuse it, run again with the same output and Resume ticked")
 
     def add_file(self, name, description, file_filter=CLOUDS, *, optional=False, folder=False):
         behavior = QgsProcessingParameterFile.Folder if folder else QgsProcessingParameterFile.File
@@ -164,11 +287,23 @@ class LidarSigAlgorithm(QgsProcessingAlgorithm):
         value = self.parameterAsString(parameters, name, context)
         return value or None
 
-    def styled(self, path, context):
-        """Have the layer Processing loads from ``path`` drawn in its own style."""
-        if path and context.willLoadLayerOnCompletion(path):
-            _STYLERS[path] = DefaultStyle()
-            context.layerToLoadOnCompletionDetails(path).setPostProcessor(_STYLERS[path])
+    def styled(self, paths, context):
+        """Have the layers Processing loads from ``paths`` (top first) drawn in their own styles
+        and in this order. A raster is opened here in its style and handed to Processing, which
+        takes it from the context's layer store: opened by Processing, without its style, a
+        change map would first be set up as bands 1-3 in red, green and blue, whose histograms
+        GDAL refuses on a constant band ("band 3: dfMax should be strictly greater than dfMin"
+        where no cell is significant)."""
+        order = LoadOrder(paths)
+        for path in order.paths:
+            if context.willLoadLayerOnCompletion(path):
+                details = context.layerToLoadOnCompletionDetails(path)
+                if details.layerTypeHint == QgsProcessingUtils.LayerHint.Raster:
+                    layer = QgsRasterLayer(path, details.name, "gdal")  # its .qml read as it opens
+                    if layer.isValid():
+                        context.temporaryLayerStore().addMapLayer(layer)
+                _STYLERS[path] = StyledLayer(path, order)
+                details.setPostProcessor(_STYLERS[path])
 
     def load_points(self, path, name, context, feedback):
         """Add the point cloud ``path`` to the project when this QGIS reads LAS (its PDAL provider)."""
@@ -228,19 +363,17 @@ class SaliencyAlgorithm(LidarSigAlgorithm):
         self.addParameter(QgsProcessingParameterFileDestination("OUTPUT", "Point cloud with saliency",
                                                                 CLOUD_OUTPUTS))
 
-    def arguments(self, parameters, context):
-        args = ["saliency", self.path(parameters, "INPUT", context), "-o",
-                self.parameterAsFileOutput(parameters, "OUTPUT", context), "--overwrite"]
+    def arguments(self, parameters, context, outputs):
+        args = ["saliency", self.path(parameters, "INPUT", context), "-o", outputs["OUTPUT"], "--overwrite"]
         for name, option in (("DESCRIPTOR", "--descriptor"), ("STRATEGY", "--strategy")):
             picked = self.parameterAsEnumString(parameters, name, context)
             args += [option, picked] if picked else []
         k = self.parameterAsString(parameters, "K", context)
         return args + (["--k", k] if k else [])
 
-    def results(self, parameters, context, feedback, finished):
-        output = self.parameterAsFileOutput(parameters, "OUTPUT", context)
-        self.load_points(output, Path(output).stem, context, feedback)
-        return {"OUTPUT": output}
+    def results(self, parameters, context, feedback, finished, outputs):
+        self.load_points(outputs["OUTPUT"], Path(outputs["OUTPUT"]).stem, context, feedback)
+        return dict(outputs)
 
 
 class SignatureAlgorithm(LidarSigAlgorithm):
@@ -258,17 +391,11 @@ class SignatureAlgorithm(LidarSigAlgorithm):
                                                                 optional=True, createByDefault=False))
         self.add_report()
 
-    def arguments(self, parameters, context):
-        args = ["signature", self.path(parameters, "INPUT", context), "-o",
-                self.parameterAsFileOutput(parameters, "OUTPUT", context), "--overwrite"]
+    def arguments(self, parameters, context, outputs):
+        args = ["signature", self.path(parameters, "INPUT", context), "-o", outputs["OUTPUT"], "--overwrite"]
         for name, option in (("PNG", "--png"), ("REPORT", "--report")):
-            path = self.parameterAsFileOutput(parameters, name, context)
-            args += [option, path] if path else []
+            args += [option, outputs[name]] if outputs[name] else []
         return args
-
-    def results(self, parameters, context, feedback, finished):
-        return {name: self.parameterAsFileOutput(parameters, name, context) or None
-                for name in ("OUTPUT", "PNG", "REPORT")}
 
 
 class CompareAlgorithm(LidarSigAlgorithm):
@@ -285,13 +412,12 @@ class CompareAlgorithm(LidarSigAlgorithm):
         self.add_report()
         self.addParameter(QgsProcessingParameterFeatureSink("METRICS", "Metrics", QgsProcessing.TypeVector))
 
-    def arguments(self, parameters, context):
+    def arguments(self, parameters, context, outputs):
         args = ["compare", self.path(parameters, "A", context), self.path(parameters, "B", context), "--json",
                 "--overwrite"]
-        report = self.parameterAsFileOutput(parameters, "REPORT", context)
-        return args + (["--report", report] if report else [])
+        return args + (["--report", outputs["REPORT"]] if outputs["REPORT"] else [])
 
-    def results(self, parameters, context, feedback, finished):
+    def results(self, parameters, context, feedback, finished, outputs):
         data = _json(finished)
         for warning in data.get("warnings", []):
             feedback.pushWarning(warning)
@@ -301,7 +427,7 @@ class CompareAlgorithm(LidarSigAlgorithm):
         table = self.table(parameters, "METRICS", context, [("key", QVariant.String), ("metric", QVariant.String),
                                                              ("value", QVariant.Double), ("like", QVariant.String),
                                                              ("on_scale", QVariant.String)], rows)
-        return {"METRICS": table, "REPORT": self.parameterAsFileOutput(parameters, "REPORT", context) or None}
+        return {"METRICS": table, "REPORT": outputs["REPORT"]}
 
 
 # -- change maps ----------------------------------------------------------------------------------
@@ -312,10 +438,11 @@ class ChangesAlgorithm(LidarSigAlgorithm):
     group_name = "Change maps"
     help = ("<p>Where two epochs of the same area differ, without registration: per-cell signature metrics on a "
             "grid of the CRS, each cell with a level of detection that says whether it changed significantly. "
-            "The change map (a Cloud-Optimized GeoTIFF drawn as a colour ramp of the score) and the cells "
-            "(outlined where they changed significantly, hatched where only one epoch has points) are added to "
-            "the project; the later epoch's points with their cell's change on request.</p>"
-            "<p>An epoch is a point-cloud file; from a script, also a folder of tiles.</p>")
+            "The change map (a Cloud-Optimized GeoTIFF coloured by how far each cell lies from its level of "
+            "detection, in the same colours on every map: greys below the level, yellow to dark red above it) "
+            "and, above it, the cells (outlined where they changed significantly, hatched where only one epoch "
+            "has points) are added to the project; the later epoch's points with their cell's change on "
+            "request.</p><p>An epoch is a point-cloud file; from a script, also a folder of tiles.</p>")
 
     def parameters(self):
         self.add_file("EPOCH_A", "Earlier epoch")
@@ -326,7 +453,7 @@ class ChangesAlgorithm(LidarSigAlgorithm):
                                                        "from the densities)", QgsProcessingParameterNumber.Integer,
                                                        0, minValue=0))
         self.addParameter(choice("SCORE", "Metric that ranks the cells (not set: delta_KL, or delta_FV without "
-                                 "comparable classes)", offered("metrics")))
+                                 "comparable classes)", metric_names()))
         self.addParameter(QgsProcessingParameterNumber("CONFIDENCE", "Confidence of the level of detection",
                                                        QgsProcessingParameterNumber.Double, 0.95, minValue=0.5,
                                                        maxValue=0.9999))
@@ -339,39 +466,30 @@ class ChangesAlgorithm(LidarSigAlgorithm):
         self.addOutput(QgsProcessingOutputNumber("COMPARED", "Cells compared"))
         self.addOutput(QgsProcessingOutputNumber("SIGNIFICANT", "Cells changed significantly"))
 
-    def arguments(self, parameters, context):
+    def arguments(self, parameters, context, outputs):
         args = ["changes", self.path(parameters, "EPOCH_A", context), self.path(parameters, "EPOCH_B", context),
-                "-o", self.layer_file(parameters, "OUTPUT", context),
-                "--cells", self.layer_file(parameters, "CELLS", context),
-                "--json", "--top", "0", "--overwrite",
+                "-o", outputs["OUTPUT"], "--cells", outputs["CELLS"], "--json", "--top", "0", "--overwrite",
                 "--confidence", repr(self.parameterAsDouble(parameters, "CONFIDENCE", context))]
         cell = self.parameterAsDouble(parameters, "CELL", context)
         args += ["--cell", repr(cell)] if cell > 0 else []
         fewest = self.parameterAsInt(parameters, "MIN_POINTS", context)
         args += ["--min-points", str(fewest)] if fewest > 0 else []
-        score = self.parameterAsEnumString(parameters, "SCORE", context)
-        args += ["--score", score] if score else []
+        score = self.parameterAsEnumString(parameters, "SCORE", context)  # the name shown; the command's key
+        args += ["--score", metric_names().get(score, score)] if score else []
         for name, option in (("POINTS", "--points"), ("REPORT", "--report")):
-            path = self.parameterAsFileOutput(parameters, name, context)
-            args += [option, path] if path else []
+            args += [option, outputs[name]] if outputs[name] else []
         return args
 
-    def results(self, parameters, context, feedback, finished):
+    def results(self, parameters, context, feedback, finished, outputs):
         data = _json(finished)
         for warning in data.get("warnings", []):
             feedback.pushWarning(warning)
-        output = self.parameterAsOutputLayer(parameters, "OUTPUT", context)
-        cells = self.parameterAsOutputLayer(parameters, "CELLS", context)
-        points = self.parameterAsFileOutput(parameters, "POINTS", context) or None
-        for path in (output, cells):
-            self.styled(path, context)
-        self.load_points(points, "later epoch with change", context, feedback)
+        self.styled([outputs["CELLS"], outputs["OUTPUT"]], context)  # the cells above the map
+        self.load_points(outputs["POINTS"], "later epoch with change", context, feedback)
         grid = data["grid"]
         feedback.pushInfo(f"{grid['valid']} cells compared, {grid['significant']} changed significantly "
                           f"(score {data['score']}, cells of {data['cell_m']:g} m)")
-        return {"OUTPUT": output, "CELLS": cells, "POINTS": points,
-                "REPORT": self.parameterAsFileOutput(parameters, "REPORT", context) or None,
-                "COMPARED": grid["valid"], "SIGNIFICANT": grid["significant"]}
+        return {**outputs, "COMPARED": grid["valid"], "SIGNIFICANT": grid["significant"]}
 
 
 # -- survey catalogues ----------------------------------------------------------------------------
@@ -382,22 +500,23 @@ class CatalogAlgorithm(LidarSigAlgorithm):
     group_name = "Survey catalogues"
     help = ("<p>One signature per LAS/LAZ tile of a folder, in a catalogue for Similar tiles and Outlier tiles. An "
             "existing catalogue grows: new and changed tiles are computed, the others kept. Tiles that copy one "
-            "another (the same file, or the same points as COPC) are said in the log.</p>")
+            "another (the same file, or the same points as COPC) are said in the log. A run cancelled or "
+            "interrupted keeps the tiles it finished: run it again on the same catalogue file with Resume ticked "
+            "to reuse them.</p>")
 
     def parameters(self):
         self.add_file("INPUT", "Folder of LAS/LAZ tiles", folder=True)
         self.addParameter(QgsProcessingParameterFileDestination("OUTPUT", "Catalogue", ARCHIVES))
         self.addParameter(QgsProcessingParameterNumber("WORKERS", "Processes (0: every core)",
                                                        QgsProcessingParameterNumber.Integer, 0, minValue=0))
+        self.addParameter(QgsProcessingParameterBoolean("RESUME", "Resume: reuse the tiles an interrupted run of "
+                                                        "the same catalogue finished (--resume)", False))
 
-    def arguments(self, parameters, context):
-        args = ["catalog", self.path(parameters, "INPUT", context), "-o",
-                self.parameterAsFileOutput(parameters, "OUTPUT", context)]
+    def arguments(self, parameters, context, outputs):
+        args = ["catalog", self.path(parameters, "INPUT", context), "-o", outputs["OUTPUT"]]
         workers = self.parameterAsInt(parameters, "WORKERS", context)
-        return args + (["--workers", str(workers)] if workers > 0 else [])
-
-    def results(self, parameters, context, feedback, finished):
-        return {"OUTPUT": self.parameterAsFileOutput(parameters, "OUTPUT", context)}
+        args += ["--workers", str(workers)] if workers > 0 else []
+        return args + (["--resume"] if self.parameterAsBool(parameters, "RESUME", context) else [])
 
 
 class SimilarAlgorithm(LidarSigAlgorithm):
@@ -406,6 +525,7 @@ class SimilarAlgorithm(LidarSigAlgorithm):
     group_name = "Survey catalogues"
     help = ("<p>The tiles of a catalogue most like a query (a tile of the catalogue, left out of the answer, or "
             "another point cloud), best first, with every metric, as a table.</p>")
+    more_example = "--metric kl --shortlist 40"
 
     def parameters(self):
         self.add_file("QUERY", "Query: a tile of the catalogue or a point cloud")
@@ -414,11 +534,11 @@ class SimilarAlgorithm(LidarSigAlgorithm):
                                                        10, minValue=1))
         self.addParameter(QgsProcessingParameterFeatureSink("OUTPUT", "Similar tiles", QgsProcessing.TypeVector))
 
-    def arguments(self, parameters, context):
+    def arguments(self, parameters, context, outputs):
         return ["similar", self.path(parameters, "QUERY", context), self.path(parameters, "CATALOGUE", context),
                 "--top", str(self.parameterAsInt(parameters, "TOP", context)), "--json"]
 
-    def results(self, parameters, context, feedback, finished):
+    def results(self, parameters, context, feedback, finished, outputs):
         data = _json(finished)
         fields = [("rank", QVariant.Int), ("name", QVariant.String), ("path", QVariant.String),
                   ("distance", QVariant.Double)] + [(k, QVariant.Double) for k in offered("metrics")]
@@ -432,6 +552,7 @@ class OutliersAlgorithm(LidarSigAlgorithm):
     help = ("<p>Every tile of a catalogue scored by how unlike it is to its neighbours and the survey; a tile "
             "stands out from a score of 3.5. The footprints are added to the project, those that stand out in "
             "red and numbered.</p>")
+    more_example = ""  # its one other option, --top, changes only what it prints
 
     def parameters(self):
         self.add_file("CATALOGUE", "Catalogue", ARCHIVES)
@@ -443,21 +564,18 @@ class OutliersAlgorithm(LidarSigAlgorithm):
         self.addOutput(QgsProcessingOutputNumber("STANDING_OUT", "Tiles that stand out"))
         self.addOutput(QgsProcessingOutputString("VERDICT", "Verdict"))
 
-    def arguments(self, parameters, context):
-        args = ["outliers", self.path(parameters, "CATALOGUE", context), "-o",
-                self.layer_file(parameters, "OUTPUT", context), "--json", "--overwrite"]
+    def arguments(self, parameters, context, outputs):
+        args = ["outliers", self.path(parameters, "CATALOGUE", context), "-o", outputs["OUTPUT"], "--json",
+                "--overwrite"]
         reach = self.parameterAsDouble(parameters, "REACH", context)
         args += ["--reach", repr(reach)] if reach > 0 else []
-        report = self.parameterAsFileOutput(parameters, "REPORT", context)
-        return args + (["--report", report] if report else [])
+        return args + (["--report", outputs["REPORT"]] if outputs["REPORT"] else [])
 
-    def results(self, parameters, context, feedback, finished):
+    def results(self, parameters, context, feedback, finished, outputs):
         data = _json(finished)
-        output = self.parameterAsOutputLayer(parameters, "OUTPUT", context)
-        self.styled(output, context)
+        self.styled([outputs["OUTPUT"]], context)
         feedback.pushInfo(data["verdict"])
-        return {"OUTPUT": output, "REPORT": self.parameterAsFileOutput(parameters, "REPORT", context) or None,
-                "STANDING_OUT": data["standing_out"], "VERDICT": data["verdict"]}
+        return {**outputs, "STANDING_OUT": data["standing_out"], "VERDICT": data["verdict"]}
 
 
 ALGORITHMS = (SaliencyAlgorithm, SignatureAlgorithm, CompareAlgorithm, ChangesAlgorithm, CatalogAlgorithm,

@@ -1,17 +1,12 @@
-"""The Processing provider "lidar_sig": its algorithms, and the setting that says which
-``lidar-sig`` executable runs them (empty: ``lidar-sig`` on PATH), so that numba, Open3D and the
-rest live in their own Python rather than in QGIS's."""
+"""The Processing provider "lidar_sig": its algorithms, its icon, and the setting that says which
+``lidar-sig`` executable runs them (:mod:`.settings`)."""
 from qgis.core import QgsProcessingProvider
 
 from processing.core.ProcessingConfig import ProcessingConfig, Setting
 
-#: The provider's setting: the path of the lidar-sig executable.
-EXECUTABLE = "LIDAR_SIG_EXECUTABLE"
-
-
-def executable_setting():
-    """The path set in Settings > Options > Processing > Providers > lidar_sig, or None."""
-    return ProcessingConfig.getSetting(EXECUTABLE) or None
+from .algorithms import ALGORITHMS
+from .resources import icon, icon_path
+from .settings import EXECUTABLE
 
 
 class LidarSigProvider(QgsProcessingProvider):
@@ -28,8 +23,6 @@ class LidarSigProvider(QgsProcessingProvider):
         ProcessingConfig.removeSetting(EXECUTABLE)
 
     def loadAlgorithms(self):  # noqa: N802 - QGIS's name
-        from .algorithms import ALGORITHMS
-
         for algorithm in ALGORITHMS:
             self.addAlgorithm(algorithm())
 
@@ -41,6 +34,12 @@ class LidarSigProvider(QgsProcessingProvider):
 
     def longName(self):  # noqa: N802 - QGIS's name
         return "lidar_sig: signatures of airborne LiDAR point clouds"
+
+    def icon(self):
+        return icon("lidar_sig")
+
+    def svgIconPath(self):  # noqa: N802 - QGIS's name
+        return icon_path("lidar_sig")
 
     def supportsNonFileBasedOutput(self):  # noqa: N802 - the command writes files
         return False
