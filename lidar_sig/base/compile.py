@@ -7,6 +7,7 @@ installed read-only, in the user's cache folder (``$XDG_CACHE_HOME/numba``, else
 from __future__ import annotations
 
 import importlib
+import sys
 import threading
 import warnings
 
@@ -112,4 +113,15 @@ def announce_compilation(enabled, kernels, what):
         from .errors import LidarSigWarning
 
         _ANNOUNCED = True
-        warnings.warn(COMPILING.format(what=what), LidarSigWarning, stacklevel=3)
+        warnings.warn(COMPILING.format(what=what), LidarSigWarning, stacklevel=_outside_level())
+
+
+def _outside_level():
+    """The ``stacklevel`` that makes a warning given by this function's caller point at the
+    first frame outside the package: the user's call (``ls.Pipeline().run(...)``,
+    ``ls.changes(...)``, ``ls.Catalog.build(...)``, a job ...), whichever public entry led
+    there, rather than the library's own line."""
+    frame, level = sys._getframe(1), 1
+    while frame.f_back is not None and frame.f_globals.get("__name__", "").partition(".")[0] == "lidar_sig":
+        frame, level = frame.f_back, level + 1
+    return level

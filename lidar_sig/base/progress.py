@@ -19,13 +19,16 @@ Progress takes one of two forms (docs/scripting.md):
   100% when it ends (not said when it fails); a stage without a count of items says 0% and
   100% only. The stage is free text without ": ".
 
+In a notebook (this process is a Jupyter kernel), bars are tqdm's notebook widgets when
+ipywidgets is installed (:func:`widgets`), else tqdm's text bars on stderr.
+
 Which form, if any: an explicit ``enabled`` wins (False: none; True: lines if the environment
 variable ``LIDAR_SIG_PROGRESS`` says ``lines``, else bars); else the setting of the enclosing
 :func:`settings` block (the command line's ``--quiet`` is False); else ``LIDAR_SIG_PROGRESS``:
 ``auto`` (the default: bars when stderr is a terminal; otherwise lines from the command line, a
-program reading its stderr, and nothing from Python, a script or a notebook), ``lines``, ``bars``
-or ``none``. tqdm is imported when a bar is first made or a line said above one (not when the
-command line starts).
+program reading its stderr; in a notebook, bars where ipywidgets draws them, else lines; and
+nothing from a Python script off a terminal), ``lines``, ``bars`` or ``none``. tqdm is imported
+when a bar is first made or a line said above one (not when the command line starts).
 """
 from __future__ import annotations
 
@@ -79,9 +82,46 @@ def form(enabled=None):
         if setting == "auto":
             if sys.stderr.isatty():
                 return "bars"
-            return "lines" if FACE.get() == "cli" else None  # a program reads the command's stderr
+            if FACE.get() == "cli":
+                return "lines"  # a program reads the command's stderr
+            if in_notebook():  # a person watches the cell: widgets where they draw, else lines
+                return "bars" if widgets() else "lines"
+            return None
         return None if setting == "none" else setting
     return "lines" if setting == "lines" else "bars"  # asked for explicitly
+
+
+def in_notebook() -> bool:
+    """Whether this process is a Jupyter kernel (a notebook's in JupyterLab, Notebook, VS Code),
+    whose stderr is not a terminal but whose cells a person watches."""
+    ipython = sys.modules.get("IPython")
+    if ipython is None or "ipykernel" not in sys.modules:
+        return False
+    try:
+        shell = ipython.get_ipython()
+    except Exception:  # an IPython too old or half imported: not a kernel we know
+        return False
+    return type(shell).__name__ == "ZMQInteractiveShell"
+
+
+def widgets() -> bool:
+    """Whether bars show as tqdm's notebook widgets: in a notebook, with ipywidgets installed."""
+    if not in_notebook():
+        return False
+    try:
+        import ipywidgets  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def _bar(**options):
+    """A tqdm bar: the notebook's widget where :func:`widgets`, else text on stderr."""
+    if widgets():
+        from tqdm.notebook import tqdm
+    else:
+        from tqdm import tqdm
+    return tqdm(file=sys.stderr, **options)
 
 
 def shown(enabled=None):
@@ -187,9 +227,11 @@ def progress(iterable, *, total=None, desc="", enabled=None, unit="it"):
         if total is None and hasattr(iterable, "__len__"):
             total = len(iterable)
         return Lines(iterable, stage=desc or "working", total=total)
-    from tqdm import tqdm
+    if how is None:
+        from tqdm import tqdm
 
-    return tqdm(iterable, total=total, desc=desc, disable=how is None, unit=unit, leave=False, file=sys.stderr)
+        return tqdm(iterable, total=total, desc=desc, disable=True)
+    return _bar(iterable=iterable, total=total, desc=desc, unit=unit, leave=False)
 
 
 class Step:
@@ -206,10 +248,7 @@ class Step:
         if how == "lines":
             self._lines = Lines(stage=name)
         elif how == "bars":
-            from tqdm import tqdm
-
-            self._bar = tqdm(total=None, desc=name, bar_format="{desc}: {elapsed}", leave=False,
-                             file=sys.stderr, delay=STEP_DELAY)
+            self._bar = _bar(total=None, desc=name, bar_format="{desc}: {elapsed}", leave=False, delay=STEP_DELAY)
             threading.Thread(target=self._refresh, daemon=True).start()
 
     def _refresh(self):

@@ -7,15 +7,25 @@ from __future__ import annotations
 
 import base64
 import html
+from pathlib import PurePath
 from collections.abc import Iterable, Sequence
 from typing import Any
 
-#: Style of a card, scoped to it (a notebook's own styles are left alone).
-CSS = (".lidar-sig-card{font-family:system-ui,sans-serif;font-size:13px;color:#222;display:flex;gap:14px;"
-       "align-items:flex-start}.lidar-sig-card b{font-size:14px}.lidar-sig-card table{border-collapse:collapse;"
-       "margin-top:4px}.lidar-sig-card td,.lidar-sig-card th{border:1px solid #ddd;padding:2px 6px;text-align:left}"
-       ".lidar-sig-card th{background:#f4f4f4}.lidar-sig-card td.n{text-align:right;"
-       "font-variant-numeric:tabular-nums}.lidar-sig-card .m{color:#666}.lidar-sig-card img{border:1px solid #eee}")
+#: Style of a card, scoped to it (a notebook's own styles are left alone). The table's rules name
+#: its class as well as the card's, so that they outrank a notebook's rules for every table
+#: (JupyterLab right-aligns every cell and centres tables with ``:not(.jp-RenderedMarkdown)
+#: .jp-RenderedHTMLCommon td``): text cells left, numbers right, tables against the left edge.
+#: The card has a white ground of its own, so that its dark text reads on a dark theme too.
+_TABLE = ".lidar-sig-card table.lidar-sig-table"
+CSS = (".lidar-sig-card{font-family:system-ui,sans-serif;font-size:13px;color:#222;background:#fff;display:flex;"
+       "gap:14px;align-items:flex-start;padding:4px;text-align:left}.lidar-sig-card b{font-size:14px}"
+       f"{_TABLE}{{border-collapse:collapse;margin:4px 0 0 0;table-layout:auto;font-size:12px;color:#222}}"
+       f"{_TABLE} td,{_TABLE} th{{border:1px solid #ddd;padding:2px 6px;text-align:left;vertical-align:top;"
+       f"white-space:normal;line-height:1.35}}{_TABLE} th{{background:#f4f4f4;font-weight:600}}"
+       f"{_TABLE} td:first-child{{white-space:nowrap}}{_TABLE} td.n,{_TABLE} th.n{{text-align:right;"
+       "font-variant-numeric:tabular-nums;white-space:nowrap}"
+       ".lidar-sig-card .m{color:#666}.lidar-sig-card img{border:1px solid #eee;max-width:none}"
+       ".lidar-sig-card>div{min-width:0}.lidar-sig-card .lidar-sig-scroll{overflow-x:auto;max-width:100%}")
 
 
 #: The longest one-line ``repr``, in characters: what a notebook's output cell shows unfolded.
@@ -24,8 +34,6 @@ REPR_LIMIT = 300
 
 def short_name(name: Any) -> str:
     """A file's name without its folders (a path says where, a repr only which); other names as they are."""
-    from pathlib import PurePath
-
     text = str(name)
     return PurePath(text).name or text
 
@@ -58,6 +66,30 @@ def png_bytes(rgb: Any) -> bytes:
     return data.tobytes()
 
 
+def outlined(rgb: Any, corners: Any, labels: Sequence[str], size: int = 360) -> Any:
+    """(size, size, 3) uint8: the square RGB picture ``rgb`` (uint8, or floats in [0, 1])
+    scaled to ``size`` pixels, the polygon of ``corners`` ((x, y) in pixels of ``rgb``) outlined
+    and each corner's label beside it: above a corner of the upper half, below one of the lower
+    half; centred on it, or starting (ending) at it near the left (right) edge."""
+    import cv2
+    import numpy as np
+
+    rgb = np.asarray(rgb)
+    if rgb.dtype != np.uint8:
+        rgb = np.clip(np.rint(rgb * 255.0), 0, 255).astype(np.uint8)
+    out = np.ascontiguousarray(cv2.resize(rgb, (size, size), interpolation=cv2.INTER_AREA))
+    xy = np.asarray(corners, np.float64) * (size / rgb.shape[1])
+    ink, scale, gap = (60, 60, 60), 0.62 * size / 360, max(3, size // 60)
+    cv2.polylines(out, [np.rint(xy).astype(np.int32)], True, ink, max(1, size // 240), cv2.LINE_AA)
+    for (x, y), label in zip(xy, labels):
+        (w, h), _ = cv2.getTextSize(label, cv2.FONT_HERSHEY_SIMPLEX, scale, 1)
+        left = x - w / 2 if size / 3 <= x <= 2 * size / 3 else x - gap if x < size / 3 else x - w + gap
+        base = y - gap if y < size / 2 else y + gap + h
+        org = (int(min(max(left, 1), size - w - 1)), int(min(max(base, h + 1), size - 2)))
+        cv2.putText(out, label, org, cv2.FONT_HERSHEY_SIMPLEX, scale, ink, 1, cv2.LINE_AA)
+    return out
+
+
 def png_uri(rgb: Any) -> str:
     """A ``data:`` URI of an RGB picture, for an ``<img>``."""
     return "data:image/png;base64," + base64.b64encode(png_bytes(rgb)).decode("ascii")
@@ -74,10 +106,66 @@ def card(title: str, facts: Iterable[str] = (), *, header: Sequence[str] = (), r
     rows = list(rows)
     grid = ""
     if rows:
-        head = "".join(f"<th>{esc(h)}</th>" for h in header)
+        head = "".join(f'<th class="n">{esc(h)}</th>' if i in numeric else f"<th>{esc(h)}</th>"
+                       for i, h in enumerate(header))
         body = "".join("<tr>" + "".join(f'<td class="n">{esc(c)}</td>' if i in numeric else f"<td>{esc(c)}</td>"
                                         for i, c in enumerate(row)) + "</tr>" for row in rows)
-        grid = f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
+        grid = (f'<div class="lidar-sig-scroll"><table class="lidar-sig-table"><thead><tr>{head}</tr></thead>'
+                f"<tbody>{body}</tbody></table></div>")
     muted = f'<div class="m">{esc(note)}</div>' if note else ""
     return (f'<div class="lidar-sig-card"><style>{CSS}</style>{picture}<div><b>{esc(title)}</b>{lines}{grid}'
             f"{muted}</div></div>")
+
+
+class Records(list):
+    """A list of records (dicts of plain values) that prints in one line and shows as a card's
+    table: a list like any other for indexing, iterating and JSON. A subclass names what the
+    records are (``title``), the columns its card shows (``columns``: (header, function of a
+    record giving the text, numeric?)) and what its line says (:meth:`summary`); ``facts``
+    (keyword arguments) are kept for both."""
+
+    title = "records"
+    columns: tuple = ()
+    #: Records shown in a card's table, at most.
+    SHOWN = 20
+
+    def __init__(self, records: Iterable[dict] = (), **facts: Any) -> None:
+        super().__init__(records)
+        self.facts = facts
+
+    def summary(self) -> str:
+        """What the records are, in a few words (the one-line repr after the type's name)."""
+        return f"{len(self)} {self.title}"
+
+    def __repr__(self) -> str:
+        return one_line(f"<{type(self).__name__} {self.summary()}>")
+
+    def _repr_html_(self) -> str:
+        return self.card(type(self).__name__, [self.summary()])
+
+    def card(self, title: str, facts: Iterable[str], *, note: str = "", **options: Any) -> str:
+        """A card of ``title`` and ``facts`` above the table of the first :data:`SHOWN` records
+        (``options`` as :func:`card`'s: a picture)."""
+        columns = self.columns
+        rows = [[show(r) for _, show, _ in columns] for r in self[:self.SHOWN]]
+        more = f"... and {len(self) - self.SHOWN:,} more. " if len(self) > self.SHOWN else ""
+        return card(title, facts, header=[h for h, _, _ in columns], rows=rows,
+                    numeric=[i for i, (_, _, n) in enumerate(columns) if n], note=more + note, **options)
+
+    def __reduce__(self):  # a copy or a pickle keeps the type and the facts
+        return (_records, (type(self), list(self), self.facts))
+
+
+def _records(kind, records, facts):
+    return kind(records, **facts)
+
+
+class Files(list):
+    """The paths a call wrote, as a list, printed in one line: how many, in which folder, the
+    first names."""
+
+    def __repr__(self) -> str:
+        folders = {str(PurePath(p).parent) for p in self}
+        where = f" in {short_name(folders.pop())}" if len(folders) == 1 else ""
+        names = ", ".join(PurePath(p).name for p in self[:4]) + (", ..." if len(self) > 4 else "")
+        return one_line(f"<Files {len(self)} written{where}: {names}>")

@@ -41,7 +41,7 @@ VALUE_FLOOR = 1e-12
 MAD_SCALE = 1.4826
 
 
-@dataclass
+@dataclass(repr=False)
 class Level:
     """The level of detection of one metric over a change map's cells, (cells,) arrays NaN
     (``significant`` False) where a cell is not compared.
@@ -50,7 +50,8 @@ class Level:
     the replicates' logs (sqrt(ln(1 + CV²)) of the replicates); ``z``: how far the cell's score lies above its expected value, in
     spreads; ``lod``: the score above which the cell changed significantly; ``beta``, ``tau``:
     the survey part (median and robust spread of ln(score / mu0) over the compared cells);
-    ``survey``: whether it was estimated (at least :data:`MIN_CELLS` cells).
+    ``survey``: whether it was estimated (at least :data:`MIN_CELLS` cells); ``key``: the
+    metric's key (``"height"`` for delta_H), when it is known.
     """
 
     mu0: np.ndarray
@@ -62,11 +63,72 @@ class Level:
     tau: float
     survey: bool
     confidence: float
+    key: str = ""
+
+    @property
+    def n_compared(self) -> int:
+        """Cells compared in this metric (its score and level defined)."""
+        return int(np.isfinite(self.lod).sum())
+
+    @property
+    def n_significant(self) -> int:
+        """Cells whose score exceeds the level."""
+        return int(self.significant.sum())
+
+    def survey_text(self) -> str:
+        """The survey part in words: beta as a factor and tau, or why there is none."""
+        if not self.n_compared:
+            return "not compared"
+        if not self.survey:
+            return f"no survey part (fewer than {MIN_CELLS} cells)"
+        return f"beta {self.beta:.3g} (x{np.exp(self.beta):.3g}), tau {self.tau:.3g}"
+
+    def __repr__(self):
+        of = f" of {self.key}" if self.key else ""
+        return (f"<Level{of} at {self.confidence:.0%}: {self.n_compared} cells compared, {self.n_significant} "
+                f"significant; {self.survey_text()}>")
 
     def lod_at(self, confidence):
         """(cells,) the level of detection at another ``confidence`` (NaN where not compared)."""
         spread = np.sqrt(self.tau ** 2 + self.sigma ** 2)
         return self.mu0 * np.exp(self.beta + quantile(confidence) * spread)
+
+
+class Levels(dict):
+    """{metric key: :class:`Level`} of a change map (``"height"`` for delta_H): a dict that
+    prints in one line (each metric's survey part and significant cells) and shows a card (a
+    row per metric)."""
+
+    @property
+    def confidence(self) -> float:
+        return next(iter(self.values())).confidence if self else CONFIDENCE
+
+    def __repr__(self):
+        from ..base.views import one_line
+
+        compared = max((v.n_compared for v in self.values()), default=0)
+        parts = ", ".join(f"{k} n/a" if not v.n_compared else f"{k} {v.beta:.2g}/{v.tau:.2g} {v.n_significant}"
+                          if v.survey else f"{k} {v.n_significant}" for k, v in self.items())
+        survey = ("survey part beta/tau, significant cells" if any(v.survey for v in self.values())
+                  else f"no survey part (fewer than {MIN_CELLS} cells); significant cells")
+        return one_line(f"<Levels at {self.confidence:.0%} of {len(self)} metrics over {compared} cells ({survey}): "
+                        f"{parts}>")
+
+    def _repr_html_(self):
+        from ..metrics import METRIC_NAMES
+        from ..base.views import card
+        from ._heights import HEIGHT, HEIGHT_NAME
+
+        names = {**METRIC_NAMES, HEIGHT: HEIGHT_NAME}
+        rows = [(k, names.get(k, k), v.n_compared, v.n_significant, *(
+                (f"{v.beta:.3f}", f"{np.exp(v.beta):.3g}", f"{v.tau:.3f}") if v.survey else ("-", "-", "-")))
+                for k, v in self.items()]
+        return card("Levels of detection", [f"every metric's level at {self.confidence:.0%}: the score unchanged land "
+                                            "would give; a cell changed significantly above it"],
+                    header=("key", "metric", "compared", "significant", "beta", "factor", "tau"), rows=rows,
+                    numeric=(2, 3, 4, 5, 6),
+                    note="beta: what differs between the surveys everywhere (log scale; the factor exp(beta)); "
+                         "tau: how much that varies from cell to cell")
 
 
 def pooled_confidence(confidence, tests):
@@ -80,13 +142,13 @@ def quantile(confidence):
     return NormalDist().inv_cdf(confidence)
 
 
-def level_of_detection(scores, null, valid, *, confidence=CONFIDENCE):
+def level_of_detection(scores, null, valid, *, confidence=CONFIDENCE, key=""):
     """The :class:`Level` of one metric.
 
     ``scores``: (cells,) observed scores, larger = more different (1 - s_SSIM for s_SSIM);
     ``null``: (cells, replicates) the replicate scores of unchanged land, same orientation;
     ``valid``: (cells,) bool, the compared cells (where a metric is undefined, e.g. delta_KL of
-    unlabelled epochs, its scores are NaN and nothing is significant).
+    unlabelled epochs, its scores are NaN and nothing is significant); ``key`` names the metric.
     """
     scores = np.asarray(scores, dtype=np.float64)
     null = np.asarray(null, dtype=np.float64)
@@ -95,7 +157,7 @@ def level_of_detection(scores, null, valid, *, confidence=CONFIDENCE):
     mu0, sigma, z, lod = (np.full(n, np.nan) for _ in range(4))
     significant = np.zeros(n, bool)
     if not use.any():
-        return Level(mu0, sigma, z, lod, significant, 0.0, 0.0, False, confidence)
+        return Level(mu0, sigma, z, lod, significant, 0.0, 0.0, False, confidence, key)
     replicates = null[use]
     mean = replicates.mean(axis=1)
     mu0[use] = np.maximum(mean, VALUE_FLOOR)
@@ -117,4 +179,4 @@ def level_of_detection(scores, null, valid, *, confidence=CONFIDENCE):
     z[use] = (ratio - beta) / spread
     lod[use] = mu0[use] * np.exp(beta + quantile(confidence) * spread)
     significant[use] = scores[use] > lod[use]
-    return Level(mu0, sigma, z, lod, significant, beta, tau, survey, confidence)
+    return Level(mu0, sigma, z, lod, significant, beta, tau, survey, confidence, key)

@@ -17,11 +17,12 @@ from ..base.errors import LidarSigError, as_path, whole_number
 from ..metrics import METRIC, METRIC_NAMES, METRICS
 from ..base.progress import step
 from ..method.signature_raster import Frame
+from ..base.views import Records
 from ._cells import CELL_FRAME, CHANGE_KEYS, COVERAGE, cell_signature, epoch_cells
 from ._epochs import Epoch
 from ._grid import Grid
 from ._heights import HEIGHT, HEIGHT_NAME
-from ._lod import CONFIDENCE, level_of_detection, pooled_confidence
+from ._lod import CONFIDENCE, Levels, level_of_detection, pooled_confidence
 
 if TYPE_CHECKING:
     from ..reporting import Report
@@ -65,12 +66,44 @@ def score_values(table, score):
 
 
 def metric_levels(table, null, *, confidence=CONFIDENCE):
-    """{metric key: :class:`~lidar_sig.change_map._lod.Level`} of every metric, from the table's
-    observed values and the replicates ``null`` (cells, replicates, metrics) of
+    """The :class:`~lidar_sig.change_map._lod.Levels` (metric key -> Level) of every metric, from
+    the table's observed values and the replicates ``null`` (cells, replicates, metrics) of
     :func:`~lidar_sig.change_map._cells.null_metrics`."""
-    return {k: level_of_detection(oriented(table[k], k), oriented(null[:, :, m], k), table["valid"],
-                                  confidence=confidence)
-            for m, k in enumerate(CHANGE_KEYS)}
+    return Levels({k: level_of_detection(oriented(table[k], k), oriented(null[:, :, m], k), table["valid"],
+                                         confidence=confidence, key=k)
+                   for m, k in enumerate(CHANGE_KEYS)})
+
+
+def _where(cell):
+    return f"{cell['bounds'][0]:.1f}, {cell['bounds'][1]:.1f}"
+
+
+def _value(value, digits=4):
+    return "-" if value is None else f"{value:.{digits}f}"
+
+
+class TopCells(Records):
+    """What :meth:`ChangeMap.top` returns: the most changed cells, most first, a dict each; a
+    list that prints in one line (each cell's rank, row and column, score and level) and shows a
+    card (a row per cell)."""
+
+    title = "cells"
+    columns = (("rank", lambda c: c["rank"], True), ("row, col", lambda c: f"{c['row']}, {c['col']}", False),
+               ("x, y min", _where, True), ("points A", lambda c: f"{c['points_a']:,}", True),
+               ("points B", lambda c: f"{c['points_b']:,}", True), ("score", lambda c: _value(c["score"]), True),
+               ("level", lambda c: _value(c["lod"]), True), ("z", lambda c: _value(c["z"], 1), True),
+               ("significant", lambda c: "yes" if c["significant"] else "no", False),
+               ("points per class, A \u2192 B", lambda c: ", ".join(f"{k}\u00a0{a:,}\u00a0\u2192\u00a0{b:,}"
+                                                                for k, (a, b) in c["classes"].items()), False))
+
+    def summary(self):
+        f = self.facts
+        cells = "; ".join(f"{c['rank']} (row {c['row']}, col {c['col']}) {_value(c['score'], 3)} "
+                          f"{'>' if c['lod'] is not None and c['score'] > c['lod'] else '<='} {_value(c['lod'], 3)}"
+                          + (" *" if c["significant"] else "") for c in self[:4])
+        more = "; ..." if len(self) > 4 else ""
+        return (f"{len(self)} of {f.get('compared', '?')} compared cells, most changed first (score vs its level, "
+                f"{f.get('score', '?')}; * significant): {cells}{more}")
 
 
 @dataclass(repr=False)
@@ -96,9 +129,9 @@ class ChangeMap:
     score : str
         The metric that ranks the cells (a key of METRIC_KEYS); the table's ``score`` holds its
         values, 1 - s_SSIM for ``"ssim"``, so that a larger score always means more change.
-    levels : dict
+    levels : Levels
         {metric key or "height": :class:`~lidar_sig.change_map._lod.Level`}: every metric's level of
-        detection and significance per cell.
+        detection and significance per cell (a dict that prints in one line).
     cell_rule, min_points_rule : str
         ``"auto"`` (chosen from the epochs' densities) or ``"given"``.
     density : tuple
@@ -122,7 +155,7 @@ class ChangeMap:
     b: Epoch
     frame: Frame = CELL_FRAME
     method: dict = field(default_factory=dict)
-    levels: dict = field(default_factory=dict)
+    levels: Levels = field(default_factory=Levels)
     confidence: float = CONFIDENCE
     cell_rule: str = "given"
     min_points_rule: str = "given"
@@ -139,15 +172,11 @@ class ChangeMap:
 
     def thumbnail(self, size: int = 240) -> np.ndarray:
         """(H, W, 3) RGB picture of the map, about ``size`` pixels on its longer side: cells
-        compared shaded from white (least changed) to orange (most) by their rank, those that
-        changed significantly red, the others grey (row 0 north)."""
+        compared shaded from white (a score of 0) to orange (at their level of detection) by
+        :meth:`reached`, those that changed significantly red, the others grey (row 0 north)."""
         valid = self.raster("valid") > 0
-        score = np.where(valid, self.raster("score"), np.nan)
-        rank = np.zeros(score.shape)
-        if valid.any():
-            order = np.argsort(np.argsort(score[valid]))
-            rank[valid] = order / max(len(order) - 1, 1)
-        rgb = np.where(valid[..., None], np.array([1.0, 1.0, 1.0]) - rank[..., None] * np.array([0.0, 0.45, 0.8]),
+        near = np.clip(np.nan_to_num(self.raster("lod_ratio")), 0.0, 1.0)
+        rgb = np.where(valid[..., None], np.array([1.0, 1.0, 1.0]) - near[..., None] * np.array([0.0, 0.45, 0.8]),
                        np.array([0.82, 0.82, 0.82]))
         rgb[self.raster("significant") > 0] = (0.80, 0.05, 0.05)
         k = max(1, size // max(self.grid.rows, self.grid.cols))
@@ -155,6 +184,9 @@ class ChangeMap:
 
     def _repr_html_(self):
         """A notebook's view: the map's thumbnail, its counts and the most changed cells."""
+        return self._card("ChangeMap")
+
+    def _card(self, title):
         from ..base.views import card
 
         rows = [(item["rank"], f"{item['bounds'][0]:.1f}, {item['bounds'][1]:.1f}", item["points_a"], item["points_b"],
@@ -162,11 +194,11 @@ class ChangeMap:
         facts = [f"{self.a.name} -> {self.b.name}", f"{self.grid.rows} x {self.grid.cols} cells of {self.cell:g} m, "
                  f"{int(self.table['valid'].sum())} compared, {self.n_significant} significant "
                  f"({self.confidence:.0%} level of detection of {self.score})"]
-        return card("ChangeMap", facts + [f"warning: {w}" for w in self.warnings],
+        return card(title, facts + [f"warning: {w}" for w in self.warnings],
                     header=("rank", "x, y min", "points A", "points B", "score", "significant"), rows=rows,
                     numeric=(0, 2, 3, 4), image=self.thumbnail(), width=220,
-                    note="red: changed significantly; orange to white: compared, most to least changed; grey: not "
-                         "compared")
+                    note="red: changed significantly; white to orange: compared, from a score of 0 to one at its "
+                         "level of detection (score / level); grey: not compared")
 
     def rank_by(self, score: str) -> None:
         """Fill the table's ranking fields from metric ``score`` and delta_H, the two tests of
@@ -262,10 +294,10 @@ class ChangeMap:
         a, b = self.classes_a[flat], self.classes_b[flat]
         return {names[k]: [int(a[k]), int(b[k])] for k in np.flatnonzero((a > 0) | (b > 0))}
 
-    def top(self, n: int = 10) -> list[dict[str, Any]]:
+    def top(self, n: int = 10) -> TopCells:
         """The ``n`` most changed cells as plain dicts (rank, bounds, counts, score, its level
         of detection and significance, metrics, the metrics in which the cell changed
-        significantly, classes)."""
+        significantly, classes), in a :class:`TopCells` list."""
         out = []
         for rank, flat in enumerate(self.ranked(n), 1):
             rec = self.table[flat]
@@ -281,7 +313,7 @@ class ChangeMap:
                                            and self.levels[k].significant[flat]]
             item["classes"] = self.composition(flat)
             out.append(item)
-        return out
+        return TopCells(out, compared=int(self.table["valid"].sum()), score=self.score)
 
     def coverage(self) -> dict[str, int]:
         """{state: cells} of every coverage state (:data:`~lidar_sig.change_map._cells.COVERAGE`):
@@ -321,7 +353,7 @@ class ChangeMap:
         """Everything a ``--json`` user needs: the grid, the settings, each metric's survey part
         and significant cells, and the ``n`` top cells (all compared cells when ``n`` is at
         least their number)."""
-        return {**self.settings(), "top": self.top(n)}
+        return {**self.settings(), "top": list(self.top(n))}
 
     def metadata_tags(self):
         """Text tags of the GeoTIFF: the settings a reader needs to interpret the bands."""

@@ -36,13 +36,54 @@ class ChangeSeries:
     epochs: list
 
     def __repr__(self):
+        from ..base.views import one_line
+
         counts = ", ".join(str(m.n_significant) for m in self.maps)
-        return (f"<ChangeSeries {len(self.epochs)} epochs, {len(self.maps)} intervals, {self.grid.rows} x "
-                f"{self.grid.cols} cells; significant per interval: {counts}>")
+        most = self.when_counts()
+        when = ", ".join(f"{k} {most[str(k)]}" for k in range(1, len(self.maps) + 1))
+        return one_line(f"<ChangeSeries {len(self.epochs)} epochs, {len(self.maps)} intervals, {self.grid.rows} x "
+                        f"{self.grid.cols} cells; significant per interval: {counts}; changed most in interval: {when}>")
 
     def _repr_html_(self):
-        """A notebook's view: each interval's map card."""
-        return "".join(m._repr_html_() for m in self.maps)
+        """A notebook's view: the series (epochs, intervals, cells), the picture of :meth:`when`,
+        then each interval's map card."""
+        from ..reporting.map_image import INTERVAL_NAMES
+        from ..base.views import card
+
+        m = self.maps[0]
+        colours = ", ".join(f"{k + 1} {INTERVAL_NAMES[k % len(INTERVAL_NAMES)]}" for k in range(len(self.maps)))
+        most = self.when_counts()
+        compared = int(np.isfinite(self.when()).sum())
+        facts = [" -> ".join(Path(e.name).name for e in self.epochs),
+                 f"{len(self.epochs)} epochs, {len(self.maps)} intervals, {self.grid.rows} x {self.grid.cols} cells of "
+                 f"{m.cell:g} m; score {self.score} at {m.confidence:.0%}",
+                 f"when: {compared} cells compared in some interval, {most[str(NEVER)]} never significant"]
+        rows = [(k + 1, self.interval_name(k).split(" ", 2)[2].strip("()"), int(mk.table["valid"].sum()),
+                 mk.n_significant, most[str(k + 1)]) for k, mk in enumerate(self.maps)]
+        head = card("ChangeSeries", facts, header=("interval", "epochs", "compared", "significant", "changed most"),
+                    rows=rows, numeric=(0, 2, 3, 4), image=self.when_thumbnail(), width=220,
+                    note=f"picture (when): each cell in the colour of the interval in which it changed most "
+                         f"({colours}); white: compared, never significant; grey: never compared")
+        return head + "".join(mk._card(f"ChangeMap of {self.interval_name(k)}") for k, mk in enumerate(self.maps))
+
+    def when_counts(self) -> dict[str, int]:
+        """{"0": cells compared but never significant, "1": cells that changed most in interval
+        1, ...}: the cells per value of :meth:`when` (as ``to_dict``'s ``when``)."""
+        when = self.when()
+        return {str(k): int((when == k).sum()) for k in range(NEVER, len(self.maps) + 1)}
+
+    def when_thumbnail(self, size: int = 240) -> np.ndarray:
+        """(H, W, 3) RGB picture of :meth:`when`, about ``size`` pixels on its longer side: each
+        cell in the colour of its interval (the report's), white where compared but never
+        significant, grey where never compared (row 0 north)."""
+        from ..reporting.map_image import INTERVALS
+
+        when = self.raster()
+        index = np.clip(np.nan_to_num(when).astype(int) - 1, 0, None) % len(INTERVALS)
+        rgb = np.where((np.nan_to_num(when) > 0)[..., None], INTERVALS[index] / 255.0, 1.0)
+        rgb[np.isnan(when)] = (0.82, 0.82, 0.82)
+        k = max(1, size // max(self.grid.rows, self.grid.cols))
+        return np.repeat(np.repeat(rgb, k, axis=0), k, axis=1)
 
     @property
     def grid(self) -> Grid:
@@ -74,8 +115,7 @@ class ChangeSeries:
     def to_dict(self, n: int = 10) -> dict[str, Any]:
         """One entry per interval (its settings, survey parts and ``n`` top cells, as
         :meth:`ChangeMap.to_dict`), and the cells per value of "when"."""
-        when = self.when()
-        counts = {str(k): int((when == k).sum()) for k in range(NEVER, len(self.maps) + 1)}
+        counts = self.when_counts()
         first = self.maps[0].settings()
         shared = {k: first[k] for k in ("cell_m", "cell_rule", "cell_crs_units", "units", "crs", "min_points",
                                         "min_points_rule", "score", "confidence", "render", "frame_px", "method")}

@@ -40,10 +40,14 @@ class Side:
     signature: Signature
     result: object = None  # pipeline Result for a cloud, None for an archive or a set of tiles
     tiled: bool = False  # computed as a set of tiles (a folder, or a file over the memory budget)
+    in_memory: bool = False  # a Signature given as it is, not read from an archive file
 
     @property
     def kind(self) -> str:
-        return "cloud" if self.result is not None else "set of tiles" if self.tiled else "archive"
+        """"cloud", "set of tiles", "archive" (a signature file) or "signature" (given in memory)."""
+        if self.result is not None:
+            return "cloud"
+        return "set of tiles" if self.tiled else "signature" if self.in_memory else "archive"
 
     def summary(self) -> dict[str, Any]:
         """The side's facts for people and JSON: points, undefined, capped, duplicates, withheld
@@ -189,7 +193,7 @@ def side_of(x, pipeline=None, columns=None):
         return Side(input_name(x), x.signature, x)
     loaded = load_input(x, columns)
     if isinstance(loaded, Signature):
-        return Side(input_name(x), loaded)
+        return Side(input_name(x), loaded, in_memory=isinstance(x, Signature))
     result = (pipeline or Pipeline()).run(loaded)
     return Side(input_name(x), result.signature, result)
 
@@ -263,7 +267,8 @@ def compare_sources(a: Any, b: Any, pipeline: Any = None, *, render: str | None 
     for i, (name, x) in enumerate(zip(names, loaded)):
         given = (a, b)[i]
         if isinstance(x, Signature):
-            sides.append(Side(name, x, given if isinstance(given, Result) else None))
+            sides.append(Side(name, x, given if isinstance(given, Result) else None,
+                              in_memory=isinstance(given, Signature)))
         elif i in sets:  # a folder of tiles (one epoch), or a file over the memory budget
             sides.append(Side(name, sets[i][0], tiled=True))
         else:
@@ -349,7 +354,7 @@ def _archive_pipeline(signature, pipeline, method_given, name):
 
 def _recorded_render(sides):
     recorded = {str(s.signature.metadata["render"]) for s in sides
-                if s.kind == "archive" and "render" in s.signature.metadata}
+                if s.kind in ("archive", "signature") and "render" in s.signature.metadata}
     if len(recorded) > 1:
         raise LidarSigError(f"the archives were rendered differently ({', '.join(sorted(recorded))}); give "
                             f"{arg('render')} ({', '.join(RENDERINGS)}) to compare both under one rendering")

@@ -232,7 +232,15 @@ class Signature:
             facts.append(f"from {s['source']}")
         return card("Signature", facts, header=("class", "points"), numeric=(1,),
                     rows=[(name, f"{n:,}") for name, n in s["class_totals"].items() if n],
-                    image=self.sas("smooth"), width=180, note="Sas: line-type top, point-type left, surface-type right")
+                    image=self.picture(), width=200,
+                    note="Sas in the triangle of the saliencies: line-type top, point-type left, surface-type right")
+
+    def picture(self, size: int = 360) -> np.ndarray:
+        """(size, size, 3) uint8 RGB: Sas (smooth rendering) with the triangle outlined and its
+        vertices named as the method names them (Cl line, Cs surface, Cp point)."""
+        from ..base.views import outlined
+
+        return outlined(self.sas("smooth"), self.frame.vertices, ("Cl line", "Cs surface", "Cp point"), size)
 
     @property
     def n_points(self) -> int:

@@ -4,10 +4,26 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from ..base.progress import step
 from . import _page as page
 from ._paths import check_plots_folder, check_report_path
+
+if TYPE_CHECKING:
+    from ..base.views import Files
+
+
+class Figures(dict):
+    """{file name: PNG bytes} of a report's figures: a dict that prints in one line (how many,
+    their size, the first names) rather than its bytes."""
+
+    def __repr__(self):
+        from ..base.views import one_line
+
+        names = ", ".join(list(self)[:4]) + (", ..." if len(self) > 4 else "")
+        size = sum(len(v) for v in self.values())
+        return one_line(f"<Figures {len(self)} PNG, {size / 1e6:.1f} MB: {names}>")
 
 
 @dataclass(repr=False)
@@ -17,7 +33,10 @@ class Report:
 
     title: str
     body: str
-    figures: dict[str, bytes] = field(default_factory=dict)
+    figures: dict[str, bytes] = field(default_factory=Figures)
+
+    def __post_init__(self):
+        self.figures = Figures(self.figures)
 
     def __repr__(self):
         from ..base.views import one_line
@@ -40,10 +59,12 @@ class Report:
         with step(f"writing {Path(path).name}"), atomic_output(path, overwrite=overwrite) as tmp:
             tmp.write_text(self.html(), encoding="utf-8")
 
-    def save_plots(self, folder: str | Path, *, overwrite: bool = False) -> list[Path]:
+    def save_plots(self, folder: str | Path, *, overwrite: bool = False) -> Files:
         """Write every figure as a PNG file in ``folder`` (made if missing, its parent must
-        exist); refuses existing files unless ``overwrite``. Returns the paths written."""
+        exist); refuses existing files unless ``overwrite``. Returns the paths written (a list
+        that prints in one line)."""
         from ..io.png import write_png
+        from ..base.views import Files
 
         folder = Path(folder)
         check_plots_folder(folder, self.figures, overwrite=overwrite)
@@ -53,4 +74,4 @@ class Report:
             for name, png in self.figures.items():
                 write_png(folder / name, png, overwrite=overwrite)
                 paths.append(folder / name)
-        return paths
+        return Files(paths)

@@ -20,6 +20,8 @@ SEQUENTIAL = np.array([(255, 255, 204), (255, 237, 160), (254, 217, 118), (254, 
 #: ColorBrewer Set1 (less its yellow), one colour per interval of a series' "when" map.
 INTERVALS = np.array([(55, 126, 184), (228, 26, 28), (77, 175, 74), (152, 78, 163), (255, 127, 0),
                       (166, 86, 40), (247, 129, 191), (153, 153, 153)], dtype=np.float64)
+#: The names of those colours, for legends in words.
+INTERVAL_NAMES = ("blue", "red", "green", "purple", "orange", "brown", "pink", "grey")
 #: Opacity of the colours of cells that changed significantly, and of the others (faded).
 ALPHA = 0.8
 FADED = 0.25

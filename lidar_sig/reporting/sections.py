@@ -36,7 +36,7 @@ def summary(sides, tags, comparison, *, render=None):
     for side, tag in zip(sides, tags):
         m = side.signature.metadata
         who = f'<span class="{tag.lower()}">{tag}</span> ' if tag else ""
-        what = "archive" if side.result is None else "cloud"
+        what = side.kind
         lines.append(f"<li>{who}<code>{page.esc(side.name)}</code> ({what}, "
                      f"{int(m.get('n_points', side.signature.n_points)):,} points)</li>")
     m = sides[0].signature.metadata

@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..base.errors import LidarSigError, positive_metres
-from ..base.views import one_line
+from ..base.views import Records, one_line
 from ._distances import combine, screening
 from ._footprint import neighbours as spatial_neighbours
 
@@ -48,6 +48,25 @@ FEW_TILES = 9
 #: The scores drawn apart by the GeoPackage's style, below OUTLIER_SCORE: the survey's median
 #: (0) and a tile worth a look (2).
 STYLE_SCORES = (0.0, 2.0)
+
+
+class OutlierTiles(Records):
+    """The tiles :func:`outliers` scored, highest score first, a dict each: a list that prints in
+    one line and shows a card."""
+
+    title = "tiles"
+    columns = (("rank", lambda r: r["rank"], True), ("tile", lambda r: r["name"], False),
+               ("score", lambda r: f"{r['score']:.2f}", True),
+               ("z neighbours", lambda r: "-" if r["z_neighbours"] is None else f"{r['z_neighbours']:.2f}", True),
+               ("z survey", lambda r: f"{r['z_survey']:.2f}", True),
+               ("neighbours", lambda r: len(r["neighbours"]), True),
+               ("classes that differ (points of share)",
+                lambda r: ", ".join(f"{c['class']} {c['difference']:+.1f}" for c in r["classes"]), False),
+               ("stands out", lambda r: "yes" if r["outlier"] else "no", False))
+
+    def summary(self):
+        top = ", ".join(f"{r['name']} {r['score']:.2f}" for r in self[:3])
+        return f"{len(self)} {self.title}, highest score first: {top}"
 
 
 @dataclass(repr=False)
@@ -88,9 +107,26 @@ class Outliers:
                      f"({FEW_TILES} or more give them their meaning)")
         return line
 
+    def short_verdict(self) -> str:
+        """:meth:`verdict` in a few words, for a line that says more."""
+        found, n = self.standing_out, len(self.results)
+        said = (f"{len(found)} stand{'s' if len(found) == 1 else ''} out (score {self.threshold:g} or more)" if found
+                else f"none stands out (no score reaches {self.threshold:g})")
+        return said + (f", indicative with {n} tiles" if n < FEW_TILES else "")
+
     def __repr__(self):
         top = ", ".join(f"{r['name']} {r['score']:.2f}" for r in self.results[:3])
-        return one_line(f"<Outliers of {len(self.results)} tiles within {self.reach:.3g} m; highest {top}>")
+        return one_line(f"<Outliers of {len(self.results)} tiles within {self.reach:.3g} m: {self.short_verdict()}; "
+                        f"highest {top}>")
+
+    def _repr_html_(self):
+        """A notebook's view: the verdict, the notes, and the tiles by score."""
+        tiles = OutlierTiles(self.results)
+        facts = [self.verdict(), f"{len(self.results)} tiles; neighbours within {self.reach:.4g} m; distance: the "
+                                 f"screening distance ({', '.join(self.metrics)}, each over its spread)"]
+        return tiles.card("Outliers", facts + [f"note: {n}" for n in self.notes],
+                          note=f"score: the mean of the robust z of a tile's distance to its neighbours and to the "
+                               f"survey; {self.threshold:g} or more stands out")
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON shape of ``lidar-sig outliers --json``."""
@@ -225,7 +261,7 @@ def outliers(catalog, *, reach=None):
     if alone:
         notes.append(f"{alone} tile{'s have' if alone > 1 else ' has'} no neighbour within {reach:.4g} m: "
                      "scored against the survey only")
-    return Outliers(catalog, results, dist, near, reach, keys, notes)
+    return Outliers(catalog, OutlierTiles(results), dist, near, reach, keys, notes)
 
 
 def _num(value):

@@ -28,7 +28,8 @@ from typing import Any
 import numpy as np
 
 from ..base.errors import LidarSigError, arg, whole_number
-from ..base.views import one_line, short_name
+from ..metrics import METRIC_NAMES
+from ..base.views import Records, one_line, short_name
 from ._distances import IMAGE, SCREENING, as_distance, combine, pair_metrics, screening
 from ._features import sg_image
 
@@ -36,6 +37,28 @@ from ._features import sg_image
 SHORTLIST_FACTOR = 4
 #: ... and at least this many.
 SHORTLIST_MIN = 20
+
+
+class SimilarTiles(Records):
+    """The tiles :func:`similar` found, best first, a dict each (rank, name, path, distance and
+    every metric): a list that prints in one line and shows a card."""
+
+    title = "tiles"
+
+    @property
+    def columns(self):
+        keys = [k for k in self.facts.get("keys", ()) if not self or k in self[0]]
+        return (("rank", lambda r: r["rank"], True), ("tile", lambda r: r["name"], False),
+                ("distance", lambda r: f"{r['distance']:.3f}", True),
+                *((METRIC_NAMES[key], lambda r, key=key: _value(r[key]), True) for key in keys))
+
+    def summary(self):
+        best = ", ".join(f"{r['name']} {r['distance']:.3g}" for r in self[:3])
+        return f"{len(self)} {self.title} by {self.facts.get('metric', 'distance')}, best first: {best}"
+
+
+def _value(value):
+    return "n/a" if value is None else f"{value:.4f}"
 
 
 @dataclass(repr=False)
@@ -53,6 +76,18 @@ class Similar:
     def __repr__(self):
         best = ", ".join(f"{r['name']} {r['distance']:.3g}" for r in self.results[:3])
         return one_line(f"<Similar to {short_name(self.query.get('name'))}: {len(self.results)} tiles by {self.metric}; {best}>")
+
+    def _repr_html_(self):
+        """A notebook's view: the query, how the tiles were found, and the tiles with every metric."""
+        tiles = SimilarTiles(self.results, metric=self.metric, keys=tuple(self.spread))
+        sure = ("certain: no tile outside the shortlist could enter it" if self.shortlist.get("certain")
+                else "not certain: a tile outside the shortlist might enter it (give shortlist= to widen it)")
+        facts = [f"query: {self.query.get('kind', '')} {self.query.get('name')}"
+                 + (" (a tile of the catalogue, left out of the answer)" if self.query.get("tile") else ""),
+                 f"ranked by {self.metric}; every metric computed for {self.shortlist.get('screened_by', '?')}",
+                 sure]
+        return tiles.card("Similar", facts, note="distance: the mean of the metrics, each over its spread in the "
+                                                 "catalogue (0: alike)")
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON shape of ``lidar-sig similar --json``."""
@@ -128,5 +163,5 @@ def similar(catalog, query, *, top=10, metric=None, shortlist=None, columns=None
     info = {"size": size, "tiles": n, "query_left_out": q.index is not None, "rule": f"max({SHORTLIST_FACTOR} x top, {SHORTLIST_MIN})"
             if shortlist is None else "given", "screened_by": how, "certain": certain,
             "image_metrics": list(IMAGE)}
-    return Similar({"name": q.name, "kind": q.kind, "tile": q.index is not None}, metric, results, info,
-                   {k: spread[k] for k in keys})
+    return Similar({"name": q.name, "kind": q.kind, "tile": q.index is not None}, metric,
+                   SimilarTiles(results, metric=metric, keys=keys), info, {k: spread[k] for k in keys})

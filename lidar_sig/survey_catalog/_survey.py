@@ -50,8 +50,48 @@ class Distances:
     values: np.ndarray
     metric: str
 
+    #: Tiles whose rows and columns a card's table shows, at most (the picture shows them all).
+    SHOWN = 10
+
+    def _between(self):
+        """The values between different tiles (the diagonal left out)."""
+        n = len(self.names)
+        return self.values[~np.eye(n, dtype=bool)] if n > 1 else np.empty(0)
+
     def __repr__(self):
-        return f"<Distances {len(self.names)} x {len(self.names)} tiles, {self.metric}>"
+        from ..base.views import one_line
+
+        between = self._between()
+        between = between[np.isfinite(between)]
+        spread = (f"; {between.min():.3g} to {between.max():.3g} between tiles, median {np.median(between):.3g}"
+                  if len(between) else "")
+        return one_line(f"<Distances {len(self.names)} x {len(self.names)} tiles, {self.metric}{spread}>")
+
+    def picture(self, size: int = 160) -> np.ndarray:
+        """RGB picture of the matrix, about ``size`` pixels a side: row i, column j the value
+        between tiles i and j (catalogue order), white (least) to dark blue (most) over the
+        values between different tiles."""
+        n = len(self.names)
+        between = self._between()
+        between = between[np.isfinite(between)]
+        lo, hi = (float(between.min()), float(between.max())) if len(between) else (0.0, 1.0)
+        t = np.clip((np.nan_to_num(self.values, nan=lo) - lo) / (hi - lo if hi > lo else 1.0), 0, 1)
+        rgb = 1.0 - t[..., None] * np.array([0.85, 0.65, 0.35])
+        k = max(1, size // max(n, 1))
+        return np.repeat(np.repeat(rgb, k, axis=0), k, axis=1)
+
+    def _repr_html_(self):
+        """A notebook's view: the matrix as a picture and, for the first tiles, as a table."""
+        from ..base.views import card
+
+        m = min(len(self.names), self.SHOWN)
+        rows = [(f"{i + 1} {self.names[i]}", *(f"{v:.3f}" for v in self.values[i, :m])) for i in range(m)]
+        more = (f"the first {m} of {len(self.names)} tiles; the picture shows them all. " if len(self.names) > m
+                else "")
+        return card("Distances", [f"{len(self.names)} x {len(self.names)} tiles, {self.metric}"],
+                    header=("tile", *(str(j + 1) for j in range(m))), rows=rows, numeric=range(1, m + 1),
+                    image=self.picture(), width=160,
+                    note=more + "picture: row i, column j, white (least) to dark blue (most) between tiles")
 
     def at(self, a: str, b: str) -> float:
         """The value between the tiles named ``a`` and ``b``."""

@@ -38,6 +38,9 @@ class InProcess:
     description = "1 process"
     workers = 1
 
+    def __repr__(self):
+        return f"<{type(self).__name__} backend: {self.description}>"
+
     def run(self, fn, items):
         for item in items:
             try:
@@ -54,6 +57,8 @@ class InProcess:
 class LocalProcesses:
     """Run tasks on ``workers`` local processes (started fresh, not forked: the compiled
     kernels' thread pools do not survive a fork)."""
+
+    __repr__ = InProcess.__repr__
 
     def __init__(self, workers):
         self.workers = int(workers)  # how many tasks run at once
@@ -92,6 +97,8 @@ def _died(exc):
 
 class DaskCluster:
     """Run tasks on the dask.distributed scheduler at ``address`` (``tcp://host:8786``)."""
+
+    __repr__ = InProcess.__repr__
 
     def __init__(self, address):
         try:

@@ -70,7 +70,7 @@ def expand(inputs):
     return [f.resolve() for f in files]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, repr=False)
 class Source:
     """One file of the set as its header describes it (``error`` set when it cannot be read)."""
 
@@ -87,6 +87,14 @@ class Source:
     @property
     def name(self):
         return Path(self.path).name
+
+    def __repr__(self):
+        from ..method.crs import crs_name
+        from ..base.views import one_line
+
+        said = f"unreadable: {self.error}" if self.error else (
+            f"{self.n_points:,} points, {crs_name(self.crs) or 'no CRS'}")
+        return one_line(f"<Source {self.id}: {self.name}, {said}>")
 
     def parts(self, workers=1):
         """(start, stop) point ranges staged as separate units of work: at most PART_POINTS
