@@ -21,6 +21,7 @@ from ..method.cloud import PointCloud
 from ..base.errors import LidarSigError, LidarSigWarning, a_kind, arg, as_path, counted
 from ..metrics import compare as compare_signatures
 from ..base.progress import step
+from ..method.scales import ScaleKind, recorded_kind, recorded_scales
 from ..method.signature_raster import RENDERINGS, Signature, method_differences
 
 if TYPE_CHECKING:
@@ -58,7 +59,7 @@ class Side:
                 "capped": int(m.get("n_capped", 0)), "duplicates": int(m.get("n_duplicates", 0)),
                 "excluded": int(m.get("n_excluded", 0)),
                 "scale_kind": m.get("scale_kind"), "scales": list(m.get("resolved_scales", [])),
-                "scales_unit": "k" if m.get("scale_kind") == "knn" else "m",
+                "scales_unit": (recorded_kind(m) or ScaleKind.RADIUS).unit,
                 "units": m.get("units", "unknown")}
 
 
@@ -368,8 +369,7 @@ def _undefined_warnings(sides):
         n, undefined = info["points"], info["undefined"]
         if n and undefined / n > UNDEFINED_WARNING:
             scales = info["scales"]
-            what = ("radii " + ", ".join(f"{v:.3g}" for v in scales) + " m" if info["scale_kind"] == "radius"
-                    else "k " + ", ".join(str(int(v)) for v in scales))
+            what = (recorded_kind(info) or ScaleKind.RADIUS).describe(scales)
             out.append(f"{s.name}: {undefined:,} of {n:,} points ({undefined / n:.0%}) have no defined saliency "
                        f"at {what} and are left out of its signature; use larger scales (or the default "
                        "k-nearest scales)")
@@ -387,8 +387,8 @@ def _class_warnings(sides):
 def _radii_warnings(sides):
     """Normalized radii resolve per cloud: warn when the two clouds' metric radii differ."""
     m = [s.signature.metadata for s in sides]
-    if not all(x.get("scale_kind") == "radius" and x.get("scale_units") == "normalized"
-               and x.get("resolved_scales") for x in m):
+    if not all((scales := recorded_scales(x)) is not None and scales.normalized and x.get("resolved_scales")
+               for x in m):
         return []
     ra, rb = m[0]["resolved_scales"][-1], m[1]["resolved_scales"][-1]
     if max(ra, rb) <= (1 + RADII_TOLERANCE) * min(ra, rb):

@@ -14,6 +14,7 @@ import numpy as np
 from ..method.classes import recorded_table
 from ..base.errors import LidarSigError, as_path, counted, special_file
 from ..method.saliency_map import LN3
+from ..method.scales import ScaleKind, recorded_kind
 from ..method.signature_raster import METHOD_KEYS, Frame, Signature
 from ._h5datasets import described_dataset, hdf5_output
 from .formats import HDF5_EXTENSIONS  # noqa: F401 (a name of this module too)
@@ -64,9 +65,10 @@ def write_archive(path, signature, *, saliency=None, labels=None, sources=(), re
             if key in meta:
                 f.attrs[key] = int(meta[key])
         if "resolved_scales" in meta:
-            knn = meta.get("scale_kind") == "knn"  # neighbour counts are whole numbers
-            f.attrs["resolved_scales"] = np.asarray(meta["resolved_scales"], dtype=np.int64 if knn else np.float64)
-            f.attrs["resolved_scales_units"] = "neighbours" if knn else "metres"
+            kind = recorded_kind(meta) or ScaleKind.RADIUS  # neighbour counts are whole numbers
+            f.attrs["resolved_scales"] = np.asarray(meta["resolved_scales"],
+                                                    dtype=np.int64 if kind.by_count else np.float64)
+            f.attrs["resolved_scales_units"] = kind.resolved_units
         if "metres_per_unit" in meta:
             f.attrs["metres_per_unit"] = np.asarray(meta["metres_per_unit"], dtype=np.float64)
         f.attrs["descriptor_params"] = json.dumps(meta.get("descriptor_params", {}))
@@ -260,10 +262,11 @@ def _read_signature(f, path):
     # an archive made before withheld and noise points were left out used every point: a cloud
     # compared with it is computed so (docs/archive.md)
     meta.setdefault("keep_noise", True)
-    if meta.get("scale_kind") == "knn" and isinstance(meta.get("resolved_scales"), list):
+    kind = recorded_kind(meta)
+    if kind is not None and kind.by_count and isinstance(meta.get("resolved_scales"), list):
         # k values as whole numbers, as the pipeline gives them (earlier archives stored floats)
         try:
-            meta["resolved_scales"] = [int(v) for v in meta["resolved_scales"]]
+            meta["resolved_scales"] = kind.typed(meta["resolved_scales"])
         except (TypeError, ValueError):
             raise damaged("its resolved scales are not numbers") from None
     return Signature(counts, frame, classes, egeom.astype(np.int64), n_undefined, meta,
@@ -321,7 +324,8 @@ def _method(attrs):
         if key in attrs:
             out[key] = int(attrs[key])
     if values:
-        out["scale_values"] = [int(v) for v in values] if out.get("scale_kind") == "knn" else values
+        kind = recorded_kind(out)
+        out["scale_values"] = kind.typed(values) if kind is not None and kind.by_count else values
     return out
 
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..base.errors import LidarSigError
+from ..method.scales import ScaleKind
 
 #: Prefix of our names when the input already has an attribute of the same name that is not ours.
 PREFIX = "lidar_sig_"
@@ -28,7 +29,7 @@ CHANGE_DESCRIPTIONS = {"ChangeScore": "cell change score ({score})",
 SALIENCY_DESCRIPTIONS = {"Cl": "line-type saliency Cl [0,1]", "Cs": "surface-type saliency Cs [0,1]",
                          "Cp": "point-type saliency Cp [0,1]", "Egeom": "geometric entropy [nats]",
                          "GeomClass": "1 line 2 surface 3 point 0 none"}
-OPTIMAL_DESCRIPTIONS = {"knn": "k of minimum-entropy scale", "radius": "index of min-entropy radius"}
+OPTIMAL_DESCRIPTIONS = {ScaleKind.KNN: "k of minimum-entropy scale", ScaleKind.RADIUS: "index of min-entropy radius"}
 #: Outputs written together, each group by one kind of run: a run replaces its own group only.
 OUTPUT_GROUPS = ((*SALIENCY_DESCRIPTIONS, "OptimalScale"), tuple(CHANGE_DESCRIPTIONS))
 
@@ -56,12 +57,13 @@ def saliency_fields(saliency, scale_kind=None, scale_values=None):
                      "GeomClass": saliency.geom_class.astype(np.uint16)}, SALIENCY_DESCRIPTIONS)
     if saliency.optimal_scale is not None:
         chosen = saliency.optimal_scale
-        if scale_kind == "knn":
+        kind = ScaleKind(scale_kind) if scale_kind is not None else ScaleKind.RADIUS
+        if kind.by_count:
             value = np.where(chosen >= 0, np.asarray(scale_values)[np.maximum(chosen, 0)], 0)
         else:
             value = chosen + 1
         fields["OptimalScale"] = value.astype(np.uint16)
-        fields.descriptions["OptimalScale"] = OPTIMAL_DESCRIPTIONS["knn" if scale_kind == "knn" else "radius"]
+        fields.descriptions["OptimalScale"] = OPTIMAL_DESCRIPTIONS[kind]
     return fields
 
 

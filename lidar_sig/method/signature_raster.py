@@ -27,6 +27,7 @@ import numpy as np
 from .classes import ClassTable
 from ..base.errors import LidarSigError, arg
 from .saliency_map import LN3, geometric_entropy
+from .scales import recorded_kind
 
 #: Density transfer (see :func:`transfer`): per-pixel point share of the log knee, and the share
 #: at which a pixel saturates.
@@ -336,7 +337,8 @@ def method_differences(a, b):
     for key in METHOD_KEYS:
         if key not in a or key not in b:
             continue
-        if key == "max_neighbors" and a.get("scale_kind") == b.get("scale_kind") == "knn":
+        kinds = recorded_kind(a), recorded_kind(b)
+        if key == "max_neighbors" and all(k is not None and k.by_count for k in kinds):
             continue
         va, vb = a[key], b[key]
         if key == "scale_values":

@@ -21,7 +21,9 @@ that chose them.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass
+from enum import StrEnum
 
 import numpy as np
 
@@ -39,11 +41,70 @@ _SCAN_ALL = 50_000_000
 # millisecond (AHN3 cropped_1 at k = 40: 15 rows, within 12 shells) where a scan of every
 # point took 20 ms; thousands of spikes would list millions of voxels and go to the tree.
 _FARTHER_VOXELS = 2**22
-#: Neighbour weights: "area" (see the module docstring) or "none" (plain means, the paper's).
-WEIGHTS = ("area", "none")
-#: The compiled kernels each kind of weights calls, as (module, function names): the area
-#: weights' third-nearest search.
-WEIGHT_KERNELS = {"area": (("lidar_sig.numerics._voxels", ("third_nearest",)),), "none": ()}
+
+
+class ScaleKind(StrEnum):
+    """How the scales of a run measure a neighbourhood (docs/method.md, "Neighbourhoods and
+    scales"): by a radius around x_i (``"radius"``) or by a count of nearest points (``"knn"``);
+    the text is what metadata and archives record. What differs between the two kinds is said
+    here, so that no other module tells them apart by their text."""
+
+    RADIUS = "radius"
+    KNN = "knn"
+
+    def __repr__(self) -> str:
+        return repr(self.value)  # as the text it stands for: Scales(kind='knn', ...)
+
+    @property
+    def by_count(self) -> bool:
+        """True for k-nearest scales: a scale is a whole number of points, not a distance."""
+        return self is ScaleKind.KNN
+
+    @property
+    def unit(self) -> str:
+        """The unit of resolved scales for people: ``k`` (points) or ``m`` (metres)."""
+        return "k" if self.by_count else "m"
+
+    @property
+    def resolved_units(self) -> str:
+        """The unit of resolved scales in words, as archives record it: neighbours or metres."""
+        return "neighbours" if self.by_count else "metres"
+
+    def typed(self, values: Iterable[float]) -> list[int] | list[float]:
+        """``values`` (resolved or given scales) as plain numbers of this kind: ints for k, floats for radii."""
+        return [int(v) for v in values] if self.by_count else [float(v) for v in values]
+
+    def describe(self, resolved: Iterable[float]) -> str:
+        """Resolved scales for people: ``k 20, 30, 40`` or ``radii 0.5, 1 m``."""
+        if self.by_count:
+            return "k " + ", ".join(str(int(v)) for v in resolved)
+        return "radii " + ", ".join(f"{v:.4g}" for v in resolved) + " m"
+
+
+class Weights(StrEnum):
+    """How neighbours count in a neighbourhood's tensor: by the area each stands for
+    (``"area"``, the module docstring) or alike (``"none"``, plain means, the paper's)."""
+
+    AREA = "area"
+    NONE = "none"
+
+    def __repr__(self) -> str:
+        return repr(self.value)
+
+    @property
+    def by_area(self) -> bool:
+        """True when each neighbour counts by the area it stands for (its second-neighbour distance)."""
+        return self is Weights.AREA
+
+    @property
+    def kernels(self) -> tuple[tuple[str, tuple[str, ...]], ...]:
+        """The compiled kernels these weights call, as (module, function names): the area
+        weights' third-nearest search."""
+        return (("lidar_sig.numerics._voxels", ("third_nearest",)),) if self.by_area else ()
+
+
+#: The neighbour weights by name, as options give them ("area" first: the default).
+WEIGHTS = tuple(w.value for w in Weights)
 #: k-nearest neighbourhoods take every point tied with the k-th neighbour (squared distance
 #: within this relative tolerance): coordinates quantized to LAS steps tie often, and which of
 #: two tied points is "the k-th" would otherwise depend on round-off (a rotation, a unit
@@ -123,7 +184,7 @@ class NeighborhoodBatch:
     weights : (N,) float64
         Weight of every point of the cloud as a neighbour (sorted order); empty when neighbours
         count equally.
-    kind : {"radius", "knn"}
+    kind : ScaleKind
         The kind of scales.
     """
 
@@ -137,7 +198,7 @@ class NeighborhoodBatch:
     sigma: np.ndarray
     capped: np.ndarray
     weights: np.ndarray
-    kind: str
+    kind: ScaleKind
 
     @property
     def dist(self):
@@ -151,7 +212,7 @@ class NeighborhoodBatch:
         included: no point farther away can be in it, however many points are added beyond
         (a tile checks its halo with this). The largest radius, or the distance to the last
         neighbour listed, stretched by the tie rule."""
-        if self.kind == "knn":
+        if self.kind.by_count:
             last = self.d2[np.arange(len(self.n)), np.maximum(self.n, 1) - 1]
             return np.sqrt(tie_limit(last))
         return radius_reach(self.sigma[:, -1])
@@ -164,14 +225,14 @@ class NeighborIndex:
     ----------
     xyz : (N, 3) float64
         Coordinates, preferably centred (the search and the kernels only see differences).
-    kind : {"radius", "knn"}
+    kind : ScaleKind or {"radius", "knn"}
     scales : (S,) array
         Radii in coordinate units, or k values; ascending.
     max_neighbors : int
         Cap of a spherical neighbourhood (nearest first), docs/method.md, "Neighbourhoods and scales"; default 512.
     min_neighbors : int
         A scale holding fewer neighbours (x_i included) gets count 0: undefined saliency.
-    weights : {"none", "area"}
+    weights : Weights or {"none", "area"}
         How neighbours count (module docstring); "none" by default.
     area_cap : float, optional
         Cap of the second-neighbour distance behind area weights, in coordinate units; by
@@ -191,7 +252,7 @@ class NeighborIndex:
         from ._voxels import VoxelGrid
 
         xyz = np.asarray(xyz, dtype=np.float64)
-        self.kind = kind
+        self.kind = ScaleKind(kind)
         self.scales = np.asarray(scales)
         self.max_neighbors = int(max_neighbors)
         self.min_neighbors = int(min_neighbors)
@@ -200,10 +261,11 @@ class NeighborIndex:
         # Spheres expected to hold far more than the cap are served by a k-nearest search of
         # cap + 1, cut at the radii: the same neighbourhoods (the nearest max_neighbors within
         # the radius), without scanning every point of a huge sphere (radii inflated by an outlier).
-        self.capped_search = (kind == "radius"
+        by_count = self.kind.by_count
+        self.capped_search = (not by_count
                               and density * np.pi * float(self.scales.max()) ** 2 > 2 * self.max_neighbors)
-        if kind == "knn" or self.capped_search:
-            want = self.scales.max() + TIE_SLACK if kind == "knn" else self.max_neighbors + 1
+        if by_count or self.capped_search:
+            want = self.scales.max() + TIE_SLACK if by_count else self.max_neighbors + 1
             self.width = int(min(want, n))
             cell = _knn_cell(self.width, density, volume)
             self.s_max = int(shells)
@@ -219,7 +281,7 @@ class NeighborIndex:
         self._tree = None
         self._buffers = None
         known = None if second is None else np.asarray(second, dtype=np.float64)[self.order]
-        self.weights = self.area_weights(area_cap, known) if weights == "area" else np.empty(0)
+        self.weights = self.area_weights(area_cap, known) if Weights(weights).by_area else np.empty(0)
 
     def rows_of(self, ids):
         """Sorted-order rows of input point indices ``ids``."""
@@ -254,8 +316,9 @@ class NeighborIndex:
         n = np.zeros(b, np.int64)
         total = np.zeros(b, np.int64)
         done = np.zeros(b, np.bool_)
-        radii2 = tie_limit(self.scales.astype(np.float64) ** 2) if self.kind == "radius" else None
-        if self.kind == "knn":
+        by_count = self.kind.by_count
+        radii2 = None if by_count else tie_limit(self.scales.astype(np.float64) ** 2)
+        if by_count:
             # the k + 1 nearest, the row's room only where ties with the k-th run on, and each
             # row's scales counted by the search while the row is at hand (grid.nearest); n is
             # then the count of the largest scale: neighbours past its ties are not needed
@@ -267,15 +330,15 @@ class NeighborIndex:
             self.grid.search(rows, d2, idx, n, total, done, ks=np.array([self.width]), s_max=self.s_max)
         else:
             self.grid.search(rows, d2, idx, n, total, done, cap=self.width, s_max=self.s_max, radii2=radii2)
-        if self.kind == "knn" and not done.all():
+        if by_count and not done.all():
             self._farther(rows, d2, idx, n, total, done, ks, counts, sigma)
         if not done.all():
             todo = np.flatnonzero(~done)
-            self._complete(rows, d2, idx, n, total, done, self.width, kind="knn" if self.capped_search else None)
-            if self.kind == "knn":  # the rows listed outside the search: their scales counted here
+            self._complete(rows, d2, idx, n, total, done, self.width, nearest=by_count or self.capped_search)
+            if by_count:  # the rows listed outside the search: their scales counted here
                 counts[todo], sigma[todo] = _knn_counts(d2[todo], n[todo], ks)
                 n[todo] = counts[todo, -1]
-        if self.kind == "knn":
+        if by_count:
             capped = np.zeros(b, bool)
         else:
             if self.capped_search:
@@ -326,7 +389,7 @@ class NeighborIndex:
             if len(todo):
                 d2, idx = np.empty((len(todo), k)), np.empty((len(todo), k), np.int64)
                 found, total = np.zeros(len(todo), np.int64), np.zeros(len(todo), np.int64)
-                self._complete(rows[todo], d2, idx, found, total, done[todo], k, kind="knn")
+                self._complete(rows[todo], d2, idx, found, total, done[todo], k, nearest=True)
                 third[todo] = d2[:, k - 1]
             return np.sqrt(third, out=third)
         step = self.block_size()
@@ -339,7 +402,7 @@ class NeighborIndex:
             total = np.zeros(b, np.int64)
             self.grid.search(block, d2, idx, found, total, done, ks=np.array([k]), s_max=int(shells))
             if not done.all():
-                self._complete(block, d2, idx, found, total, done, k, kind="knn")
+                self._complete(block, d2, idx, found, total, done, k, nearest=True)
             d_second[part] = np.sqrt(d2[:, k - 1])
         return d_second
 
@@ -374,12 +437,12 @@ class NeighborIndex:
         d2[todo], idx[todo], n[todo], total[todo], done[todo] = far_d2, far_idx, far_n, far_total, far_done
         counts[todo], sigma[todo] = far_counts, far_sigma
 
-    def _complete(self, rows, d2, idx, n, total, done, width, kind=None):
+    def _complete(self, rows, d2, idx, n, total, done, width, nearest):
         # Queries the voxel shells could not settle (isolated points far from the rest), listed
-        # sorted by distance: a few by a scan of every point, more by a k-d tree.
-        kind = kind or self.kind
+        # sorted by distance: a few by a scan of every point, more by a k-d tree. ``nearest``:
+        # the ``width`` nearest are wanted; else those within the largest radius.
         todo = np.flatnonzero(~done)
-        if kind == "knn" and len(todo) * len(self.xyz) <= _SCAN_ALL:
+        if nearest and len(todo) * len(self.xyz) <= _SCAN_ALL:
             from numba import get_num_threads
 
             from ._voxels import nearest_by_scan
@@ -387,7 +450,7 @@ class NeighborIndex:
             nearest_by_scan(self.xyz, rows[todo], width, get_num_threads(), d2, idx, n, todo)
             return
         q = self.xyz[rows[todo]]
-        if kind == "knn":
+        if nearest:
             dist, nb = self._kdtree().query(q, k=width)
         else:
             bound = radius_reach(float(self.scales.max()))
@@ -397,7 +460,7 @@ class NeighborIndex:
         n[todo] = found.sum(1)
         d2[todo] = np.where(found, dist * dist, np.inf)
         idx[todo] = np.where(found, nb, -1)
-        if kind == "radius":
+        if not nearest:
             # a full list may hide more points inside the sphere: ask for one more
             full = todo[n[todo] == width]
             if len(full):

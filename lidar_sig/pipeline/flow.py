@@ -15,12 +15,12 @@ from ..method.cloud import PointCloud, kept_points
 from ..base.compile import COMMON, announce_compilation, load_kernels, warm_up
 from ..base.errors import FACE, LidarSigError, LidarSigWarning, a_kind, arg, counted
 from ..io.open3d import from_open3d, is_open3d
-from ..numerics.neighbors import WEIGHT_KERNELS, WEIGHTS, NeighborIndex, unique_points
+from ..numerics.neighbors import WEIGHTS, NeighborIndex, Weights, unique_points
 from ..plugins import get_descriptor, get_strategy
 from ..base.progress import step
 from .result import Result
 from ..method.saliency_map import Saliency
-from ..method.scales import Scales, knn, radii
+from ..method.scales import Scales, recorded_scales
 from ..method.signature_raster import Frame, Signature
 
 if TYPE_CHECKING:
@@ -91,13 +91,13 @@ class Pipeline:
         self.scales = scales if scales is not None else self.strategy.default_scales
         if not isinstance(self.scales, Scales):
             raise LidarSigError("scales must be made with lidar_sig.radii(...) or lidar_sig.knn(...)")
-        if weights not in WEIGHTS:
+        if not isinstance(weights, str) or weights not in WEIGHTS:
             raise LidarSigError(f"weights must be one of {', '.join(WEIGHTS)}, got {weights!r}")
         whole = all(isinstance(v, (int, np.integer)) and not isinstance(v, bool) for v in (max_neighbors, min_neighbors))
         if not whole or not 3 <= max_neighbors <= 100_000 or not 2 <= min_neighbors <= max_neighbors:
             raise LidarSigError(f"max_neighbors must be a whole number from 3 to 100,000 and min_neighbors one "
                                 f"from 2 to max_neighbors, got {max_neighbors!r} and {min_neighbors!r}")
-        if self.scales.kind == "knn" and min(self.scales.values) < min_neighbors:  # no point is ever defined there
+        if self.scales.by_count and min(self.scales.values) < min_neighbors:  # no point is ever defined there
             raise LidarSigError(f"k = {min(self.scales.values)} is below min_neighbors ({min_neighbors}), the fewest "
                                 f"points a saliency needs: no point would have one at that scale; use k of at least "
                                 f"{min_neighbors} ({arg('k') if FACE.get() == 'cli' else 'scales=knn(...)'})")
@@ -106,7 +106,7 @@ class Pipeline:
         if not isinstance(keep_noise, (bool, np.bool_)):
             raise LidarSigError(f"keep_noise must be True or False, got {keep_noise!r}")
         self.keep_noise = bool(keep_noise)
-        self.weights = weights
+        self.weights = Weights(weights)
         self.max_neighbors = int(max_neighbors)
         self.min_neighbors = int(min_neighbors)
         self.classes = class_table(classes)
@@ -123,8 +123,9 @@ class Pipeline:
         """The pipeline that made a signature, from its recorded method (:meth:`method`, as
         archives keep it); ``kwargs`` as for the constructor (classes, frame, progress)."""
         try:
-            kind, values = method["scale_kind"], method["scale_values"]
-            scales = knn(*values) if kind == "knn" else radii(*values, units=method.get("scale_units") or "metric")
+            scales = recorded_scales(method)
+            if scales is None:
+                raise KeyError("scale_kind")
             descriptor = get_descriptor(method["descriptor"], **method.get("descriptor_params", {}))
             extra = {k: int(method[k]) for k in ("max_neighbors", "min_neighbors") if k in method}
             return cls(descriptor, method["strategy"], scales, weights=method.get("weights", "none"),
@@ -138,9 +139,9 @@ class Pipeline:
         its parameters, strategy, scales, neighbour weights, neighbourhood limits and whether
         withheld and noise points are kept."""
         return {"descriptor": self.descriptor.name, "descriptor_params": self.descriptor.params(),
-                "strategy": self.strategy.name, "scale_kind": self.scales.kind,
+                "strategy": self.strategy.name, "scale_kind": self.scales.kind.value,
                 "scale_values": list(self.scales.values), "scale_units": self.scales.units,
-                "weights": self.weights, "max_neighbors": self.max_neighbors,
+                "weights": self.weights.value, "max_neighbors": self.max_neighbors,
                 "min_neighbors": self.min_neighbors, "keep_noise": self.keep_noise}
 
     def noise_codes(self):
@@ -160,14 +161,14 @@ class Pipeline:
 
     def min_points(self) -> int:
         """Fewest distinct locations a cloud needs for this method: the largest k, or
-        ``min_neighbors`` for radius scales."""
-        return max(self.scales.values) if self.scales.kind == "knn" else self.min_neighbors
+        ``min_neighbors`` for radius scales (:meth:`Scales.fewest_points`)."""
+        return self.scales.fewest_points(self.min_neighbors)
 
     def _check_size(self, cloud, n_locations, n_excluded=0):
         n = len(cloud)
         need = self.min_points()
         if n_locations < need:
-            what = f"k = {need}" if self.scales.kind == "knn" else f"{need} neighbours per point"
+            what = f"k = {need}" if self.scales.by_count else f"{need} neighbours per point"
             where = (f"{counted(n_locations, 'distinct location')} ({counted(n, 'point')})" if n_locations < n
                      else counted(n, "point"))
             if n_excluded:
@@ -205,14 +206,14 @@ class Pipeline:
         """The compiled kernels a run of this method calls, as (module, function names) pairs:
         those of every run, of the scales' search, of the weights, and those the descriptor and
         the strategy declare (a plugin's too)."""
-        return (COMMON + self.scales.kernels + WEIGHT_KERNELS[self.weights] + tuple(self.descriptor.kernels)
+        return (COMMON + self.scales.kernels + self.weights.kernels + tuple(self.descriptor.kernels)
                 + tuple(self.strategy.kernels))
 
     def announce_compilation(self):
         """Say once per process, when this method's kernels are about to be compiled (the first
         run after installing), that they are (:func:`lidar_sig.base.compile.announce_compilation`);
         a run of tiles says it before its workers start."""
-        kind = "k-nearest" if self.scales.kind == "knn" else "radii"
+        kind = "k-nearest" if self.scales.by_count else "radii"
         announce_compilation(self.progress, self.kernels(),
                              f"{self.descriptor.name}, {self.strategy.name}, {kind}, {self.weights} weights")
 
@@ -251,7 +252,7 @@ class Pipeline:
                 warming.join()  # the kernels are loaded: from here on this thread runs them
             self.descriptor.prepare(support, self.scales.kind, scales, max_neighbors=self.max_neighbors,
                                     min_neighbors=self.min_neighbors, progress=self.progress)
-            if self.weights == "area":
+            if self.weights.by_area:
                 index.weights = index.area_weights()
             s.note(locations=len(support))
         m = len(support)
@@ -283,8 +284,8 @@ class Pipeline:
         n_undefined = int(np.isnan(values).any(axis=1).sum())
         if n_undefined == n:
             # k counts points; normalized radii are also said in metres
-            metres = f" (= {_fmt(scales)} m)" if self.scales.units == "normalized" else ""
-            larger = "a larger k" if self.scales.kind == "knn" else "larger radii"
+            metres = f" (= {_fmt(scales)} m)" if self.scales.normalized else ""
+            larger = "a larger k" if self.scales.by_count else "larger radii"
             raise LidarSigError(
                 f"no point has a defined saliency: every neighbourhood at {self.scales.describe()}{metres} "
                 f"holds fewer than the {self.min_neighbors} points a saliency needs; use {larger}",
@@ -295,7 +296,7 @@ class Pipeline:
                 f"points within the largest radius ({scales.max():.4g} m) and were cut to the nearest "
                 f"{self.max_neighbors}: the radii are large for this cloud"
                 + (" (normalized radii follow the bounding box, which a far outlier inflates)"
-                   if self.scales.units == "normalized" else "")
+                   if self.scales.normalized else "")
                 + "; use smaller radii or the default k-nearest scales", LidarSigWarning, stacklevel=2)
         stats = {"n_points": n, "n_undefined": n_undefined, "n_capped": n_capped,
                  "n_duplicates": n - m, "n_excluded": n_excluded, "resolved_scales": scales.tolist(),

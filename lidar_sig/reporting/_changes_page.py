@@ -9,6 +9,7 @@ import numpy as np
 
 from ..base.errors import counted
 from ..base.progress import step
+from ..method.scales import recorded_scales
 from . import _page as page
 from ._document import Report
 from .map_image import TOP, change_map_image
@@ -94,6 +95,8 @@ def coverage_text(cm):
 def cells_table(cm, top):
     """The most changed cells: rank (* significant), bounds, points, score and its level of
     detection, delta_H and its level, z, other metrics, classes before and after."""
+    from ..metrics import METRIC_KEYS
+
     names = cm.names
 
     rows = []
@@ -106,8 +109,8 @@ def cells_table(cm, top):
                      f"{y1:.0f}", f"{item['points_a']:,} / {item['points_b']:,}", f"{item['score']:.4f}", lod,
                      f"{item['height']:.2f} / " + ("" if item["height_lod"] is None else f"{item['height_lod']:.2f}"),
                      "" if item["z"] is None else f"{item['z']:.1f}",
-                     "<br>".join(f"{names[k]} {item[k]:.3f}" for k in ("bhattacharyya", "emd_info", "fv", "l1")
-                                 if item[k] is not None) + f"<br>significant in: {page.esc(also)}", composition])
+                     "<br>".join(f"{names[k]} {item[k]:.3f}" for k in METRIC_KEYS
+                                 if k != cm.score and item.get(k) is not None) + f"<br>significant in: {page.esc(also)}", composition])
     height = cm.names[cm.tests[1]]
     note = ("<p>* changed significantly: the score or the height component delta_H exceeds its level of "
             "detection, the value unchanged land would reach between these two epochs (sampled as this cell is, "
@@ -138,6 +141,6 @@ def levels_table(cm):
 
 
 def _method(m):
-    scales = ", ".join(f"{v:g}" for v in m.get("scale_values", []))
-    kind = "k" if m.get("scale_kind") == "knn" else "radii"
-    return f"{m.get('descriptor', '?')} {m.get('strategy', '?')}, {kind} {scales}, {m.get('weights', '?')} weights"
+    scales = recorded_scales(m)
+    shown = scales.describe() if scales is not None else "scales ?"
+    return f"{m.get('descriptor', '?')} {m.get('strategy', '?')}, {shown}, {m.get('weights', '?')} weights"

@@ -6,6 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..method.crs import crs_name
+from ..method.scales import recorded_scales
 from . import _page as page
 from .sections import scales_text
 
@@ -99,6 +100,7 @@ def _params(params):
 
 
 def _as_given(m):
-    if m.get("scale_kind") == "radius" and m.get("scale_units") == "normalized":
+    scales = recorded_scales(m)
+    if scales is not None and scales.normalized:
         return " (given as normalized " + ", ".join(f"{v:g}" for v in m.get("scale_values", [])) + ")"
     return ""

@@ -10,6 +10,7 @@ import numpy as np
 
 from ..method.cloud import kept_points
 from ..base.progress import step
+from ..method.scales import recorded_kind
 from . import _page as page
 
 EGEOM_CAPTION = (
@@ -179,8 +180,7 @@ def top_views(sides, tags, pngs, names):
 def scales_text(m):
     """The scales of recorded metadata ``m`` for people: k values, or radii in metres."""
     values = m.get("resolved_scales") or m.get("scale_values") or []
-    if m.get("scale_kind") == "knn":
-        return "k " + ", ".join(str(int(v)) for v in values)
-    if not values:
+    kind = recorded_kind(m)
+    if kind is None or not values:
         return str(m.get("scales", "?"))
-    return "radii " + ", ".join(f"{v:.4g}" for v in values) + " m"
+    return kind.describe(values)

@@ -37,7 +37,7 @@ def as_distance(key, values):
 
 
 def metric_keys(labelled):
-    """The metrics a catalogue compares: all seven, or without the semantic ones when unlabelled."""
+    """The metrics a catalogue compares: every registered one, or those that need no labels when unlabelled."""
     return tuple(k for k in METRIC_KEYS if labelled or k not in SEMANTIC)
 
 

@@ -1,10 +1,10 @@
 """Tiles unlike their neighbours and the survey: a score per tile, highest first, with the classes
 that make the difference.
 
-- The distance between two tiles is the **screening distance** (the mean of d_BD-Img,
-  d_EMD-Info, delta_FV, delta_KL and L1, each divided by its spread over the catalogue;
-  :mod:`lidar_sig.survey_catalog._distances`), for all N^2 pairs: the two image metrics would cost
-  about 30 ms a pair (an hour for the 500,000 pairs of 1,000 tiles).
+- The distance between two tiles is the **screening distance** (the mean of the metrics that
+  come from the tiles' vectors, each divided by its spread over the catalogue;
+  :mod:`lidar_sig.survey_catalog._distances`), for all N^2 pairs: the image metrics, computed per
+  pair, would take an hour for the 500,000 pairs of 1,000 tiles (docs/performance.md).
 - A tile's **spatial neighbours** are the tiles of its CRS whose footprints (convex hulls) touch
   it or lie within ``reach`` metres (default a quarter of the median tile side: the eight
   tiles around a tile of a square grid, not the next ring).

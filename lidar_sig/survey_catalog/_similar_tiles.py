@@ -8,11 +8,12 @@
    Sg, made from its counts: the costly step, about 20 to 40 ms a tile, on threads over the
    cores), then the ranking.
 
-The ranking distance is the mean of the seven metrics each divided by its spread; the screening
-distance is the same mean over the five screening metrics, so a tile's distance is at least
-5/7 of its screening distance (the image metrics are never negative as distances). When the
-first tile left out of the shortlist has 5/7 of its screening distance at or above the
-``top``-th distance found, no tile outside could enter the top: the answer says it is
+The ranking distance is the mean of every metric (those registered,
+:data:`lidar_sig.metrics.METRICS`) each divided by its spread; the screening distance is the same
+mean over the screening metrics, so a tile's distance is at least S/M of its screening distance
+for S screening metrics of M (5/7 with lidar_sig's own; the image metrics are never negative as
+distances). When the first tile left out of the shortlist has S/M of its screening distance at or
+above the ``top``-th distance found, no tile outside could enter the top: the answer says it is
 ``certain``. Ranking by one screening metric is always certain.
 
 A query that is a tile of the catalogue is left out of the answer: the answer is the tiles most

@@ -14,6 +14,7 @@ import numpy as np
 
 from ..base.errors import LidarSigError, a_kind, as_path, counted
 from ..metrics import METRIC
+from ..method.scales import recorded_scales
 from ._distances import SCREENING, combine, metric_keys, pair_metrics, screening
 from ._features import Features, sg_image, signature_features
 
@@ -199,8 +200,8 @@ class Catalog:
         from ..method.crs import crs_name
 
         m, c = self.method, self.columns
-        values = ", ".join(f"{v:g}" for v in m["scale_values"])
-        scales = f"k {values}" if m["scale_kind"] == "knn" else f"radii {values} ({m['scale_units'] or 'metric'})"
+        recorded = recorded_scales(m)
+        scales = recorded.describe() if recorded is not None else "scales ?"
         crs = [crs_name(w) or "none" for w in self.header["crs"]]
         lines = [f"{self.path}: lidar_sig survey catalogue, {counted(len(self), 'tile')}",
                  f"  descriptor {m['descriptor']}, strategy {m['strategy']}, {scales}, {m['weights']} weights",

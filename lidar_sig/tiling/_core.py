@@ -34,7 +34,7 @@ import numpy as np
 
 from ..numerics.bounds import bounds
 from ..base.errors import LidarSigError, arg, positive_metres
-from ..numerics.neighbors import NeighborIndex, area_cap, radius_reach, unique_points
+from ..numerics.neighbors import NeighborIndex, ScaleKind, area_cap, radius_reach, unique_points
 
 #: Relative margin kept between a needed distance and the halo's edge (round-off of the tests).
 MARGIN = 1e-9
@@ -197,7 +197,7 @@ def first_halo(pipeline, ctx, *, weights_known=False):
     points of a generated airborne tile, in tree crowns, to be recomputed in blocks of their
     own: 10% of the tile's time), plus the area-weight cap unless the neighbours' weights are
     known already (``weights_known``: they need no second neighbour inside)."""
-    if pipeline.scales.kind == "knn":
+    if pipeline.scales.by_count:
         reach = 4.0 * math.sqrt(max(ctx.scales) / (math.pi * ctx.density))
     else:
         reach = radius_reach(max(ctx.scales) * (1.0 + MARGIN))
@@ -225,7 +225,8 @@ def block_saliency(pipeline, xyz, query, edge, scales, area_cap, second=None):
     queried[location[query]] = True
     scales = np.asarray(scales)
     second_loc = None
-    if second is not None and pipeline.weights == "area":  # copies of a location share its distance
+    by_area = pipeline.weights.by_area
+    if second is not None and by_area:  # copies of a location share its distance
         second_loc = np.empty(m)
         second_loc[location] = second
     index = NeighborIndex(support, pipeline.scales.kind, scales, max_neighbors=pipeline.max_neighbors,
@@ -234,9 +235,9 @@ def block_saliency(pipeline, xyz, query, edge, scales, area_cap, second=None):
     edge_sorted = edge_loc[index.order]
     if second_loc is not None:  # the set's own distances: every weight is the set's
         weight_ok = np.ones(m, bool)
-    elif pipeline.weights == "area" and m < 3:  # no second neighbour inside: only a whole set is sure
+    elif by_area and m < 3:  # no second neighbour inside: only a whole set is sure
         weight_ok = np.isinf(edge_sorted)
-    elif pipeline.weights == "area":  # sqrt(weight) is the capped second-neighbour distance
+    elif by_area:  # sqrt(weight) is the capped second-neighbour distance
         weight_ok = np.sqrt(index.weights) * (1.0 + MARGIN) < edge_sorted
     else:
         weight_ok = np.ones(m, bool)
@@ -260,7 +261,7 @@ def block_saliency(pipeline, xyz, query, edge, scales, area_cap, second=None):
             chosen[loc] = pick
         capped[loc] = batch.capped
         n = batch.n
-        if pipeline.scales.kind == "knn":
+        if pipeline.scales.by_count:
             enough = (n >= max(scales)) | np.isinf(edge_sorted[part])
         else:
             enough = True
@@ -392,7 +393,7 @@ def tile_second_distances(load, tiling, ij, ctx, *, halo=None):
         good = np.zeros(len(todo), bool)
         if halo_.whole or len(support) >= 3:  # fewer: the second neighbour is outside
             # a grid sized for SECOND_GRID_K neighbours: the 3-nearest search is fastest on it
-            index = NeighborIndex(support, "knn", np.array([min(SECOND_GRID_K, len(support))]), min_neighbors=1)
+            index = NeighborIndex(support, ScaleKind.KNN, np.array([min(SECOND_GRID_K, len(support))]), min_neighbors=1)
             # queries in the grid's order: each bounds the next (lidar_sig.numerics._voxels)
             wanted = np.zeros(len(support), bool)
             wanted[loc] = True
@@ -455,7 +456,7 @@ def saliency_in_tiles(pipeline, cloud, tile_size, *, halo=None):
         inside = (xyz[:, 0] >= x0) & (xyz[:, 0] <= x1) & (xyz[:, 1] >= y0) & (xyz[:, 1] <= y1)
         return xyz[inside], ids[inside]
 
-    if pipeline.weights == "area":
+    if pipeline.weights.by_area:
         d = np.concatenate([tile_second_distances(load, tiling, ij, ctx)[2] for ij in tiling.tiles()])
         ctx = SetContext(ctx.centre, ctx.factors, ctx.lo, ctx.hi, ctx.scales, area_cap(d), ctx.density)
     values = np.full((len(xyz), 3), np.nan)

@@ -402,9 +402,14 @@ class CompareAlgorithm(LidarSigAlgorithm):
     job = "compare"
     label = "Compare two point clouds"
     group_name = "Point clouds"
-    help = ("<p>The seven metrics between the signatures of A and B (clouds or signature archives), each placed "
-            "against the values the project measured between a tile and the same land resampled, the adjacent "
-            "tile and another city; as a table, and a report on request.</p>")
+
+    @property
+    def help(self):
+        """Every metric lidar-sig offers (those of plugins too), counted as it lists them."""
+        count = len(offered("metrics"))
+        return (f"<p>The {count or 'registered'} metrics between the signatures of A and B (clouds or signature "
+                "archives), each placed against the values the project measured between a tile and the same land "
+                "resampled, the adjacent tile and another city; as a table, and a report on request.</p>")
 
     def parameters(self):
         self.add_file("A", "A: point cloud or signature archive", CLOUDS_OR_ARCHIVES)
