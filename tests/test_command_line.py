@@ -13,11 +13,11 @@ from command_line import run, run_process
 @pytest.fixture
 def plugins_command(monkeypatch):
     """Replace what `lidar-sig plugins` does with the function given."""
-    from lidar_sig.cli import cli
+    from lidar_sig.cli.list_plugins import plugins  # the command the group loads for `plugins`
 
     def replace(function):
         # the command's options (such as --json) are not the test's concern
-        monkeypatch.setattr(cli.commands["plugins"], "callback", lambda **options: function())
+        monkeypatch.setattr(plugins, "callback", lambda **options: function())
     return replace
 
 

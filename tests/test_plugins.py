@@ -189,13 +189,17 @@ def test_a_plugin_of_another_distribution_runs_in_tiles_and_is_warmed_up_like_a_
 
 def test_a_source_tree_never_installed_says_to_install_it(monkeypatch):
     # the built-ins come from lidar_sig's own entry points; without them the error says what to do
+    from lidar_sig.base import extensions
     from lidar_sig.base.errors import LidarSigError
-    from lidar_sig.plugins import _registry as registry
+    from lidar_sig.plugins import available
 
-    monkeypatch.setattr(registry, "entry_points", lambda group: [])
-    registry._plugins.cache_clear()
+    monkeypatch.setattr(extensions, "entry_points", lambda group: [])
+    extensions.forget()
     try:
-        with pytest.raises(LidarSigError, match=r"not registered: install it \(pip install -e \."):
-            registry.available("descriptor")
+        for kind in extensions.GROUPS:
+            with pytest.raises(LidarSigError, match=r"not registered: install it \(pip install -e \."):
+                extensions.registered(kind)
+        with pytest.raises(LidarSigError, match="descriptors .* not registered"):
+            available("descriptor")
     finally:
-        registry._plugins.cache_clear()
+        extensions.forget()

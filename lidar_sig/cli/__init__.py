@@ -3,15 +3,15 @@
 Every way a run can end says so in one line on stderr: a user error (LidarSigError, or a bad
 option) with exit status 2; an interrupt (Ctrl-C, SIGTERM) with 130 or 143, outputs left as they
 were; a note from the library (LidarSigWarning) is one line too and does not stop the run
-(:mod:`lidar_sig.cli.group`). One module per command; :func:`main` runs them.
+(:mod:`lidar_sig.cli.group`). One module per command, each registered under the entry-point group
+``lidar_sig.commands`` (as another package's commands are) and imported when it runs;
+:func:`main` runs them.
 """
 import signal
 
 import click
 
-from . import (catalog, changes, compare, info, list_plugins, outliers, resilience, saliency,  # noqa: F401
-               sample, signature, similar)  # (registers the commands)
-from ..base.errors import printable
+from ..base.errors import LidarSigError, printable
 from .group import cli
 
 
@@ -29,6 +29,9 @@ def main(argv=None):
         click.echo(f"lidar-sig: error: {message}{' ' if message.endswith('?') else '; '}see `{command} --help`",
                    err=True)
         return exc.exit_code
+    except LidarSigError as exc:  # a command that cannot be loaded, met while parsing (its help, its name)
+        click.echo(f"lidar-sig: error: {exc}", err=True)
+        return 2
     except click.exceptions.Abort as exc:  # Ctrl-C or SIGTERM while click itself was parsing or closing
         signum = getattr(exc.__cause__, "signum", signal.SIGINT)  # SIGTERM comes as errors.Interrupted
         click.echo(f"lidar-sig: interrupted ({signal.Signals(signum).name})", err=True)

@@ -1,12 +1,11 @@
 """`lidar-sig catalog`: one signature per tile of a survey, in a catalogue made or grown."""
 import click
 
-from .group import cli
 from .options import execution_options, json_option, overwrite_option, pipeline_options, resume_option
 from .summaries import show
 
 
-@cli.command()
+@click.command()
 @click.argument("inputs", nargs=-1, required=True)
 @click.option("-o", "--output", required=True, metavar="FILE.h5",
               help="The catalogue: made, or grown when it exists (tiles already in it, same path and SHA-256, "

@@ -4,13 +4,12 @@ import json
 import click
 
 from ..base.errors import printable
-from .group import cli
 from .options import (columns_option, execution_options, json_option, overwrite_option, pipeline_options,
                       render_option, report_options)
 from .summaries import archive_summary_line
 
 
-@cli.command()
+@click.command()
 @click.argument("a")
 @click.argument("b")
 @json_option

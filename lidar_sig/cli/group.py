@@ -1,7 +1,14 @@
-"""The ``lidar-sig`` command group: how every run ends. A user error (LidarSigError, or a bad
-option) is one line on stderr and exit status 2; an interrupt (Ctrl-C, SIGTERM) one line and 130
-or 143, outputs left as they were; a note from the library (LidarSigWarning) one line that does
-not stop the run. Each command registers itself on :func:`cli` (one module per command).
+"""The ``lidar-sig`` command group: its commands and how every run ends.
+
+The commands are those registered under the entry-point group ``lidar_sig.commands``: lidar_sig's
+own (one module of this package each) and other packages' (docs/extending.md). The group lists
+their names from the installed packages' metadata and imports a command's module only when it
+runs or when the group's help shows its short help, as click's lazy groups do: the command line
+starts without them.
+
+A user error (LidarSigError, or a bad option) is one line on stderr and exit status 2; an
+interrupt (Ctrl-C, SIGTERM) one line and 130 or 143, outputs left as they were; a note from the
+library (LidarSigWarning) one line that does not stop the run.
 """
 import signal
 import warnings
@@ -9,6 +16,7 @@ import warnings
 import click
 
 from ..base.errors import Interrupted, LidarSigError, LidarSigWarning, printable, speaking
+from ..base.extensions import registered
 from ..io.atomic import recording_outputs
 from ..base.progress import environment_setting, say
 
@@ -22,6 +30,20 @@ def show_note(message, category, filename, lineno, file=None, line=None, _shown=
 
 
 class _Group(click.Group):
+    """The commands found through entry points, each loaded when first needed."""
+
+    def list_commands(self, ctx: click.Context) -> list[str]:
+        return sorted(set(registered("command")) | set(self.commands))
+
+    def get_command(self, ctx: click.Context, cmd_name: str) -> click.Command | None:
+        extension = registered("command").get(cmd_name)
+        if extension is None:
+            return self.commands.get(cmd_name)
+        command = extension.load()
+        if not isinstance(command, click.Command):
+            raise extension.fault(f"is {command!r}, not a click command (decorate its function with @click.command())")
+        return command
+
     def invoke(self, ctx):
         written = []
         try:

@@ -1,12 +1,11 @@
 """`lidar-sig info`: what a signature archive, a survey catalogue or a point-cloud file holds."""
 import click
 
-from .group import cli
 from .options import columns_option, json_option
 from .summaries import show
 
 
-@cli.command()
+@click.command()
 @click.argument("path")
 @columns_option
 @json_option

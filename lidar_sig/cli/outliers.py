@@ -6,11 +6,10 @@ import click
 
 from ..base.errors import counted, printable
 from ..base.progress import settings as progress_settings
-from .group import cli
 from .options import overwrite_option
 
 
-@cli.command()
+@click.command()
 @click.argument("catalogue")
 @click.option("-o", "--output", default=None, metavar="FILE.gpkg",
               help="Write the tiles' footprints with every score and metric as a GeoPackage layer (QGIS, GDAL).")

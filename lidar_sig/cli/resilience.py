@@ -5,7 +5,6 @@ import click
 
 from ..base.errors import counted
 from ..io import check_output, read
-from .group import cli
 from .options import (Default, columns_option, not_empty, number_list, overwrite_option, pipeline_options,
                       render_option)
 
@@ -16,7 +15,7 @@ def _fractions():
     return ",".join(f"{f:g}" for f in DEFAULT_FRACTIONS)
 
 
-@cli.command("resilience")
+@click.command("resilience")
 @click.argument("source")
 @click.option("--fractions", type=str, default=Default(_fractions), show_default=True,
               help="Fractions of the points to keep, comma-separated, each in (0, 1].")

@@ -1,12 +1,11 @@
 """`lidar-sig saliency`: per-point saliency written as LAS/LAZ extra dimensions (and other formats)."""
 import click
 
-from .group import cli
 from .options import columns_option, execution_options, json_option, overwrite_option, pipeline_options, resume_option
 from .summaries import show
 
 
-@cli.command()
+@click.command()
 @click.argument("sources", nargs=-1, required=True)
 @click.option("-o", "--output", required=True,
               help="Output point cloud: LAS/LAZ (extra dimensions), PLY/PCD (attributes) or text (columns); "

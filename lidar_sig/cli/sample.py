@@ -3,11 +3,10 @@ import json
 
 import click
 
-from .group import cli
 from .options import json_option, overwrite_option
 
 
-@cli.command()
+@click.command()
 @click.argument("folder")
 @overwrite_option
 @json_option

@@ -1,13 +1,12 @@
 """`lidar-sig signature`: the signature of a cloud, as an HDF5 archive, PNG images or a report."""
 import click
 
-from .group import cli
 from .options import (columns_option, execution_options, json_option, not_empty, overwrite_option, pipeline_options,
                       render_option, report_options, resume_option)
 from .summaries import show
 
 
-@cli.command()
+@click.command()
 @click.argument("sources", nargs=-1, required=True)
 @click.option("-o", "--output", default=None,
               help="Signature archive (.h5) or image of the augmented semantic signature Sas (.png).")

@@ -4,11 +4,10 @@ import json
 import click
 
 from ..base.progress import settings as progress_settings
-from .group import cli
 from .options import Choice, columns_option, metric_keys
 
 
-@cli.command()
+@click.command()
 @click.argument("query")
 @click.argument("catalogue")
 @click.option("--top", default=10, show_default=True, type=click.IntRange(1), help="How many tiles to list.")

@@ -7,8 +7,9 @@ or one of its names below is first used (PEP 562): the command line starts witho
 from __future__ import annotations
 
 import os
+import pkgutil
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import lazy_loader
 
@@ -18,42 +19,44 @@ from ..base.progress import step
 if TYPE_CHECKING:
     from ..method.cloud import PointCloud
 from .atomic import atomic_output, check_output, check_outputs, output_group
-from .formats import (CLOUD_EXTENSIONS, HDF5_EXTENSIONS, LAS_EXTENSIONS, POINTS, SIGNATURE,
-                      TEXT_EXTENSIONS, format_of)
+from .formats import HDF5_EXTENSIONS, LAS_EXTENSIONS, POINTS, SIGNATURE, extensions, format_of
 
-# name -> the module of this package that defines it, loaded on first use
+# name -> the module of this package that defines it, loaded on first use (a format's own
+# reader and writer are the format's: lidar_sig.io.formats loads them)
 _EXPORTS = {
     "archive_summary": "archive", "load_signature": "archive", "write_archive": "archive", "saliency_fields": "fields",
-    "check_las_output": "las", "read_las": "las", "write_las": "las", "read_open3d": "open3d",
-    "write_open3d": "open3d", "parse_columns": "_text", "read_text": "_text", "write_text": "_text",
+    "parse_columns": "_text",
 }
 
 __all__ = ["read", "write_cloud", "parse_columns", "CLOUD_EXTENSIONS", "atomic_output", "check_output",
-           "check_outputs", "output_group", "check_cloud_output", "write_las", "write_archive", "load_signature",
-           "archive_summary", "LAS_EXTENSIONS", "TEXT_EXTENSIONS", "HDF5_EXTENSIONS"]
+           "check_outputs", "output_group", "check_cloud_output", "write_archive", "load_signature",
+           "archive_summary", "LAS_EXTENSIONS", "HDF5_EXTENSIONS"]
 
 
-_SUBMODULES = ("archive", "atomic", "catalog_file", "fields", "formats", "geopackage", "geotiff", "las", "open3d", "png",
-               "result_files")
-__getattr__, _lazy_dir, _ = lazy_loader.attach(
+# every public module of the package, imported when first used as an attribute (io.archive)
+_SUBMODULES = tuple(sorted(m.name for m in pkgutil.iter_modules(__path__) if not m.name.startswith("_")))
+_lazy_getattr, _lazy_dir, _ = lazy_loader.attach(
     __name__, submodules=_SUBMODULES,
     submod_attrs={m: [n for n, where in _EXPORTS.items() if where == m] for m in set(_EXPORTS.values())})
 
 
+def __getattr__(name: str) -> Any:
+    if name == "CLOUD_EXTENSIONS":  # the installed formats', made when first asked for
+        return extensions(POINTS)
+    return _lazy_getattr(name)
+
+
 def __dir__():
-    return sorted(set(globals()) | set(_lazy_dir()))
+    return sorted(set(globals()) | set(_lazy_dir()) | {"CLOUD_EXTENSIONS"})
 
 
 def read(path: str | os.PathLike[str], *, columns: str | list[str] | None = None) -> PointCloud:
-    """Read a point cloud (LAS/LAZ, PLY/PCD, XYZ/TXT/PTS/CSV text) into a PointCloud.
+    """Read a point cloud (LAS/LAZ, PLY/PCD, XYZ/TXT/PTS/CSV text, or a format another package
+    adds: :mod:`lidar_sig.io.formats`) into a PointCloud.
 
     ``columns`` names the columns of a text file (see :mod:`lidar_sig.io._text`).
     """
     as_path(path, "read")
-    if columns is not None:
-        from ._text import parse_columns
-
-        columns = parse_columns(columns if isinstance(columns, str) else ",".join(map(str, columns)))
     path = Path(path)
     if not path.exists():
         raise LidarSigError("no such file; check the path", path=path)
@@ -65,10 +68,9 @@ def read(path: str | os.PathLike[str], *, columns: str | list[str] | None = None
         raise LidarSigError("cannot be read (permission denied)", path=path)
     fmt = format_of(path)
     if fmt is not None and POINTS in fmt.holds:
-        reader = fmt.load("reader")  # its module loaded before the step, whose time is the reading
-        options = {"columns": columns} if "columns" in fmt.options else {}
+        fmt.load("reader")  # its module loaded before the step, whose time is the reading
         with step(f"reading {path.name}", bytes=path.stat().st_size) as s:
-            cloud = reader(path, **options)
+            cloud = fmt.read(path, columns=columns)
             s.note(points=len(cloud))
         return cloud
     if fmt is not None and SIGNATURE in fmt.holds:
@@ -79,7 +81,7 @@ def read(path: str | os.PathLike[str], *, columns: str | list[str] | None = None
                             "or lidar_sig.load_signature", path=path)
     ext = path.suffix.lower()
     raise LidarSigError(f"unknown point-cloud format {ext or '(no extension)'!r}; "
-                        f"use one of {', '.join(CLOUD_EXTENSIONS)}", path=path)
+                        f"use one of {', '.join(extensions(POINTS))}", path=path)
 
 
 def check_cloud_output(path, cloud):
@@ -99,10 +101,10 @@ def write_cloud(path, cloud, saliency, *, scale_kind=None, scale_values=None, ov
     if fmt is None or POINTS not in fmt.holds:
         ext = Path(path).suffix.lower()
         raise LidarSigError(f"cannot write point clouds as {ext or '(no extension)'!r}; use one of "
-                            f"{', '.join(CLOUD_EXTENSIONS)}", path=path)
+                            f"{', '.join(extensions(POINTS))}", path=path)
     from .fields import saliency_fields
 
     fields = saliency_fields(saliency, scale_kind, scale_values)
     if extra:
         fields.update(extra)
-    return fmt.load("writer")(path, cloud, fields, overwrite=overwrite)
+    fmt.write(path, cloud, fields, overwrite=overwrite)

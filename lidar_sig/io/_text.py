@@ -46,7 +46,10 @@ def parse_columns(text):
 
 def read_text(path, columns=None):
     """Read a text point cloud; lines starting with ``#`` or ``//`` are comments, a first line
-    that is not numeric is a header, a ``.pts`` point-count line is skipped."""
+    that is not numeric is a header, a ``.pts`` point-count line is skipped. ``columns`` names
+    the columns (``"x,y,z,-,label"`` or a list of names: :func:`parse_columns`)."""
+    if columns is not None:
+        columns = parse_columns(columns if isinstance(columns, str) else ",".join(map(str, columns)))
     try:
         with open(path, encoding="utf-8") as fh:
             raw = [(number, ln) for number, ln in enumerate(fh, 1) if ln.strip()]

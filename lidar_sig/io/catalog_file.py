@@ -18,7 +18,7 @@ import numpy as np
 from ..method.classes import recorded_table
 from ..method.crs import same_crs
 from ..base.errors import LidarSigError, as_path, special_file
-from ..metrics import FV_GRID, MAX_COLOR_BINS, METRIC_KEYS, SEMANTIC_KEYS, fv_mixture
+from ..metrics import FV_GRID, MAX_COLOR_BINS, METRIC, METRIC_KEYS, SEMANTIC_KEYS, fv_mixture
 from ..method.signature_raster import EGEOM_BINS, METHOD_KEYS, Frame
 from ._h5datasets import described_dataset, hdf5_output
 
@@ -225,9 +225,11 @@ def _read(f, path):
 
 def _spread(attrs, classes, damaged):
     """The metrics' spreads: a positive number for every metric the catalogue compares (the
-    semantic ones only when it has classes)."""
+    semantic ones only when it has classes): each of lidar_sig's own, and those of other
+    packages installed when it was made (one installed later is not compared)."""
     spread = _json(attrs, "spread", dict, damaged)
-    wanted = [k for k in METRIC_KEYS if classes.names or k not in SEMANTIC_KEYS]
+    wanted = [k for k in METRIC_KEYS if (classes.names or k not in SEMANTIC_KEYS)
+              and (k in spread or METRIC[k].built_in)]
     missing = [k for k in wanted if k not in spread]
     if missing:
         raise damaged(f"its spread lacks the metric{'s' if len(missing) > 1 else ''} {', '.join(missing)}")

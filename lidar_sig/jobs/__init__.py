@@ -11,8 +11,9 @@ from .catalog import CatalogJob, OutliersRun, catalog, outliers
 from .changes import ChangesRun, changes
 from .compare import CompareRun, compare
 from .info import Description, info
+from .list_plugins import Plugins, plugins
 from .saliency import SaliencyRun, saliency
 from .signature import SignatureRun, signature
 
-__all__ = ["CatalogJob", "ChangesRun", "CompareRun", "Description", "OutliersRun", "SaliencyRun", "SignatureRun",
-           "catalog", "changes", "compare", "info", "outliers", "saliency", "signature"]
+__all__ = ["CatalogJob", "ChangesRun", "CompareRun", "Description", "OutliersRun", "Plugins", "SaliencyRun",
+           "SignatureRun", "catalog", "changes", "compare", "info", "outliers", "plugins", "saliency", "signature"]

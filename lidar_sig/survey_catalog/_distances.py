@@ -45,7 +45,7 @@ def screening(query, tiles, labelled=True):
     """Screening metrics between each row of ``query`` (Features, Q rows) and each tile of
     ``tiles`` (Features, N rows), by each metric's row-wise form
     (:attr:`lidar_sig.metrics.Metric.rows`): a dict key -> (Q, N) float64 array."""
-    return {m.key: m.rows(query, tiles) for m in METRICS
+    return {m.key: m.between_rows(query, tiles) for m in METRICS
             if m.from_vectors and (labelled or not m.needs_labels)}
 
 
@@ -54,12 +54,13 @@ def pair_metrics(a, b, sg_a, sg_b, mask, keys):
     each; ``sg_a``, ``sg_b`` their Sg images, needed for s_SSIM), computed by the metrics' own
     functions as :func:`lidar_sig.metrics.compare` does."""
     one, other = TileOperand(a, sg_a, mask), TileOperand(b, sg_b, mask)
-    return {key: METRIC[key].of(one, other) for key in keys}
+    return {key: METRIC[key].value(one, other) for key in keys}
 
 
 class TileOperand:
-    """What a metric reads of one tile (as :class:`lidar_sig.metrics.Operand` of a signature),
-    from its stored vectors (Features of one row) and its Sg image."""
+    """What a metric reads of one tile (a :class:`lidar_sig.metrics.Operand`, as
+    :class:`lidar_sig.metrics.SignatureOperand` of a signature), from its stored vectors (Features
+    of one row) and its Sg image."""
 
     def __init__(self, features, sg, mask):
         from ._features import COLOR_BINS

@@ -192,8 +192,8 @@ class Catalog:
     @property
     def keys(self):
         """The metrics the catalogue compares (METRIC_KEYS, without the semantic ones when
-        unlabelled)."""
-        return metric_keys(self.labelled)
+        unlabelled): those it holds a spread of (a metric installed after it was made is not)."""
+        return tuple(k for k in metric_keys(self.labelled) if k in self.header["spread"])
 
     def summary(self) -> list[str]:
         """Lines describing the catalogue, for `lidar-sig info` (it was checked when opened)."""

@@ -21,12 +21,10 @@ from . import command
 from .resources import help_url, icon, icon_path
 from .settings import executable_setting
 
-CLOUDS = "Point clouds (*.laz *.las *.ply *.pcd *.xyz *.txt *.pts *.csv);;All files (*.*)"
-CLOUDS_OR_ARCHIVES = ("Point clouds and signature archives (*.laz *.las *.ply *.pcd *.xyz *.txt *.pts *.csv *.h5 "
-                      "*.hdf5);;All files (*.*)")
-CLOUD_OUTPUTS = "LAZ files (*.laz);;LAS files (*.las);;PLY files (*.ply);;CSV files (*.csv)"
-ARCHIVES = "Signature archives (*.h5 *.hdf5)"
+#: What the formats hold, as ``lidar-sig plugins --json`` says (lidar_sig.io.formats).
+POINTS, SIGNATURE = "points", "signature"
 HTML = "HTML files (*.html)"
+ALL_FILES = "All files (*.*)"
 #: A destination that is no file: a provider's URI ("ogr:dbname=...", "postgres:...", "memory:"; a
 #: Windows drive is one letter).
 NOT_A_FILE = re.compile(r"^[A-Za-z]{2,}:|dbname=")
@@ -44,6 +42,41 @@ def offered(kind):
     except command.CommandError:
         return {}
     return dict(command.listing(executable).get(kind, {}))
+
+
+def extensions(*holding, written=False):
+    """The extensions of the formats that the lidar-sig run by the provider reads (or, with
+    ``written``, writes) holding any of ``holding`` ("points", "signature"), in its order: a
+    format a plugin adds shows up here."""
+    out = []
+    for facts in offered("formats").values():
+        if set(holding) & set(facts.get("holds", ())) and (not written or facts.get("writes")):
+            out += [ext for ext in facts.get("extensions", ()) if ext not in out]
+    return out
+
+
+def file_filter(title, *holding):
+    """A file dialog's filter of the files holding any of ``holding``, and of all files."""
+    found = extensions(*holding)
+    return f"{title} ({' '.join('*' + e for e in found)});;{ALL_FILES}" if found else ALL_FILES
+
+
+def clouds():
+    return file_filter("Point clouds", POINTS)
+
+
+def clouds_or_archives():
+    return file_filter("Point clouds and signature archives", POINTS, SIGNATURE)
+
+
+def archives():
+    found = extensions(SIGNATURE)
+    return f"Signature archives ({' '.join('*' + e for e in found)})" if found else ALL_FILES
+
+
+def cloud_outputs():
+    """One filter per extension of the point-cloud formats lidar-sig writes, the first its default."""
+    return ";;".join(f"{e[1:].upper()} files (*{e})" for e in extensions(POINTS, written=True)) or ALL_FILES
 
 
 def metric_names():
@@ -264,10 +297,10 @@ class LidarSigAlgorithm(QgsProcessingAlgorithm):
                                    "file to resume an interrupted run")
         return message.replace(" for --resume", "; to reuse it, run again with the same output and Resume ticked")
 
-    def add_file(self, name, description, file_filter=CLOUDS, *, optional=False, folder=False):
+    def add_file(self, name, description, files=None, *, optional=False, folder=False):
         behavior = QgsProcessingParameterFile.Folder if folder else QgsProcessingParameterFile.File
         self.addParameter(QgsProcessingParameterFile(name, description, behavior=behavior,
-                                                     fileFilter="" if folder else file_filter, optional=optional))
+                                                     fileFilter="" if folder else files or clouds(), optional=optional))
 
     def add_report(self):
         self.addParameter(QgsProcessingParameterFileDestination("REPORT", "Report (HTML)", HTML, optional=True,
@@ -361,7 +394,7 @@ class SaliencyAlgorithm(LidarSigAlgorithm):
         self.addParameter(QgsProcessingParameterString("K", "Neighbourhood sizes k, e.g. 20,30,40 (empty: the "
                                                        "strategy's default)", optional=True))
         self.addParameter(QgsProcessingParameterFileDestination("OUTPUT", "Point cloud with saliency",
-                                                                CLOUD_OUTPUTS))
+                                                                cloud_outputs()))
 
     def arguments(self, parameters, context, outputs):
         args = ["saliency", self.path(parameters, "INPUT", context), "-o", outputs["OUTPUT"], "--overwrite"]
@@ -386,7 +419,7 @@ class SignatureAlgorithm(LidarSigAlgorithm):
 
     def parameters(self):
         self.add_file("INPUT", "Point cloud")
-        self.addParameter(QgsProcessingParameterFileDestination("OUTPUT", "Signature archive", ARCHIVES))
+        self.addParameter(QgsProcessingParameterFileDestination("OUTPUT", "Signature archive", archives()))
         self.addParameter(QgsProcessingParameterFileDestination("PNG", "Picture of Sas", "PNG files (*.png)",
                                                                 optional=True, createByDefault=False))
         self.add_report()
@@ -412,8 +445,8 @@ class CompareAlgorithm(LidarSigAlgorithm):
                 "resampled, the adjacent tile and another city; as a table, and a report on request.</p>")
 
     def parameters(self):
-        self.add_file("A", "A: point cloud or signature archive", CLOUDS_OR_ARCHIVES)
-        self.add_file("B", "B: point cloud or signature archive", CLOUDS_OR_ARCHIVES)
+        self.add_file("A", "A: point cloud or signature archive", clouds_or_archives())
+        self.add_file("B", "B: point cloud or signature archive", clouds_or_archives())
         self.add_report()
         self.addParameter(QgsProcessingParameterFeatureSink("METRICS", "Metrics", QgsProcessing.TypeVector))
 
@@ -465,7 +498,7 @@ class ChangesAlgorithm(LidarSigAlgorithm):
         self.addParameter(QgsProcessingParameterRasterDestination("OUTPUT", "Change map"))
         self.addParameter(QgsProcessingParameterVectorDestination("CELLS", "Cells", QgsProcessing.TypeVectorPolygon))
         self.addParameter(QgsProcessingParameterFileDestination("POINTS", "Later epoch's points with their cell's "
-                                                                "change", CLOUD_OUTPUTS, optional=True,
+                                                                "change", cloud_outputs(), optional=True,
                                                                 createByDefault=False))
         self.add_report()
         self.addOutput(QgsProcessingOutputNumber("COMPARED", "Cells compared"))
@@ -511,7 +544,7 @@ class CatalogAlgorithm(LidarSigAlgorithm):
 
     def parameters(self):
         self.add_file("INPUT", "Folder of LAS/LAZ tiles", folder=True)
-        self.addParameter(QgsProcessingParameterFileDestination("OUTPUT", "Catalogue", ARCHIVES))
+        self.addParameter(QgsProcessingParameterFileDestination("OUTPUT", "Catalogue", archives()))
         self.addParameter(QgsProcessingParameterNumber("WORKERS", "Processes (0: every core)",
                                                        QgsProcessingParameterNumber.Integer, 0, minValue=0))
         self.addParameter(QgsProcessingParameterBoolean("RESUME", "Resume: reuse the tiles an interrupted run of "
@@ -534,7 +567,7 @@ class SimilarAlgorithm(LidarSigAlgorithm):
 
     def parameters(self):
         self.add_file("QUERY", "Query: a tile of the catalogue or a point cloud")
-        self.add_file("CATALOGUE", "Catalogue", ARCHIVES)
+        self.add_file("CATALOGUE", "Catalogue", archives())
         self.addParameter(QgsProcessingParameterNumber("TOP", "Tiles listed", QgsProcessingParameterNumber.Integer,
                                                        10, minValue=1))
         self.addParameter(QgsProcessingParameterFeatureSink("OUTPUT", "Similar tiles", QgsProcessing.TypeVector))
@@ -560,7 +593,7 @@ class OutliersAlgorithm(LidarSigAlgorithm):
     more_example = ""  # its one other option, --top, changes only what it prints
 
     def parameters(self):
-        self.add_file("CATALOGUE", "Catalogue", ARCHIVES)
+        self.add_file("CATALOGUE", "Catalogue", archives())
         self.addParameter(QgsProcessingParameterNumber("REACH", "Neighbours within (m; 0: a quarter of the median "
                                                        "tile side)", QgsProcessingParameterNumber.Double, 0.0,
                                                        minValue=0.0))
