@@ -1,5 +1,6 @@
 """Editors and type checkers see the API: the package's own hints (``py.typed``, the public names
-of ``__init__.pyi``) make every Python example of the docs pass ``mypy --strict``, and
+of ``__init__.pyi``) make every Python example of the docs pass ``mypy --strict``, the extension
+points (``lidar_sig/plugins/``) and the jobs (``lidar_sig/jobs/``) are fully typed, and
 ``ls.Pipeline`` and the other public names resolve statically."""
 import re
 import subprocess
@@ -43,6 +44,22 @@ def test_every_python_example_of_the_docs_type_checks_strictly(tmp_path):
     assert checked.returncode == 0, checked.stdout + checked.stderr
 
 
+#: Jobs another engineer is rewriting (the change map at survey scale), not yet typed; that engineer
+#: empties this set.
+UNTYPED_JOBS_BEING_REWRITTEN = {"changes.py"}
+
+
+def test_the_extension_points_and_the_jobs_type_check_strictly(tmp_path):
+    # a plugin author's editor knows what a descriptor and a strategy implement, and what a job takes
+    package = ROOT / "lidar_sig"
+    files = sorted((package / "plugins").rglob("*.py")) + sorted(
+        p for p in (package / "jobs").glob("*.py") if p.name not in UNTYPED_JOBS_BEING_REWRITTEN)
+    assert len(files) >= 20
+    checked = _mypy(tmp_path, files)
+    assert checked.returncode == 0, checked.stdout + checked.stderr
+    assert f"no issues found in {len(files)} source files" in checked.stdout
+
+
 def test_the_public_names_resolve_statically(tmp_path):
     probe = tmp_path / "probe.py"
     probe.write_text("import lidar_sig as ls\n"
@@ -53,6 +70,6 @@ def test_the_public_names_resolve_statically(tmp_path):
     revealed = [line.split("Revealed type is ", 1)[1] for line in said.splitlines() if "Revealed type is" in line]
     assert len(revealed) == 6, said
     for line, name in zip(revealed, ("lidar_sig.pipeline.flow.Pipeline", "lidar_sig.pipeline.result.Result",
-                                     "lidar_sig.comparison.Comparison", "lidar_sig.tiling.execution.Execution",
+                                     "lidar_sig.comparison._compared.Comparison", "lidar_sig.tiling.execution.Execution",
                                      "lidar_sig.jobs.saliency.SaliencyRun", "lidar_sig.change_map._maps.ChangeMap")):
         assert name in line, (name, line)

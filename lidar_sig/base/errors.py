@@ -5,10 +5,14 @@ anything else is a bug and keeps its traceback. A message names the fix in the w
 face the user speaks through (:func:`arg`): ``overwrite=True`` in Python, ``--overwrite`` on
 the command line.
 """
+from __future__ import annotations
+
 import contextlib
 import contextvars
 import os
+from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 #: The face the user speaks through: "python" (arguments) or "cli" (options, set by the
 #: command line for the run of a command).
@@ -22,7 +26,7 @@ class LidarSigError(ValueError):
     file name is shown escaped (:func:`printable`), so that it cannot split the message into two
     lines (the second would read as another message); ``path`` keeps the name as given."""
 
-    def __init__(self, message, *, path=None):
+    def __init__(self, message: str, *, path: str | os.PathLike[str] | None = None) -> None:
         self.path = None if path is None else str(path)
         super().__init__(printable(f"{self.path}: {message}" if self.path else message))
 
@@ -36,14 +40,14 @@ class Interrupted(KeyboardInterrupt):
     """SIGINT or SIGTERM arrived: raised where the run can stop cleanly (between blocks of work,
     or once an output being written is complete and its temporary file removed)."""
 
-    def __init__(self, signum):
+    def __init__(self, signum: int) -> None:
         import signal
 
         self.signum = int(signum)
         super().__init__(signal.Signals(self.signum).name)
 
 
-def arg(name, value=None):
+def arg(name: str, value: object = None) -> str:
     """An argument as the user gives it in the face that runs (:data:`FACE`): ``arg("overwrite",
     True)`` is "overwrite=True" in Python and "--overwrite" on the command line, ``arg("memory",
     "2GiB")`` 'memory="2GiB"' and "--memory 2GiB", ``arg("cell")`` "cell" and "--cell"."""
@@ -54,7 +58,7 @@ def arg(name, value=None):
 
 
 @contextlib.contextmanager
-def speaking(face):
+def speaking(face: str) -> Iterator[None]:
     """Within the block, messages name arguments as ``face`` ("python" or "cli") takes them."""
     token = FACE.set(face)
     try:
@@ -63,7 +67,7 @@ def speaking(face):
         FACE.reset(token)
 
 
-def whole_number(value, what, *, low=0, high=None):
+def whole_number(value: Any, what: str, *, low: int = 0, high: int | None = None) -> int:
     """``value`` as an int if it is a whole number (not a bool) from ``low`` to ``high``; else a
     LidarSigError naming ``what`` and the value."""
     import numpy as np
@@ -75,7 +79,7 @@ def whole_number(value, what, *, low=0, high=None):
     return int(value)
 
 
-def positive_metres(value, what):
+def positive_metres(value: Any, what: str) -> float:
     """``value`` as a float if it is a positive finite number (not a bool); else a
     LidarSigError saying that ``what`` must be a positive number of metres (a whole number too
     large for a float, such as 10**400, included)."""
@@ -100,7 +104,7 @@ def brief(value: object) -> str:
     return text if len(text) <= 40 else f"{text[:20]}...{text[-8:]} ({len(text):,} characters)"
 
 
-def as_path(value, what):
+def as_path(value: Any, what: str) -> Path:
     """``value`` (a str or path-like, not empty, whose names the file system can hold: see
     :func:`check_name_lengths`) as a Path; else a LidarSigError saying that ``what`` takes a
     path and what it got (its type, not its repr: an array's is many lines)."""
@@ -141,7 +145,7 @@ def check_name_lengths(path: str | os.PathLike[str], room: int = 0) -> None:
             raise LidarSigError(f"{what} is {length} bytes long, {why}; give a shorter name", path=path)
 
 
-def _name_limit(folder):
+def _name_limit(folder: Path) -> int:
     """The longest file name (bytes) the file system of ``folder`` (or of its nearest folder
     that exists) takes."""
     for where in (folder, *folder.parents):
@@ -152,7 +156,7 @@ def _name_limit(folder):
     return NAME_MAX
 
 
-def special_file(path):
+def special_file(path: str | os.PathLike[str]) -> str | None:
     """What ``path`` is when it is neither a regular file nor a folder: "a FIFO", "a socket", "a
     device"; None when it is one of those or does not exist (a link is followed). Reading a FIFO
     or a device waits for a writer, maybe forever: such paths are refused as inputs."""
@@ -167,7 +171,7 @@ def special_file(path):
     return "a FIFO" if stat.S_ISFIFO(mode) else "a socket" if stat.S_ISSOCK(mode) else "a device"
 
 
-def a_kind(value):
+def a_kind(value: object) -> str:
     """What ``value`` is, for a message: "None", "an int", "a list" (its type, not its repr:
     an array's is many lines)."""
     if value is None:
@@ -176,13 +180,13 @@ def a_kind(value):
     return f"{'an' if name[:1].lower() in 'aeiou' else 'a'} {name}"
 
 
-def counted(n, noun, plural=None):
+def counted(n: int, noun: str, plural: str | None = None) -> str:
     """``n`` and the noun, singular for one: "1 point", "2 points", "12,345 classes" (``plural``
     for nouns that do not take an s); see :func:`amount`."""
     return f"{amount(n)} {noun if n == 1 else plural or noun + 's'}"
 
 
-def amount(n):
+def amount(n: int | float) -> str:
     """A whole number for a message: "12,345"; "2.5e+23" from 1e15 on, which no count of points
     or cells reaches (an absurd option, say a cell of 1e12 m, would otherwise print 25 digits);
     "about 1e+400" beyond the largest float."""
@@ -206,7 +210,7 @@ def printable(text: object) -> str:
     return str(text).translate(_UNPRINTABLE)
 
 
-def reason(exc):
+def reason(exc: BaseException) -> str:
     """The first line of an exception's message, at most 160 characters (its type when it has
     none): what a library said about a damaged input, for a LidarSigError naming the file."""
     text = str(exc).strip().splitlines()

@@ -39,9 +39,12 @@ import os
 import sys
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
+from typing import TypeVar
 
 from .errors import FACE, LidarSigError
+
+T = TypeVar("T")
 
 log = logging.getLogger("lidar_sig")
 
@@ -220,7 +223,8 @@ class Lines:
         self.close()
 
 
-def progress(iterable, *, total=None, desc="", enabled=None, unit="it"):
+def progress(iterable: Iterable[T], *, total: int | None = None, desc: str = "", enabled: bool | None = None,
+             unit: str = "it") -> Iterable[T]:
     """Wrap ``iterable`` in a bar or lines on stderr, or in nothing (see the module docstring)."""
     how = form(enabled)
     if how == "lines":

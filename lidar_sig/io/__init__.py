@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import os
 import pkgutil
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -50,7 +51,7 @@ def __dir__():
     return sorted(set(globals()) | set(_lazy_dir()) | {"CLOUD_EXTENSIONS"})
 
 
-def read(path: str | os.PathLike[str], *, columns: str | list[str] | None = None) -> PointCloud:
+def read(path: str | os.PathLike[str], *, columns: str | Sequence[str] | None = None) -> PointCloud:
     """Read a point cloud (LAS/LAZ, PLY/PCD, XYZ/TXT/PTS/CSV text, or a format another package
     adds: :mod:`lidar_sig.io.formats`) into a PointCloud.
 
@@ -84,7 +85,7 @@ def read(path: str | os.PathLike[str], *, columns: str | list[str] | None = None
                         f"use one of {', '.join(extensions(POINTS))}", path=path)
 
 
-def check_cloud_output(path, cloud):
+def check_cloud_output(path: str | os.PathLike[str], cloud: PointCloud) -> None:
     """Refuse, before any work, a cloud that the format of ``path`` cannot hold (see
     :func:`lidar_sig.io.las.check_las_output`)."""
     fmt = format_of(path)

@@ -30,6 +30,7 @@ import socket
 import stat
 import threading
 import time
+from collections.abc import Iterable
 from pathlib import Path
 
 from ..base.errors import Interrupted, LidarSigError, arg, check_name_lengths
@@ -54,7 +55,7 @@ _REASONS = {
 }
 
 
-def check_output(path, *, overwrite=False):
+def check_output(path: str | os.PathLike[str], *, overwrite: bool = False) -> Path:
     """Refuse an output path that exists (unless ``overwrite``), is a folder, whose folder is
     missing or not writable, or whose name leaves no room for the temporary file named after it
     (:func:`temp_name`); return it as a Path."""
@@ -74,7 +75,7 @@ def check_output(path, *, overwrite=False):
     return path
 
 
-def check_outputs(paths, *, overwrite=False):
+def check_outputs(paths: Iterable[str | os.PathLike[str]], *, overwrite: bool = False) -> list[Path]:
     """:func:`check_output` for every path of a command, and refuse one given twice."""
     seen = {}
     for path in paths:

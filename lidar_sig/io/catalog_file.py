@@ -10,6 +10,7 @@ per tile).
 from __future__ import annotations
 
 import json
+import os
 import math
 from pathlib import Path
 
@@ -120,7 +121,7 @@ def _open(path):
     return f
 
 
-def is_catalog(path):
+def is_catalog(path: str | os.PathLike[str]) -> bool:
     """Whether ``path`` is an HDF5 file marked as a survey catalogue."""
     import h5py
 

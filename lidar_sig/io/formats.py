@@ -86,7 +86,8 @@ class Format:
             raise self._fault(f"reading {Path(path).name} returned {a_kind(cloud)}, not a lidar_sig PointCloud")
         return cloud
 
-    def write(self, path: str | os.PathLike[str], cloud: PointCloud, fields: Fields, *, overwrite: bool = False) -> None:
+    def write(self, path: str | os.PathLike[str], cloud: PointCloud, fields: Fields, *,
+              overwrite: bool = False) -> None:
         """Write ``cloud`` with the per-point ``fields`` to ``path`` by this format's writer."""
         self._run(f"writing {Path(path).name}", self.load("writer"), path, cloud, fields, overwrite=overwrite)
 

@@ -1,8 +1,14 @@
 """PNG files of pictures and of signatures (Sas, Sg), written atomically."""
 from __future__ import annotations
 
+import os
+from typing import TYPE_CHECKING
+
 from ..reporting.render import encode_png, signature_image
 from .atomic import atomic_output
+
+if TYPE_CHECKING:
+    from ..method.signature_raster import Signature
 
 
 def write_png(path, data, *, overwrite=False):
@@ -13,6 +19,7 @@ def write_png(path, data, *, overwrite=False):
         tmp.write_bytes(data)
 
 
-def write_signature_png(path, signature, *, kind="sas", mode="smooth", overwrite=False):
+def write_signature_png(path: str | os.PathLike[str], signature: Signature, *, kind: str = "sas", mode: str = "smooth",
+                        overwrite: bool = False) -> None:
     """Write Sas (default) or Sg of ``signature`` as a PNG file."""
     write_png(path, signature_image(signature, kind, mode), overwrite=overwrite)

@@ -3,14 +3,25 @@ of a set, and the facts every job result gives (lines for people, a dict for JSO
 from __future__ import annotations
 
 import os
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, TypeAlias
 
 from ..base.errors import LidarSigError, a_kind, arg, as_path
 
+if TYPE_CHECKING:
+    from ..tiling.execution import Execution
 
-def as_sources(sources: Any, what: str = "sources") -> list[str]:
+#: A path as the jobs take it.
+PathLike: TypeAlias = "str | os.PathLike[str]"
+#: Inputs of a job: one file or folder, or a list of them.
+Sources: TypeAlias = "str | os.PathLike[str] | Sequence[str | os.PathLike[str]]"
+#: The columns of a text cloud: ``"x,y,z,-,label"`` or a list of names.
+Columns: TypeAlias = "str | Sequence[str] | None"
+
+
+def as_sources(sources: Sources, what: str = "sources") -> list[str]:
     """``sources`` as a list of paths: one path, or a list or tuple of them (not empty)."""
     if isinstance(sources, (str, os.PathLike)):
         sources = [sources]
@@ -20,14 +31,14 @@ def as_sources(sources: Any, what: str = "sources") -> list[str]:
     return [str(as_path(s, what)) for s in sources]
 
 
-def is_set(sources: list[str], execution: Any, resume: bool = False) -> bool:
+def is_set(sources: list[str], execution: Execution, resume: bool = False) -> bool:
     """A set of tiles: several inputs, a folder, a resumed run, or tiles asked for
     (``execution.tiles_asked``); one file otherwise, run as one block unless the memory budget
     says otherwise (:meth:`lidar_sig.Execution.over_budget`)."""
     return len(sources) > 1 or any(Path(s).is_dir() for s in sources) or resume or execution.tiles_asked
 
 
-def work_folder(execution: Any, default: Path) -> Path:
+def work_folder(execution: Execution, default: Path) -> Path:
     """The work folder of a job in tiles: the execution's ``work_dir``, else ``default`` (beside
     or inside the output: on its file system, where room for it is expected)."""
     return Path(execution.work_dir) if execution.work_dir is not None else Path(default)

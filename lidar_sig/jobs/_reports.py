@@ -4,8 +4,11 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable
 from typing import Any
 
+from ._common import PathLike
 
-def check_report_outputs(report: Any, plots: Any, names: Iterable[str], overwrite: bool) -> None:
+
+def check_report_outputs(report: PathLike | None, plots: PathLike | None, names: Iterable[str],
+                         overwrite: bool) -> None:
     """Refuse report and plot outputs that cannot be written, before anything is computed
     (``names``: the figures' file names in the plots folder)."""
     from ..io import check_outputs
@@ -18,7 +21,8 @@ def check_report_outputs(report: Any, plots: Any, names: Iterable[str], overwrit
         check_plots_folder(plots, names, overwrite=overwrite)
 
 
-def write_report(make: Callable[[], Any], report: Any, plots: Any, overwrite: bool) -> tuple[list[str], list[str]]:
+def write_report(make: Callable[[], Any], report: PathLike | None, plots: PathLike | None,
+                 overwrite: bool) -> tuple[list[str], list[str]]:
     """Write the report ``make()`` makes as ``report`` and its figures in ``plots``, all files or
     none; the paths written and the lines saying so."""
     from ..io import output_group

@@ -1,11 +1,17 @@
 """A survey catalogue made or grown (``lidar-sig catalog``; docs/commands/catalog.md)."""
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..base.errors import counted
-from ._common import JobRun
+from ._common import JobRun, PathLike, Sources
+
+if TYPE_CHECKING:
+    from ..pipeline.flow import Pipeline
+    from ..survey_catalog import CatalogRun
+    from ..tiling.execution import Execution
 
 
 @dataclass(repr=False)
@@ -13,10 +19,12 @@ class CatalogJob(JobRun):
     """What :func:`catalog` did (:class:`JobRun`), with the catalogue's own account
     (:class:`~lidar_sig.survey_catalog._build.CatalogRun`: tiles added, recomputed, unchanged, failed)."""
 
-    run: Any = None
+    run: CatalogRun | None = None
 
     def to_dict(self) -> dict[str, Any]:
         r = self.run
+        if r is None:
+            return super().to_dict()
         return {**super().to_dict(), "catalogue": r.output, "tiles": r.n_tiles, "added": list(r.added),
                 "updated": list(r.updated), "unchanged": list(r.unchanged), "resumed": list(r.resumed),
                 "failed": dict(r.failed), "method": r.method, "crs": list(r.crs), "execution": r.execution}
@@ -31,8 +39,9 @@ class CatalogJob(JobRun):
             f"same job again (with {arg('resume', True)} the tiles finished in the work folder are reused)"]
 
 
-def catalog(inputs: Any, output: Any, *, pipeline: Any = None, execution: Any = None, resume: bool = False,
-            overwrite: bool = False, method_given: Any = None) -> CatalogJob:
+def catalog(inputs: Sources, output: PathLike, *, pipeline: Pipeline | None = None,
+            execution: Execution | None = None, resume: bool = False, overwrite: bool = False,
+            method_given: Iterable[str] | None = None) -> CatalogJob:
     """Make the catalogue ``output`` (.h5) of the LAS/LAZ tiles of ``inputs``, or grow it
     (:func:`lidar_sig.survey_catalog.build_catalog`), on the workers or cluster of ``execution``, its
     work folder the execution's ``work_dir`` (default ``OUTPUT.work``)."""
@@ -72,8 +81,8 @@ class OutliersRun(JobRun):
         return {**self.found.to_dict(), "written": list(self.written)}
 
 
-def outliers(catalogue: Any, *, output: Any = None, report: Any = None, reach: float | None = None,
-             overwrite: bool = False) -> OutliersRun:
+def outliers(catalogue: PathLike, *, output: PathLike | None = None, report: PathLike | None = None,
+             reach: float | None = None, overwrite: bool = False) -> OutliersRun:
     """Every tile of ``catalogue`` scored by how unlike it is to its neighbours and the survey
     (:meth:`lidar_sig.Catalog.outliers`), the footprints written as the GeoPackage ``output`` and
     the review page as ``report``: both checked before any work, written together or not at all."""

@@ -1,10 +1,16 @@
 """Two inputs compared, and the report written (``lidar-sig compare``; docs/commands/compare.md)."""
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from ._common import JobRun
+from ._common import Columns, JobRun, PathLike
+
+if TYPE_CHECKING:
+    from ..comparison import Comparison
+    from ..pipeline.flow import Pipeline
+    from ..tiling.execution import Execution
 
 
 @dataclass(repr=False)
@@ -12,15 +18,15 @@ class CompareRun(JobRun):
     """What :func:`compare` did (:class:`JobRun`): the :class:`~lidar_sig.comparison.Comparison`
     and the report files written."""
 
-    comparison: Any = None
+    comparison: Comparison | None = None
 
     def to_dict(self) -> dict[str, Any]:
-        return {**self.comparison.to_dict(), "written": list(self.written)}
+        return {**(self.comparison.to_dict() if self.comparison is not None else {}), "written": list(self.written)}
 
 
-def compare(a: Any, b: Any, *, report: Any = None, plots: Any = None, overwrite: bool = False, pipeline: Any = None,
-            render: str | None = None, columns: Any = None, execution: Any = None,
-            method_given: Any = ()) -> CompareRun:
+def compare(a: Any, b: Any, *, report: PathLike | None = None, plots: PathLike | None = None, overwrite: bool = False,
+            pipeline: Pipeline | None = None, render: str | None = None, columns: Columns = None,
+            execution: Execution | None = None, method_given: Iterable[str] = ()) -> CompareRun:
     """Compare ``a`` and ``b`` (:func:`lidar_sig.comparison.compare_sources`) and write the
     report (``report``, an .html file) and its figures (``plots``, a folder), checked before any
     work and written together or not at all. ``method_given``: the method options a user set,

@@ -3,10 +3,15 @@ catalogue or a point cloud, described in lines for people and in facts for a pro
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..base.errors import arg, as_path, counted
-from ._common import JobRun
+from ._common import Columns, JobRun, PathLike
+
+if TYPE_CHECKING:
+    from pathlib import Path
+
+    from ..method.cloud import PointCloud
 
 
 @dataclass(repr=False)
@@ -15,7 +20,7 @@ class Description(JobRun):
     people, ``facts`` as plain values for JSON."""
 
     kind: str = ""
-    facts: dict = field(default_factory=dict)
+    facts: dict[str, Any] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
         return {"kind": self.kind, **self.facts}
@@ -26,7 +31,7 @@ class Description(JobRun):
         return one_line(f"<Description of a {self.kind}: {self.lines[0] if self.lines else ''}>")
 
 
-def info(path: Any, *, columns: Any = None) -> Description:
+def info(path: PathLike, *, columns: Columns = None) -> Description:
     """Describe the file ``path``: an archive's method, signature and sources; a catalogue's
     method, CRSs and tiles; a cloud's points, bounds, LAS record, withheld points and labels
     (``columns`` of a text file)."""
@@ -54,7 +59,7 @@ def info(path: Any, *, columns: Any = None) -> Description:
     return _cloud(path, read(path, columns=columns))
 
 
-def _cloud(path, cloud):
+def _cloud(path: Path, cloud: PointCloud) -> Description:
     import numpy as np
 
     from ..numerics.bounds import bounds

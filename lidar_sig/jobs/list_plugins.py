@@ -47,7 +47,7 @@ def plugins() -> Plugins:
         "package": _package(f.extension), "summary": f.name, "extensions": list(f.extensions), "holds": list(f.holds),
         "reads": f.reader is not None, "writes": f.writer is not None} for f in formats()}
     found[TITLES["command"]] = {name: {"package": extension.distribution, "summary": _short_help(extension.load())}
-                                for name, extension in sorted(registered("command").items())}
+                                for name, extension in registered("command").items()}
     return Plugins(found=found, lines=_lines(found))
 
 
@@ -65,6 +65,7 @@ def _lines(found: dict[str, dict[str, dict[str, Any]]]) -> list[str]:
     """The listing for people: a title per kind, a line per extension (name, package, what it is)."""
     lines = []
     width = max([12, *(len(name) for names in found.values() for name in names)])
+    packages = max([14, *(len(facts["package"]) + 1 for names in found.values() for facts in names.values())])
     for title, names in found.items():
         lines.append(f"{title}:")
         for name, facts in names.items():
@@ -74,5 +75,5 @@ def _lines(found: dict[str, dict[str, dict[str, Any]]]) -> list[str]:
             elif title == TITLES["format"]:
                 ways = " and ".join(w for w, can in (("read", facts["reads"]), ("written", facts["writes"])) if can)
                 what += f" {' '.join(facts['extensions'])}: {', '.join(facts['holds'])}" + (f", {ways}" if ways else "")
-            lines.append(f"  {name:<{width}} {facts['package']:<14} {what}")
+            lines.append(f"  {name:<{width}} {facts['package']:<{packages}} {what}")
     return lines

@@ -6,13 +6,20 @@ it for any cloud, method and rendering (`lidar-sig resilience`).
 """
 from __future__ import annotations
 
+import os
+from collections.abc import Iterable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from ..base.errors import LidarSigError, whole_number
 from ..metrics import METRIC, METRIC_KEYS, compare
 from ..base.progress import progress as _progress
+
+if TYPE_CHECKING:
+    from ..pipeline.flow import Pipeline
 
 DEFAULT_FRACTIONS = tuple(round(f, 1) for f in np.arange(1.0, 0.05, -0.1))
 
@@ -26,41 +33,42 @@ class Resilience:
     """
 
     source: str
-    fractions: tuple
-    points: tuple  # points kept per fraction
+    fractions: tuple[float, ...]
+    points: tuple[int, ...]  # points kept per fraction
     repeats: int
     seed: int
     render: str
-    method: dict
-    values: dict
+    method: dict[str, Any]
+    values: dict[str, NDArray[np.float64]]
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         from ..base.views import one_line, short_name
 
         return one_line(f"<Resilience of {short_name(self.source)}: {len(self.fractions)} fractions "
                         f"({', '.join(f'{f:g}' for f in self.fractions[:4])}{', ...' if len(self.fractions) > 4 else ''}), "
                         f"{self.repeats} repeats, {self.render} rendering>")
 
-    def summary(self, key):
+    def summary(self, key: str) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
+                                         NDArray[np.float64]]:
         """(mean, std, min, max) over the repeats, each a (F,) array, of metric ``key``."""
         v = self.values[key]
         return v.mean(axis=1), v.std(axis=1), v.min(axis=1), v.max(axis=1)
 
-    def to_dict(self):
+    def to_dict(self) -> dict[str, Any]:
+        metrics: dict[str, dict[str, list[float]] | None] = {}
         out = {"source": self.source, "fractions": list(self.fractions), "points": list(self.points),
                "repeats": self.repeats, "seed": self.seed, "render": self.render, "method": self.method,
-               "metrics": {}}
+               "metrics": metrics}
         for key in METRIC_KEYS:
             if np.isnan(self.values[key]).all():
-                out["metrics"][key] = None
+                metrics[key] = None
                 continue
             mean, std, lo, hi = self.summary(key)
-            out["metrics"][key] = {"mean": mean.tolist(), "std": std.tolist(), "min": lo.tolist(),
-                                   "max": hi.tolist()}
+            metrics[key] = {"mean": mean.tolist(), "std": std.tolist(), "min": lo.tolist(), "max": hi.tolist()}
         return out
 
 
-def check_fractions(fractions, what="fractions"):
+def check_fractions(fractions: Iterable[float], what: str = "fractions") -> tuple[float, ...]:
     """``fractions`` as a tuple of floats if there is at least one, each in (0, 1] and none
     twice (it would be computed twice); else a LidarSigError naming ``what``."""
     try:
@@ -76,8 +84,8 @@ def check_fractions(fractions, what="fractions"):
     return values
 
 
-def resilience(cloud, pipeline=None, *, fractions=DEFAULT_FRACTIONS, repeats=3, seed=0, render="smooth",
-               progress=None):
+def resilience(cloud: Any, pipeline: Pipeline | None = None, *, fractions: Iterable[float] = DEFAULT_FRACTIONS,
+               repeats: int = 3, seed: int = 0, render: str = "smooth", progress: bool | None = None) -> Resilience:
     """Compare ``cloud`` with ``repeats`` uniform random subsamples at each of ``fractions``.
 
     A subsample at fraction f keeps round(f N) points drawn without replacement (seeded by
@@ -114,7 +122,7 @@ def resilience(cloud, pipeline=None, *, fractions=DEFAULT_FRACTIONS, repeats=3, 
                       pipeline.method(), values)
 
 
-def plot_resilience(result, path, *, overwrite=False):
+def plot_resilience(result: Resilience, path: str | os.PathLike[str], *, overwrite: bool = False) -> None:
     """A PNG of every metric against the fraction kept: the mean over the repeats, and the
     range from the smallest to the largest as a band (matplotlib's object interface: no global
     backend is set, so a notebook's own plots are untouched)."""

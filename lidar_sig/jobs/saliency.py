@@ -11,20 +11,25 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..base.errors import LidarSigError, arg, as_path
 from ..io import CLOUD_EXTENSIONS, check_cloud_output, check_output, read
 from ..io.formats import POINTS, format_of, holds
-from ._common import JobRun, as_sources, is_set, work_folder
+from ._common import Columns, JobRun, PathLike, Sources, as_sources, is_set, work_folder
+
+if TYPE_CHECKING:
+    from ..pipeline.flow import Pipeline
+    from ..pipeline.result import Result
+    from ..tiling.execution import Execution
 
 
 @dataclass(repr=False)
 class SaliencyRun(JobRun):
     """What :func:`saliency` did (:class:`JobRun`), with the Result of one file (None for a
-    set; a closed :class:`~lidar_sig.tiling._set_run.TiledResult` for one run in tiles)."""
+    set; a closed :class:`~lidar_sig.pipeline.result.TiledResult` for one run in tiles)."""
 
-    result: Any = None
+    result: Result | None = None
 
     def to_dict(self) -> dict[str, Any]:
         out = super().to_dict()
@@ -33,8 +38,9 @@ class SaliencyRun(JobRun):
         return out
 
 
-def saliency(sources: Any, output: str | Path, *, pipeline: Any = None, execution: Any = None,
-             overwrite: bool = False, resume: bool = False, columns: Any = None) -> SaliencyRun:
+def saliency(sources: Sources, output: PathLike, *, pipeline: Pipeline | None = None,
+             execution: Execution | None = None, overwrite: bool = False, resume: bool = False,
+             columns: Columns = None) -> SaliencyRun:
     """Write each of ``sources`` with its per-point Cl, Cs, Cp, Egeom, GeomClass (and
     OptimalScale) to ``output``.
 
@@ -77,17 +83,18 @@ def saliency(sources: Any, output: str | Path, *, pipeline: Any = None, executio
     check_output(output, overwrite=overwrite)
     start = time.perf_counter()
     over = execution.over_budget(source, pipeline)
+    result: Result
     if over or execution.tiles_asked:
-        from ..tiling.run_set import run_in_tiles
-
+        from ..pipeline.flow import in_tiles
         from ..tiling.work import work_scope
 
         check_las_output(output, over, execution)
         work = work_folder(execution, output.with_name(f".{output.name}.lidar-sig-work"))
-        with work_scope(work), run_in_tiles(pipeline, source, execution, n_points=over, work=work,
-                                            outputs=[output]) as result:
-            result.write(output, overwrite=overwrite)
-        lines = result.summary_lines()
+        with work_scope(work), in_tiles(pipeline, source, execution, n_points=over, work=work,
+                                        outputs=[output]) as tiled:
+            tiled.write(output, overwrite=overwrite)
+        result = tiled
+        lines = tiled.summary_lines()
     else:
         cloud = read(source, columns=columns)
         check_cloud_output(output, cloud)  # before the work, not after
@@ -99,7 +106,7 @@ def saliency(sources: Any, output: str | Path, *, pipeline: Any = None, executio
                        lines=lines + [f"wrote {output} in {seconds:.1f} s"])
 
 
-def check_las_output(output: Path, over: int | None, execution: Any) -> None:
+def check_las_output(output: Path, over: int | None, execution: Execution) -> None:
     """Refuse a per-point output other than LAS/LAZ for a file processed in tiles."""
     from ..base.errors import arg
     from ..tiling.memory import exceed
@@ -120,7 +127,8 @@ def output_name(outdir: Path, source: Any) -> Path:
     return outdir / (p.name if fmt is not None and fmt.streamed else p.stem + ".laz")
 
 
-def _of_set(sources, outdir, pipeline, execution, overwrite, resume):
+def _of_set(sources: list[str], outdir: Path, pipeline: Pipeline, execution: Execution, overwrite: bool,
+            resume: bool) -> SaliencyRun:
     from ..tiling.sources import expand, scan
 
     start = time.perf_counter()
@@ -150,7 +158,8 @@ def _of_set(sources, outdir, pipeline, execution, overwrite, resume):
     return job
 
 
-def _write_set(sources, outputs, work, pipeline, execution, overwrite, resume):
+def _write_set(sources: list[str], outputs: dict[str, Path], work: Path, pipeline: Pipeline, execution: Execution,
+               overwrite: bool, resume: bool) -> SaliencyRun:
     """The set run in tiles and each input's output written, within the scope of the work folder
     (let go at the end; kept only with work worth resuming, which the job's result names)."""
     from ..tiling.run_set import run_set

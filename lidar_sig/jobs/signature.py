@@ -8,13 +8,20 @@ Every output is checked before any work, and all of them are written, or none.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..base.errors import LidarSigError, arg
 from ..io import check_outputs, output_group, read
-from ._common import JobRun, as_sources, is_set, work_folder
+from ._common import Columns, JobRun, PathLike, Sources, as_sources, is_set, work_folder
+
+if TYPE_CHECKING:
+    from ..method.signature_raster import Signature
+    from ..pipeline.flow import Pipeline
+    from ..pipeline.result import Result
+    from ..tiling.execution import Execution
 
 
 @dataclass(repr=False)
@@ -22,8 +29,8 @@ class SignatureRun(JobRun):
     """What :func:`signature` did (:class:`JobRun`), with the signature made and, for one
     cloud, its Result."""
 
-    signature: Any = None
-    result: Any = None
+    signature: Signature | None = None
+    result: Result | None = None
 
     def to_dict(self) -> dict[str, Any]:
         out = super().to_dict()
@@ -34,10 +41,11 @@ class SignatureRun(JobRun):
         return out
 
 
-def signature(sources: Any, output: str | Path | None = None, *, png: str | Path | None = None,
-              sg: str | Path | None = None, report: str | Path | None = None, plots: str | Path | None = None,
-              points: bool = True, render: str | None = None, pipeline: Any = None, execution: Any = None,
-              overwrite: bool = False, resume: bool = False, columns: Any = None) -> SignatureRun:
+def signature(sources: Sources, output: PathLike | None = None, *, png: PathLike | None = None,
+              sg: PathLike | None = None, report: PathLike | None = None, plots: PathLike | None = None,
+              points: bool = True, render: str | None = None, pipeline: Pipeline | None = None,
+              execution: Execution | None = None, overwrite: bool = False, resume: bool = False,
+              columns: Columns = None) -> SignatureRun:
     """Compute the signature of ``sources`` and write it: an archive (``output`` .h5) or an image
     of Sas (``output`` .png), Sas as PNG (``png``), Sg as PNG (``sg``), one cloud's HTML report
     (``report``) and its figures (``plots``, a folder).
@@ -55,49 +63,33 @@ def signature(sources: Any, output: str | Path | None = None, *, png: str | Path
     pipeline = pipeline_or_default(pipeline)
     execution = as_execution(execution)
     sources = as_sources(sources)
-    tiled = is_set(sources, execution, resume)
-    over = None if tiled else execution.over_budget(sources[0], pipeline)
+    as_set = is_set(sources, execution, resume)
+    over = None if as_set else execution.over_budget(sources[0], pipeline)
     if over and (report or plots):
         from ..tiling.memory import exceed
 
         raise LidarSigError(f"{exceed(over, int(execution.memory))}; {arg('report')} and {arg('plots')} need the whole "
                             f"cloud in memory: raise {arg('memory')}, or write the archive", path=sources[0])
-    if tiled and (report or plots):
+    if as_set and (report or plots):
         raise LidarSigError(f"{arg('report')} and {arg('plots')} are made from one cloud: give one file without "
                             f"{arg('tile_size')}, {arg('workers')} or {arg('scheduler')}; for a set of tiles write the "
                             "archive and compare it")
-    if output is None and not (report or plots):
-        raise LidarSigError(f"give an output: an .h5 or .png file, and/or a {arg('report')} or {arg('plots')}")
-    from ..io.formats import IMAGE, SIGNATURE, check_format, holds
-
-    if output and not (holds(output, SIGNATURE) or holds(output, IMAGE)):
-        raise LidarSigError("the signature is written as .h5 (archive) or .png (image)", path=output)
-    ext = "image" if output and holds(output, IMAGE) else "archive" if output else None
-    images = [p for p in (png, sg) if p]
-    for path in images:
-        check_format(path, IMAGE, said="a signature's image")
-    outputs = [str(p) for p in ([output] if output else []) + images]
-    check_outputs(outputs + ([str(report)] if report else []), overwrite=overwrite)  # all of them, before any work
-    if report or plots:
-        from ..reporting import SIGNATURE_PLOTS
-        from ._reports import check_report_outputs
-
-        check_report_outputs(report, plots, SIGNATURE_PLOTS, overwrite)
+    ext, outputs = _checked_outputs(output, png, sg, report, plots, overwrite)
     render = render or RENDERINGS[0]
     start = time.perf_counter()
-    if tiled and not over:
+    if as_set and not over:
         return _of_set(sources, output, ext, png, sg, render, pipeline, execution, overwrite, resume, start)
     if over:
-        from ..tiling.run_set import run_in_tiles
+        from ..pipeline.flow import in_tiles
         from ..tiling.work import work_scope
 
         first = Path(outputs[0])
         work = work_folder(execution, first.with_name(f".{first.name}.lidar-sig-work"))
-        with work_scope(work), run_in_tiles(pipeline, sources[0], execution, n_points=over, work=work,
-                                            outputs=outputs) as result, output_group():  # all outputs or none
-            _write(result.signature, output, ext, png, sg, render, overwrite, archive=result.write)
-        return SignatureRun(written=outputs, signature=result.signature, result=result,
-                            lines=result.summary_lines() + [f"wrote {', '.join(outputs)}"],
+        with work_scope(work), in_tiles(pipeline, sources[0], execution, n_points=over, work=work,
+                                        outputs=outputs) as tiled, output_group():  # all outputs or none
+            _write(tiled.signature, output, ext, png, sg, render, overwrite, archive=tiled.write)
+        return SignatureRun(written=outputs, signature=tiled.signature, result=tiled,
+                            lines=tiled.summary_lines() + [f"wrote {', '.join(outputs)}"],
                             seconds=time.perf_counter() - start)
     result = pipeline.run(read(sources[0], columns=columns))
     lines = [result.summary(sources[0])] + ([f"wrote {', '.join(outputs)}"] if outputs else [])
@@ -116,12 +108,37 @@ def signature(sources: Any, output: str | Path | None = None, *, png: str | Path
                         seconds=time.perf_counter() - start)
 
 
-def _write(sig, output, ext, png, sg, render, overwrite, *, archive):
+def _checked_outputs(output: PathLike | None, png: PathLike | None, sg: PathLike | None, report: PathLike | None,
+                     plots: PathLike | None, overwrite: bool) -> tuple[str | None, list[str]]:
+    """Every output checked before any work: what ``output`` is ("archive", "image" or None) and
+    the signature's files (``output``, ``png``, ``sg``)."""
+    from ..io.formats import IMAGE, SIGNATURE, check_format, holds
+
+    if output is None and not (report or plots):
+        raise LidarSigError(f"give an output: an .h5 or .png file, and/or a {arg('report')} or {arg('plots')}")
+    if output and not (holds(output, SIGNATURE) or holds(output, IMAGE)):
+        raise LidarSigError("the signature is written as .h5 (archive) or .png (image)", path=output)
+    ext = "image" if output and holds(output, IMAGE) else "archive" if output else None
+    images = [p for p in (png, sg) if p]
+    for path in images:
+        check_format(path, IMAGE, said="a signature's image")
+    outputs = [str(p) for p in ([output] if output else []) + images]
+    check_outputs(outputs + ([str(report)] if report else []), overwrite=overwrite)  # all of them, before any work
+    if report or plots:
+        from ..reporting import SIGNATURE_PLOTS
+        from ._reports import check_report_outputs
+
+        check_report_outputs(report, plots, SIGNATURE_PLOTS, overwrite)
+    return ext, outputs
+
+
+def _write(sig: Signature, output: PathLike | None, ext: str | None, png: PathLike | None, sg: PathLike | None,
+           render: str, overwrite: bool, *, archive: Callable[..., None]) -> None:
     """The signature's outputs (inside the caller's output group): ``archive(path, overwrite=,
     render=)`` writes the .h5 of the run."""
     from ..io.png import write_signature_png
 
-    if ext == "image":
+    if ext == "image" and output:
         write_signature_png(output, sig, kind="sas", mode=render, overwrite=overwrite)
     elif output:
         archive(output, overwrite=overwrite, render=render)
@@ -131,7 +148,9 @@ def _write(sig, output, ext, png, sg, render, overwrite, *, archive):
         write_signature_png(sg, sig, kind="sg", mode=render, overwrite=overwrite)
 
 
-def _of_set(sources, output, ext, png, sg, render, pipeline, execution, overwrite, resume, start):
+def _of_set(sources: list[str], output: PathLike | None, ext: str | None, png: PathLike | None, sg: PathLike | None,
+            render: str, pipeline: Pipeline, execution: Execution, overwrite: bool, resume: bool,
+            start: float) -> SignatureRun:
     from ..io import write_archive
     from ..tiling.run_set import run_set
     from ..tiling.work import remove_work, work_scope
@@ -144,7 +163,7 @@ def _of_set(sources, output, ext, png, sg, render, pipeline, execution, overwrit
             run = run_set(pipeline, sources, work=work, tile_size=execution.tile_size, backend=backend,
                           resume=resume, outputs=outputs, memory=execution.memory)
         job = SignatureRun(lines=run.summary(), missing=run.missing)
-        if run.complete:
+        if run.complete and run.signature is not None:
             sig = job.signature = run.signature
             with output_group():  # all outputs or none
                 _write(sig, output, ext, png, sg, render, overwrite,

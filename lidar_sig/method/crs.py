@@ -162,7 +162,7 @@ def _unbound(crs):
     return crs
 
 
-def crs_name(crs):
+def crs_name(crs: str | None) -> str | None:
     """The name of a CRS (WKT or any text pyproj reads) for people, e.g. "RGF93 v1 / Lambert-93";
     None without one, the start of the text itself when pyproj cannot read it."""
     if not crs:

@@ -4,13 +4,14 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 LN3 = float(np.log(3.0))
 #: Codes of the deterministic geometric class, as written to LAS (GeomClass).
 GEOM_CLASSES = {0: "undefined", 1: "line", 2: "surface", 3: "point"}
 
 
-def saliency_from_eigenvalues(ev):
+def saliency_from_eigenvalues(ev: ArrayLike) -> NDArray[np.float64]:
     """(Cl, Cs, Cp) from eigenvalues sorted l0 >= l1 >= l2 >= 0 on the last axis (docs/method.md, "Saliency map").
 
     Cl = (l0 - l1)/S, Cs = 2 (l1 - l2)/S, Cp = 3 l2/S with S = l0 + l1 + l2; they sum to 1.
@@ -24,7 +25,7 @@ def saliency_from_eigenvalues(ev):
     return out
 
 
-def geometric_entropy(sal):
+def geometric_entropy(sal: ArrayLike) -> NDArray[np.float64]:
     """Egeom = -(Cl ln Cl + Cs ln Cs + Cp ln Cp), 0 ln 0 = 0; in [0, ln 3] nats (docs/method.md, "Saliency map").
 
     NaN where the saliency is undefined.
@@ -37,7 +38,7 @@ def geometric_entropy(sal):
     return out
 
 
-def geometric_class(sal):
+def geometric_class(sal: ArrayLike) -> NDArray[np.uint8]:
     """Deterministic class: 1 line, 2 surface, 3 point (argmax, first on ties); 0 if undefined."""
     sal = np.asarray(sal)
     undefined = np.isnan(sal).any(axis=-1)

@@ -243,6 +243,10 @@ def _room_for_shell(s, rs, re, rc, n_ranges):
 _RANGES = 125
 
 
+# This kernel stays long: the shell walk, the candidate test and the row's tie room share the
+# query's running bounds and its thread's buffers in the innermost loop of every run; split into
+# functions, numba would pass them through calls there (the parts it can inline already are:
+# the inline="always" helpers above).
 @njit(cache=True, parallel=True)
 def nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, origin, h, queries, group_start,
             ks, r2s, tie_factor, s_max, n_chunks, out_d2, out_idx, out_n, out_total, done, out_counts, out_sigma):
@@ -450,6 +454,8 @@ def _min3(pts, j0, j1, qx, qy, qz, b0, b1, b2):
     return b0, b1, b2
 
 
+# This kernel stays long for the same reason as nearest: one shell walk per query keeping its
+# three nearest in registers; split, they would pass through calls in the innermost loop.
 @njit(cache=True, parallel=True)
 def third_nearest(pts, cell_of, cell_ijk, cell_start, cell_keys, lut, dims, origin, h, queries, group_start,
                   s_max, n_chunks, out_d2, done):

@@ -7,6 +7,7 @@ the minima); the values are the same. Every bounding box of a whole cloud is tak
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 
 def column_min(a):
@@ -21,6 +22,6 @@ def column_max(a):
     return np.array([a[:, j].max() for j in range(a.shape[1])], dtype=a.dtype)
 
 
-def bounds(a):
+def bounds(a: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(lo, hi): the per-column minima and maxima of ``a`` (N, D), N >= 1."""
     return column_min(a), column_max(a)

@@ -26,6 +26,7 @@ from dataclasses import dataclass
 from enum import StrEnum
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 # Bytes of neighbour lists (squared distance + index) held at once; bounds memory per block. Small
 # enough that the descriptor reads a block's lists from the cache the search wrote them to: on
@@ -201,13 +202,13 @@ class NeighborhoodBatch:
     kind: ScaleKind
 
     @property
-    def dist(self):
+    def dist(self) -> NDArray[np.float64]:
         """(B, K) distances matching ``idx``; inf past ``n``."""
         listed = np.arange(self.d2.shape[1])[None, :] < self.n[:, None]
         # past n a row holds whatever its buffer held before: not a distance to take the root of
         return np.where(listed, np.sqrt(np.where(listed, self.d2, 0.0)), np.inf)
 
-    def reach(self):
+    def reach(self) -> NDArray[np.float64]:
         """(B,) how far from x_i its neighbourhood at the largest scale can reach, ties
         included: no point farther away can be in it, however many points are added beyond
         (a tile checks its halo with this). The largest radius, or the distance to the last
@@ -247,8 +248,9 @@ class NeighborIndex:
         again with twice as many when few are, then goes to a scan or the k-d tree.
     """
 
-    def __init__(self, xyz, kind, scales, *, max_neighbors=512, min_neighbors=3, weights="none",
-                 area_cap=None, second=None, shells=_KNN_SHELLS):
+    def __init__(self, xyz: ArrayLike, kind: ScaleKind | str, scales: ArrayLike, *, max_neighbors: int = 512,
+                 min_neighbors: int = 3, weights: Weights | str = "none", area_cap: float | None = None,
+                 second: ArrayLike | None = None, shells: int = _KNN_SHELLS) -> None:
         from ._voxels import VoxelGrid
 
         xyz = np.asarray(xyz, dtype=np.float64)
@@ -283,17 +285,17 @@ class NeighborIndex:
         known = None if second is None else np.asarray(second, dtype=np.float64)[self.order]
         self.weights = self.area_weights(area_cap, known) if Weights(weights).by_area else np.empty(0)
 
-    def rows_of(self, ids):
+    def rows_of(self, ids: ArrayLike) -> NDArray[np.int64]:
         """Sorted-order rows of input point indices ``ids``."""
         inverse = np.empty_like(self.order)
         inverse[self.order] = np.arange(len(self.order))
         return inverse[np.asarray(ids)]
 
-    def block_size(self):
+    def block_size(self) -> int:
         """Query points per block so that one block's neighbour lists fit in _BLOCK_BYTES."""
         return max(1024, _BLOCK_BYTES // (16 * self.width))
 
-    def blocks(self, rows=None):
+    def blocks(self, rows: ArrayLike | None = None) -> list[NDArray[np.int64]]:
         """Consecutive blocks of query rows (sorted order) covering the cloud, or ``rows``."""
         step = self.block_size()
         if rows is None:
@@ -302,7 +304,7 @@ class NeighborIndex:
         rows = np.sort(np.asarray(rows, dtype=np.int64))  # sorted rows keep voxel locality
         return [rows[s:s + step] for s in range(0, len(rows), step)]
 
-    def query(self, rows):
+    def query(self, rows: ArrayLike) -> NeighborhoodBatch:
         """Neighbourhoods of the sorted-order points ``rows`` at every scale.
 
         The arrays of the returned batch live in buffers reused by the next call.
@@ -353,7 +355,8 @@ class NeighborIndex:
         return NeighborhoodBatch(self.xyz, rows, self.order[rows], idx, d2, n, counts,
                                  np.ascontiguousarray(sigma), capped, self.weights, self.kind)
 
-    def area_weights(self, cap=None, d_second=None):
+    def area_weights(self, cap: float | None = None,
+                     d_second: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
         """(N,) weight of each point as a neighbour, sorted order: the squared distance to its
         second-nearest other point (``d_second``, sorted order, when known), capped at ``cap``
         (default AREA_CAP x its median), squared (module docstring).
@@ -367,7 +370,7 @@ class NeighborIndex:
         weights = np.minimum(d_second, cap)
         return np.multiply(weights, weights, out=weights)  # squared in place: one array, not two
 
-    def second_distances(self, rows=None, *, shells=_KNN_SHELLS):
+    def second_distances(self, rows: ArrayLike | None = None, *, shells: int = _KNN_SHELLS) -> NDArray[np.float64]:
         """Distance from each point (sorted order; ``rows`` only, if given) to its second-nearest
         other point, in coordinate units (in a cloud of fewer than 3 points, to its farthest).
         ``shells``: voxel shells a query may grow before a second search (see ``_farther``)

@@ -4,6 +4,7 @@ from __future__ import annotations
 import os
 import time
 import warnings
+from collections.abc import Sequence
 from functools import partial
 from typing import TYPE_CHECKING, Any
 
@@ -18,7 +19,7 @@ from ..io.open3d import from_open3d, is_open3d
 from ..numerics.neighbors import WEIGHTS, NeighborIndex, Weights, unique_points
 from ..plugins import get_descriptor, get_strategy
 from ..base.progress import step
-from .result import Result
+from .result import Result, TiledResult
 from ..method.saliency_map import Saliency
 from ..method.scales import Scales, recorded_scales
 from ..method.signature_raster import Frame, Signature
@@ -323,9 +324,7 @@ class Pipeline:
         if isinstance(cloud, (str, os.PathLike)):
             n = execution.over_budget(cloud, self)
             if n is not None or execution.tiles_asked:
-                from ..tiling.run_set import run_in_tiles
-
-                return run_in_tiles(self, cloud, execution, n_points=n)
+                return in_tiles(self, cloud, execution, n_points=n)
         elif execution.tiles_asked:
             raise LidarSigError(f"tiles are made of a LAS/LAZ file: give its path to run {a_kind(cloud)} in tiles, "
                                 f"or leave out {arg('tile_size')}, {arg('workers')} and {arg('scheduler')}")
@@ -340,6 +339,19 @@ class Pipeline:
         make = partial(_signature_of, sal, classes, codes, self.frame, self.kept(cloud), dict(metadata),
                        self.progress)
         return Result(cloud, sal, metadata=metadata, make_signature=make)
+
+
+def in_tiles(pipeline: Pipeline, source: str | os.PathLike[str], execution: Execution, *, n_points: int | None,
+             work: str | os.PathLike[str] | None = None,
+             outputs: Sequence[str | os.PathLike[str]] = ()) -> TiledResult:
+    """One LAS/LAZ file run in tiles (:func:`lidar_sig.tiling.run_set.run_in_tiles`: its
+    ``n_points`` points exceed the memory budget of ``execution`` as one block, or tiles were
+    asked for), as a :class:`TiledResult` whose per-point values stay in the work folder
+    (``work``, a job's; else a new folder of its own) until asked for; ``outputs`` are the
+    job's, which the work folder must not hold."""
+    from ..tiling.run_set import run_in_tiles
+
+    return TiledResult(run_in_tiles(pipeline, source, execution, n_points=n_points, work=work, outputs=outputs))
 
 
 def _signature_of(sal, classes, codes, frame, kept, metadata, progress):
@@ -359,7 +371,7 @@ def pipeline_or_default(pipeline: Pipeline | None) -> Pipeline:
     return pipeline
 
 
-def as_point_cloud(cloud, labels=None, columns=None):
+def as_point_cloud(cloud: Any, labels: Any = None, columns: str | Sequence[str] | None = None) -> PointCloud:
     """A PointCloud from what :meth:`Pipeline.run` accepts (see there)."""
     if isinstance(cloud, PointCloud):
         if labels is not None:

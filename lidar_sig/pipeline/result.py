@@ -3,14 +3,14 @@ and the run's metadata, written to any format by extension (docs/method.md, "Out
 
 A cloud run as one block holds its values in memory. A LAS/LAZ file that one block would hold
 above the memory budget is run in tiles and gives a result whose per-point values stay on disk,
-in tiles, until asked for (:class:`lidar_sig.tiling._set_run.TiledResult`): both answer the same
-calls, so that ``ls.Pipeline().run(path).write(out)`` is one line whatever the file's size.
+in tiles, until asked for (:class:`TiledResult`): both answer the same calls, so that
+``ls.Pipeline().run(path).write(out)`` is one line whatever the file's size.
 """
 from __future__ import annotations
 
 from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Self
 
 from ..base.errors import LidarSigError, counted
 
@@ -18,6 +18,7 @@ if TYPE_CHECKING:
     from ..method.cloud import PointCloud
     from ..method.saliency_map import Saliency
     from ..method.signature_raster import Signature
+    from ..tiling import KeptTiles
 
 
 class Result:
@@ -28,7 +29,7 @@ class Result:
     which does not need a signature, saves its 0.1 s per million points).
     """
 
-    #: False: the values are in memory (see :class:`lidar_sig.tiling._set_run.TiledResult`).
+    #: False: the values are in memory (see :class:`TiledResult`).
     tiled = False
 
     def __init__(self, cloud: PointCloud, saliency: Saliency, signature: Signature | None = None,
@@ -111,8 +112,98 @@ class Result:
         """Free what the result keeps outside memory (nothing here; a result in tiles removes
         its work folder)."""
 
-    def __enter__(self) -> Result:
+    def __enter__(self) -> Self:
         return self
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+class TiledResult(Result):
+    """The :class:`Result` of one LAS/LAZ file that one block would hold above the memory budget
+    (or whose tiles were asked for), run in tiles with halos (the same values as one block): its
+    per-point values stay in the run's work folder, in tiles, until they are asked for
+    (``saliency`` and ``cloud`` read them all into memory); ``write`` streams them into a
+    LAS/LAZ file chunk by chunk and refuses other point formats, which would hold them all. The
+    work folder (:class:`lidar_sig.tiling.KeptTiles`) is removed by :meth:`close`, by leaving a
+    ``with`` block, or when the result is collected.
+    """
+
+    tiled = True
+
+    def __init__(self, kept: KeptTiles) -> None:  # not Result's: the values are in the tiles
+        self.kept = kept
+        self.metadata = kept.metadata
+        self._cloud: PointCloud | None = None
+        self._tiled_saliency: Saliency | None = None
+
+    @property
+    def work(self) -> Path:
+        """The work folder that holds the per-point values, in tiles, until :meth:`close`."""
+        return self.kept.work
+
+    @property  # type: ignore[override]  # read from the tiles, not set
+    def signature(self) -> Signature:
+        """The file's Signature: the sum of its tiles' (count rasters are additive)."""
+        return self.kept.signature
+
+    @property  # type: ignore[override]
+    def cloud(self) -> PointCloud:
+        """The file read into a PointCloud (every point in memory: read when first asked for)."""
+        if self._cloud is None:
+            from ..io import read
+
+            self._cloud = read(self.kept.source.path)
+        return self._cloud
+
+    @property  # type: ignore[override]
+    def saliency(self) -> Saliency:
+        """Per-point Saliency of the whole file, in its point order (gathered from the tiles
+        into memory when first asked for, then kept)."""
+        if self._tiled_saliency is None:
+            self._tiled_saliency = self.kept.saliency()
+        return self._tiled_saliency
+
+    def summary_lines(self) -> list[str]:
+        """What the tiles were (:meth:`lidar_sig.SetRun.summary`)."""
+        return self.kept.summary_lines()
+
+    def write(self, path: str | Path, *, overwrite: bool = False, points: bool | None = None,
+              render: str = "smooth") -> None:
+        """As :meth:`Result.write`, without holding the points: a LAS/LAZ file is streamed from
+        the tiles, an archive (.h5) holds the signature and the tiling without per-point
+        datasets (``points=True`` is refused: they would not fit the budget), a .png is Sas.
+        Other point-cloud formats are refused: they are written whole."""
+        from ..base.errors import arg, as_path
+        from ..io import check_output, write_archive
+        from ..io.formats import IMAGE, POINTS, SIGNATURE, format_of
+        from ..io.png import write_signature_png
+        from ..tiling.memory import exceed
+
+        path = as_path(path, "write")
+        fmt = format_of(path)
+        holds = set(fmt.holds) if fmt is not None else set()
+        kept = self.kept
+        kept.check_open()
+        if fmt is not None and fmt.streamed:
+            check_output(path, overwrite=overwrite)
+            kept.write_points(path, overwrite=overwrite)
+        elif SIGNATURE in holds:
+            if points:
+                raise LidarSigError(f"{exceed(kept.over, kept.memory)}: its archive holds the signature without "
+                                    f"per-point datasets; leave out {arg('points', True)}, or write the points as "
+                                    "LAS/LAZ", path=path)
+            write_archive(path, self.signature, sources=kept.run.source_records(), render=render,
+                          overwrite=overwrite, tiling=kept.run.tiling_record())
+        elif IMAGE in holds:
+            write_signature_png(path, self.signature, mode=render, overwrite=overwrite)
+        elif POINTS in holds:
+            raise LidarSigError(f"{exceed(kept.over, kept.memory)}; tiles write per-point results to LAS/LAZ only: "
+                                f"give a .las or .laz name, or raise {arg('memory')}", path=path)
+        else:
+            raise LidarSigError(f"cannot write {path.suffix.lower() or 'files without extension'}; use a point-cloud "
+                                "format, .h5 or .png", path=path)
+
+    def close(self) -> None:
+        """Remove the work folder that holds the per-point values (the signature stays)."""
+        self.kept.close()

@@ -9,6 +9,7 @@ other kinds of extension, metrics, formats and commands, are found by
 :mod:`lidar_sig.base.extensions` too).
 """
 from ._kinds import Descriptor, Strategy
+from ..numerics.neighbors import NeighborhoodBatch
 from ._registry import PluginKind, available, get_descriptor, get_strategy
 
-__all__ = ["Descriptor", "PluginKind", "Strategy", "available", "get_descriptor", "get_strategy"]
+__all__ = ["Descriptor", "NeighborhoodBatch", "PluginKind", "Strategy", "available", "get_descriptor", "get_strategy"]

@@ -23,9 +23,10 @@ def _class(extension: Extension) -> type:
 
 
 def available(kind: PluginKind) -> dict[str, tuple[str, str]]:
-    """Registered plugins of ``kind`` ('descriptor' or 'strategy'): name -> (package, summary)."""
+    """Registered plugins of ``kind`` ('descriptor' or 'strategy'): name -> (package, summary),
+    lidar_sig's own first."""
     out = {}
-    for name, extension in sorted(registered(kind).items()):
+    for name, extension in registered(kind).items():
         out[name] = (extension.distribution, str(getattr(_class(extension), "summary", "")))
     return out
 

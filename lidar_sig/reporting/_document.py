@@ -2,6 +2,7 @@
 saved as a file and the figures as PNG files."""
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -50,7 +51,7 @@ class Report:
     def _repr_html_(self):  # a notebook shows the report in place
         return self.body
 
-    def save(self, path: str | Path, *, overwrite: bool = False) -> None:
+    def save(self, path: str | os.PathLike[str], *, overwrite: bool = False) -> None:
         """Write the page to ``path`` (.html), atomically; refuses an existing file unless
         ``overwrite``."""
         from ..io.atomic import atomic_output

@@ -25,15 +25,52 @@ TABLE_ROWS = 25
 def outliers_report(outliers, *, top=None):
     """The :class:`Report` of computed :class:`lidar_sig.survey_catalog._outlier_scores.Outliers`; ``top``
     outliers (default TOP_SHOWN) are shown beside their neighbours."""
-    from . import render as images
     from ..method.crs import crs_name
     from ..metrics import METRIC_NAMES
-    from . import _figures as figures
 
     o = outliers
     cat = o.catalog
     top = TOP_SHOWN if top is None else max(1, int(top))
     shown = o.results[:min(top, len(o.results))]
+    pngs, groups, signatures, shown_near = _pictures(o, shown)
+    title = f"lidar_sig outliers: {Path(str(cat.path)).name}"
+    maps = "".join(page.image(pngs[f"map_{g}.png"], f"map of outlier scores ({crs_name(cat.header['crs'][g]) or 'no CRS'})",
+                              caption="Tile footprints (convex hulls of their points) coloured by score; "
+                                      "the top outliers are numbered.") for g in groups)
+    spread_rows = [[page.esc(METRIC_NAMES[k]), f"{v:.4g}"] for k, v in cat.spread.items()]
+    crs_rows = [[page.esc(crs_name(w) or "none recorded"), f"{int(np.sum(np.asarray(cat.columns['crs']) == g)):,}"]
+                for g, w in enumerate(cat.header["crs"])]
+    parts = [
+        _summary(o),
+        page.section("Tiles by score", *_scores_table(o), anchor="outliers"),
+        page.section("Map", maps, anchor="map"),
+        page.section("Top outliers beside their neighbours" if o.standing_out else
+                     "Highest scores beside their neighbours (no tile stands out)",
+                     "<p>Sas of each of the highest-scoring tiles (left) and of its nearest neighbours in signature: "
+                     "each point placed in the triangle by its saliency, coloured by its class.</p>",
+                     class_legend(signatures),
+                     *_beside(o, shown, shown_near, pngs), anchor="signatures"),
+        page.section("Tiles by likeness",
+                     page.image(pngs["likeness.png"], "tiles placed by likeness (classical MDS)",
+                                caption="Classical multidimensional scaling of the screening distances: tiles close "
+                                        "in this plane have similar signatures; outliers stand apart."),
+                     anchor="likeness"),
+        page.section("Method and catalogue",
+                     page.table(("metric", "spread over the catalogue"), spread_rows, numeric=(1,)),
+                     page.table(("CRS", "tiles"), crs_rows, numeric=(1,)), anchor="provenance"),
+    ]
+    return Report(title, page.fragment(title, made_line(), parts), pngs)
+
+
+def _pictures(o, shown):
+    """The report's pictures by file name (a footprint map per CRS, the tiles by likeness, Sas of
+    each ``shown`` outlier and of its nearest neighbours), the CRS groups, the signatures shown
+    and each outlier's neighbours shown (by rank)."""
+    from . import _figures as figures
+    from . import render as images
+    from ..method.crs import crs_name
+
+    cat = o.catalog
     score = np.empty(len(cat))
     for r in o.results:
         score[r["row"]] = r["score"]
@@ -41,6 +78,8 @@ def outliers_report(outliers, *, top=None):
     for r in shown:
         labels[r["row"]] = f"#{r['rank']}"
     pngs = {}
+    signatures = []
+    shown_near = {}
     with step("rendering the report", tiles=len(cat)):
         groups = sorted(set(np.asarray(cat.columns["crs"]).tolist()))
         for g in groups:
@@ -49,8 +88,6 @@ def outliers_report(outliers, *, top=None):
             pngs[f"map_{g}.png"] = figures.footprint_map([cat.columns["hull"][i] for i in rows], score[rows],
                                                          [labels[i] for i in rows], title=name)
         pngs["likeness.png"] = figures.likeness_map(o.embedding(), score, labels)
-        signatures = []
-        shown_near = {}
         for r in shown:
             i = r["row"]
             near = o.neighbours[i]
@@ -61,7 +98,14 @@ def outliers_report(outliers, *, top=None):
                 signatures.append(sig)
                 pngs[f"outlier{r['rank']}{tag}.png"] = images.encode_png(images.signature_image(sig, "sas"))
             shown_near[r["rank"]] = [int(j) for j in near]
-    title = f"lidar_sig outliers: {Path(str(cat.path)).name}"
+    return pngs, groups, signatures, shown_near
+
+
+def _summary(o):
+    """The catalogue, the method, how tiles are scored and the verdict; the notes."""
+    from ..metrics import METRIC_NAMES
+
+    cat = o.catalog
     method = cat.method
     summary = (f"<p>Catalogue <code>{page.esc(cat.path)}</code>: {counted(len(cat), 'tile')}; signatures "
                f"{page.esc(method.get('descriptor', '?'))} {page.esc(method.get('strategy', '?'))}, "
@@ -77,6 +121,11 @@ def outliers_report(outliers, *, top=None):
                "</b></p>")
     if o.notes:
         summary += '<div class="warnings"><ul>' + "".join(f"<li>{page.esc(n)}</li>" for n in o.notes) + "</ul></div>"
+    return summary
+
+
+def _scores_table(o):
+    """The table of the first TABLE_ROWS tiles by score, and a line saying where the others are."""
     rows = []
     for r in o.results[:TABLE_ROWS]:
         classes = "<br>".join(f"{page.esc(c['class'])} {c['share']:.1f}% (neighbours {c['neighbours']:.1f}%)"
@@ -91,9 +140,12 @@ def outliers_report(outliers, *, top=None):
                        cls="outliers")
     more = (f'<p class="muted">The {counted(len(o.results) - TABLE_ROWS, "other tile")} are in the JSON and the '
             "GeoPackage outputs.</p>" if len(o.results) > TABLE_ROWS else "")
-    maps = "".join(page.image(pngs[f"map_{g}.png"], f"map of outlier scores ({crs_name(cat.header['crs'][g]) or 'no CRS'})",
-                              caption="Tile footprints (convex hulls of their points) coloured by score; "
-                                      "the top outliers are numbered.") for g in groups)
+    return table, more
+
+
+def _beside(o, shown, shown_near, pngs):
+    """A row of pictures per ``shown`` outlier: its Sas, then its neighbours'."""
+    cat = o.catalog
     beside = []
     for r in shown:
         cells = [page.image(pngs[f"outlier{r['rank']}.png"], f"Sas of outlier {r['rank']}",
@@ -104,26 +156,4 @@ def outliers_report(outliers, *, top=None):
                                             f"{o.distances[r['row'], j]:.2f}"))
         beside.append('<div class="grid" style="grid-template-columns: repeat(4, minmax(0, 1fr))">'
                       + "".join(cells) + "</div>")
-    spread_rows = [[page.esc(METRIC_NAMES[k]), f"{v:.4g}"] for k, v in cat.spread.items()]
-    crs_rows = [[page.esc(crs_name(w) or "none recorded"), f"{int(np.sum(np.asarray(cat.columns['crs']) == g)):,}"]
-                for g, w in enumerate(cat.header["crs"])]
-    parts = [
-        summary,
-        page.section("Tiles by score", table, more, anchor="outliers"),
-        page.section("Map", maps, anchor="map"),
-        page.section("Top outliers beside their neighbours" if o.standing_out else
-                     "Highest scores beside their neighbours (no tile stands out)",
-                     "<p>Sas of each of the highest-scoring tiles (left) and of its nearest neighbours in signature: "
-                     "each point placed in the triangle by its saliency, coloured by its class.</p>",
-                     class_legend(signatures),
-                     *beside, anchor="signatures"),
-        page.section("Tiles by likeness",
-                     page.image(pngs["likeness.png"], "tiles placed by likeness (classical MDS)",
-                                caption="Classical multidimensional scaling of the screening distances: tiles close "
-                                        "in this plane have similar signatures; outliers stand apart."),
-                     anchor="likeness"),
-        page.section("Method and catalogue",
-                     page.table(("metric", "spread over the catalogue"), spread_rows, numeric=(1,)),
-                     page.table(("CRS", "tiles"), crs_rows, numeric=(1,)), anchor="provenance"),
-    ]
-    return Report(title, page.fragment(title, made_line(), parts), pngs)
+    return beside

@@ -3,6 +3,7 @@ costs nothing."""
 from __future__ import annotations
 
 import os
+from collections.abc import Iterable
 from pathlib import Path
 
 from ..base.errors import LidarSigError, arg, as_path
@@ -10,7 +11,7 @@ from ..base.errors import LidarSigError, arg, as_path
 HTML_EXTENSIONS = (".html", ".htm")
 
 
-def check_report_path(path, *, overwrite=True):
+def check_report_path(path: str | os.PathLike[str], *, overwrite: bool = True) -> None:
     """Refuse a report path without an .html extension (and, unless ``overwrite``, one that
     exists) or in a folder that is missing or not writable: before any computing."""
     from ..io.atomic import check_output
@@ -21,7 +22,7 @@ def check_report_path(path, *, overwrite=True):
     _check_writable(Path(path).parent, path)
 
 
-def check_plots_folder(folder, names, *, overwrite=False):
+def check_plots_folder(folder: str | os.PathLike[str], names: Iterable[str], *, overwrite: bool = False) -> None:
     """Refuse a plots folder that is a file, whose parent is missing or not writable, or that
     holds a file of ``names`` already (unless ``overwrite``): before any computing."""
     folder = as_path(folder, "the plots folder")

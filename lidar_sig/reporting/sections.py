@@ -4,7 +4,9 @@ views; each returns an HTML fragment (:mod:`lidar_sig.reporting._page`)."""
 from __future__ import annotations
 
 import datetime
+from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -177,7 +179,7 @@ def top_views(sides, tags, pngs, names):
     return '<div class="grid">' + "".join(parts) + "</div>"
 
 
-def scales_text(m):
+def scales_text(m: Mapping[str, Any]) -> str:
     """The scales of recorded metadata ``m`` for people: k values, or radii in metres."""
     values = m.get("resolved_scales") or m.get("scale_values") or []
     kind = recorded_kind(m)

@@ -15,10 +15,12 @@ and said in a note: each would be the other's nearest tile and bend every statis
 from __future__ import annotations
 
 import copy
+import os
 import time
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -27,6 +29,9 @@ from ..base.progress import progress, step
 from ._distances import spreads
 from ._features import COLOR_BINS, RENDER, Features, sg_image
 from ._tile import result_path, tile_task
+
+if TYPE_CHECKING:
+    from ..pipeline.flow import Pipeline
 
 #: Fields of a finished tile kept in the catalogue (besides the work folder's key).
 _TILE_FIELDS = ("path", "sha256", "crs", "factors", "n_points", "n_undefined", "n_signature", "bounds", "hull",
@@ -64,8 +69,9 @@ class CatalogRun:
         return [f"{Path(p).name}: {why}" for p, why in self.failed.items()]
 
 
-def build_catalog(inputs, output, pipeline=None, *, backend=None, work=None, resume=False, overwrite=False,
-                  method_given=None, progress_enabled=None):
+def build_catalog(inputs: Any, output: str | os.PathLike[str], pipeline: Pipeline | None = None, *, backend: Any = None,
+                  work: str | os.PathLike[str] | None = None, resume: bool = False, overwrite: bool = False,
+                  method_given: Any = None, progress_enabled: bool | None = None) -> CatalogRun:
     """Make the catalogue ``output`` (.h5) of the LAS/LAZ files and folders ``inputs``, or grow
     it when it exists (unless ``overwrite``: made anew). ``pipeline`` is the method (default
     ``Pipeline()``, or the catalogue's own when growing); ``method_given``, the method options a

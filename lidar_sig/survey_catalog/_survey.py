@@ -110,7 +110,7 @@ class Catalog:
     >>> cat.similar("tile_0042.laz", top=5)                  # doctest: +SKIP
     """
 
-    def __init__(self, path):
+    def __init__(self, path: str | os.PathLike[str]) -> None:
         from ..io.catalog_file import read_catalog
 
         self.path = as_path(path, "Catalog")

@@ -1,10 +1,11 @@
 """What a tiled run of a set made, read back from the work folder: the tiles' statistics, what
 failed and why, the set's signature (the sum of the tiles'), and each input file's per-point
 saliency merged from the tiles' results chunk by chunk, or streamed into its LAS/LAZ output;
-and the Result of one file run in tiles (:class:`TiledResult`), which keeps them there."""
+and what a run of one file in tiles keeps there until asked for (:class:`KeptTiles`)."""
 from __future__ import annotations
 
 import weakref
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -12,9 +13,8 @@ from typing import Any
 import numpy as np
 
 from .. import __version__
-from ..base.errors import LidarSigError, arg, counted
+from ..base.errors import LidarSigError, counted
 from ..base.progress import step
-from ..pipeline.result import Result
 from ..method.saliency_map import Saliency
 from ..method.signature_raster import Signature
 from ._core import SetContext, Tiling
@@ -63,7 +63,7 @@ class SetRun:
                 "n_tiles_run": len(self.tile_stats),
                 "n_recomputed": sum(s["n_recomputed"] for s in self.tile_stats.values())}
 
-    def summary(self, over=None, memory=None):
+    def summary(self, over: int | None = None, memory: int | None = None) -> list[str]:
         """Two lines for people: the tiles (for one file run in tiles because its ``over``
         points exceed the ``memory`` budget as one block, why), and where and how fast they
         ran. None before the tiles were made (every input failed)."""
@@ -85,7 +85,7 @@ class SetRun:
                 "with a wider halo" + (f"; {counted(excluded, 'withheld or noise point')} left out" if excluded else ""),
                 f"{self.execution}: {self.seconds:.1f} s, {n / max(self.seconds, 1e-9):,.0f} points/s"]
 
-    def source_records(self):
+    def source_records(self) -> list[dict[str, str]]:
         """Every source file with its SHA-256 (those that could be read)."""
         return [{"path": s.path, "sha256": self.sha256[s.path]} for s in self.sources if s.path in self.sha256]
 
@@ -125,7 +125,7 @@ class SetRun:
         chunk = self.point_values(source)
         return None if chunk is None else chunk(0, source.n_points)
 
-    def write_points(self, source, output, *, overwrite=False):
+    def write_points(self, source: Any, output: str | Path, *, overwrite: bool = False) -> bool:
         """Write ``source`` with its per-point saliency to the LAS/LAZ ``output``, streamed in
         chunks; False (nothing written) when a tile holding some of its points failed."""
         from ..io.las import write_las_chunks
@@ -140,96 +140,54 @@ class SetRun:
         return True
 
 
-class TiledResult(Result):
-    """The :class:`~lidar_sig.pipeline.result.Result` of one LAS/LAZ file that one block would hold
-    above the memory budget (or whose tiles were asked for), run in tiles with halos (the same
-    values as one block): its
-    per-point values stay in the run's work folder, in tiles, until they are asked for
-    (``saliency`` and ``cloud`` read them all into memory); ``write`` streams them into a
-    LAS/LAZ file chunk by chunk and refuses other point formats, which would hold them all. The work folder is
-    removed by :meth:`close`, by leaving a ``with`` block, or when the result is collected.
-    """
+class KeptTiles:
+    """What a run of one LAS/LAZ file in tiles keeps in its work folder until asked for: the
+    per-point values, in tiles (:meth:`saliency` gathers them, :meth:`write_points` streams them
+    into a LAS/LAZ file chunk by chunk), and the file's signature, the sum of its tiles'. The work
+    folder is removed by :meth:`close`, or when this is collected.
+    :class:`lidar_sig.pipeline.result.TiledResult` is the Result made of it."""
 
-    tiled = True
-
-    def __init__(self, run, work, over, memory, remove):
+    def __init__(self, run: SetRun, work: str | Path, over: int | None, memory: int,
+                 remove: Callable[[Path], Any]) -> None:
         self.run = run
         self.source = run.sources[0]
         self.over = over
         self.memory = memory
         self.work = Path(work)
         self.metadata = {**run.signature.metadata, "source": self.source.path, "tiling": run.tiling_record()}
-        self._cloud = self._saliency = None
         self._closed = weakref.finalize(self, remove, self.work)
 
     @property
-    def signature(self):
+    def signature(self) -> Signature:
         """The file's Signature: the sum of its tiles' (count rasters are additive)."""
         return self.run.signature
 
-    @property
-    def cloud(self):
-        """The file read into a PointCloud (every point in memory: read when first asked for)."""
-        if self._cloud is None:
-            from ..io import read
+    def saliency(self) -> Saliency:
+        """Per-point Saliency of the whole file, in its point order, gathered into memory."""
+        self.check_open()
+        return self.run.saliency_of(self.source)
 
-            self._cloud = read(self.source.path)
-        return self._cloud
-
-    @property
-    def saliency(self):
-        """Per-point Saliency of the whole file, in its point order (gathered from the tiles
-        into memory when first asked for, then kept)."""
-        if self._saliency is None:
-            self._check_open()
-            self._saliency = self.run.saliency_of(self.source)
-        return self._saliency
-
-    def summary_lines(self):
+    def summary_lines(self) -> list[str]:
         """What the tiles were (:meth:`SetRun.summary`)."""
         return self.run.summary(self.over, self.memory)
 
-    def write(self, path, *, overwrite=False, points=None, render="smooth"):
-        """As :meth:`Result.write`, without holding the points: a LAS/LAZ file is streamed from
-        the tiles, an archive (.h5) holds the signature and the tiling without per-point
-        datasets (``points=True`` is refused: they would not fit the budget), a .png is Sas.
-        Other point-cloud formats are refused: they are written whole."""
-        from ..base.errors import as_path
-        from ..io import check_output, write_archive
-        from ..io.formats import IMAGE, POINTS, SIGNATURE, format_of
-        from ..io.png import write_signature_png
-        from .memory import exceed
+    def write_points(self, path: str | Path, *, overwrite: bool = False) -> None:
+        """Stream the per-point values into the LAS/LAZ file ``path``."""
+        self.check_open()
+        self.run.write_points(self.source, path, overwrite=overwrite)
 
-        path = as_path(path, "write")
-        fmt = format_of(path)
-        holds = set(fmt.holds) if fmt is not None else set()
-        self._check_open()
-        if fmt is not None and fmt.streamed:
-            check_output(path, overwrite=overwrite)
-            self.run.write_points(self.source, path, overwrite=overwrite)
-        elif SIGNATURE in holds:
-            if points:
-                raise LidarSigError(f"{exceed(self.over, self.memory)}: its archive holds the signature without "
-                                    f"per-point datasets; leave out {arg('points', True)}, or write the points as "
-                                    "LAS/LAZ", path=path)
-            write_archive(path, self.signature, sources=self.run.source_records(), render=render,
-                          overwrite=overwrite, tiling=self.run.tiling_record())
-        elif IMAGE in holds:
-            write_signature_png(path, self.signature, mode=render, overwrite=overwrite)
-        elif POINTS in holds:
-            raise LidarSigError(f"{exceed(self.over, self.memory)}; tiles write per-point results to LAS/LAZ only: "
-                                f"give a .las or .laz name, or raise {arg('memory')}", path=path)
-        else:
-            raise LidarSigError(f"cannot write {path.suffix.lower() or 'files without extension'}; use a point-cloud "
-                                "format, .h5 or .png", path=path)
-
-    def close(self):
+    def close(self) -> None:
         """Remove the work folder that holds the per-point values (the signature stays)."""
         self._closed()
 
-    def _check_open(self):
+    def check_open(self) -> None:
+        """Refuse to read values a closed run no longer holds."""
         if not self._closed.alive:
             raise LidarSigError("this result in tiles was closed: its per-point values are gone; run it again")
+
+
+#: The name lidar_sig/tiling/run_set.py still builds KeptTiles by (its author renames it there).
+TiledResult = KeptTiles
 
 
 def sum_signatures(run):

@@ -122,7 +122,7 @@ def size(n_bytes):
     return f"{n_bytes / MIB:.0f} MiB"
 
 
-def exceed(n_points, budget):
+def exceed(n_points: int, budget: int) -> str:
     """For messages: "N points exceed the 1 GiB memory budget as one block"."""
     return f"{counted(n_points, 'point')} exceed the {size(budget)} memory budget as one block"
 

@@ -20,6 +20,7 @@ import json
 import math
 import os
 import shutil
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -41,7 +42,7 @@ CHUNK_POINTS = 500_000
 RECORD = np.dtype([("x", "f8"), ("y", "f8"), ("z", "f8"), ("label", "i8"), ("id", "i8")])
 
 
-def expand(inputs):
+def expand(inputs: Iterable[str | os.PathLike[str]]) -> list[Path]:
     """The LAS/LAZ files of ``inputs`` (files and folders; a folder's files sorted by name)."""
     files = []
     for given in inputs:
@@ -104,7 +105,7 @@ class Source:
         return [(s, min(n, s + step)) for s in range(0, n, step)]
 
 
-def scan(files):
+def scan(files: Iterable[str | os.PathLike[str]]) -> list[Source]:
     """A :class:`Source` per file from its header; files whose header cannot be read get the
     reason in ``error``. Refuses a set whose readable files are in different CRS, and a file
     without points (its header's bounds would stretch the set's extent to meaningless values)."""

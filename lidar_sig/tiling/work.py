@@ -171,7 +171,7 @@ def _work_errors(work):
                             "write to", path=work) from None
 
 
-def remove_work(work):
+def remove_work(work: str | os.PathLike[str]) -> None:
     """Remove a work folder of ours (after a complete run), and let go of it."""
     if (Path(work) / WORK_MARK).is_file():
         shutil.rmtree(work, ignore_errors=True)

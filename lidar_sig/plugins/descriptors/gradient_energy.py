@@ -16,17 +16,28 @@ bounded by a few blocks of neighbour lists plus six derivatives and cl_GET per p
 """
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, TypeAlias
+
 import numpy as np
 from numba import njit, prange
+from numpy.typing import NDArray
 
 from ...base.progress import progress as _progress
+
+if TYPE_CHECKING:
+    from ...numerics.neighbors import NeighborhoodBatch, NeighborIndex
+
+#: The arrays the kernels take: float64 values, int64 rows and counts, int32 neighbour lists.
+Floats: TypeAlias = NDArray[np.float64]
+Ints: TypeAlias = NDArray[np.int64]
+Neighbours: TypeAlias = NDArray[np.int32]
 
 # Relative size of the operator's determinant under which the neighbourhood is collinear.
 _DEGENERATE = 1e-12
 
 
 @njit(cache=True, inline="always")
-def _operator(rxx, ryy, rxy):
+def _operator(rxx: float, ryy: float, rxy: float) -> tuple[float, float, float]:
     # (A, B, C) = (ryy, rxy, rxx) / Dt, or NaN for a collinear or empty neighbourhood
     dt = rxx * ryy - rxy * rxy
     if not dt > _DEGENERATE * (rxx + ryy) * (rxx + ryy):
@@ -35,7 +46,7 @@ def _operator(rxx, ryy, rxy):
 
 
 @njit(cache=True, parallel=True)
-def first_pass(xy, z, rows, ptr, nbr, counts, out):
+def first_pass(xy: Floats, z: Floats, rows: Ints, ptr: Ints, nbr: Neighbours, counts: Ints, out: Floats) -> None:
     """(f_x, f_y) of z at each row and scale into out[row, s, 0:2] (docs/descriptors.md, "T3DVT-GET", step 1).
 
     f_x = sum (dx ryy - dy rxy) / Dt (f_h - f_i), f_y = sum (dy rxx - dx rxy) / Dt (f_h - f_i).
@@ -62,7 +73,7 @@ def first_pass(xy, z, rows, ptr, nbr, counts, out):
 
 
 @njit(cache=True, parallel=True)
-def second_pass(xy, rows, ptr, nbr, counts, d1, out):
+def second_pass(xy: Floats, rows: Ints, ptr: Ints, nbr: Neighbours, counts: Ints, d1: Floats, out: Floats) -> None:
     """(f_xx, f_xy, f_yx, f_yy) into out[row, s, 0:4] from the first derivatives d1."""
     S = counts.shape[1]
     for b in prange(rows.size):
@@ -92,7 +103,8 @@ def second_pass(xy, rows, ptr, nbr, counts, d1, out):
 
 
 @njit(cache=True)
-def get_line_saliency(gx, gy, hxx, hxy, hyy, tx, ty, magnitude_scale, threshold):
+def get_line_saliency(gx: float, gy: float, hxx: float, hxy: float, hyy: float, tx: float, ty: float,
+                      magnitude_scale: float, threshold: float) -> float:
     """cl_GET of one GET (docs/descriptors.md, "T3DVT-GET", steps 2-3), NaN where undefined.
 
     GET = H H - (g t^T + t g^T)/2; with eigenvalues m0 >= m1: if m0 > 0, m1 = max(m1, 0) and
@@ -102,7 +114,7 @@ def get_line_saliency(gx, gy, hxx, hxy, hyy, tx, ty, magnitude_scale, threshold)
     g11 = hxy * hxy + hyy * hyy - gy * ty
     g01 = hxy * (hxx + hyy) - 0.5 * (gx * ty + tx * gy)
     half_tr = 0.5 * (g00 + g11)
-    rad = np.sqrt(0.25 * (g00 - g11) * (g00 - g11) + g01 * g01)
+    rad: float = np.sqrt(0.25 * (g00 - g11) * (g00 - g11) + g01 * g01)
     m0 = half_tr + rad
     if not (m0 > 0.0 and m0 * magnitude_scale >= threshold):
         return np.nan
@@ -111,7 +123,8 @@ def get_line_saliency(gx, gy, hxx, hxy, hyy, tx, ty, magnitude_scale, threshold)
 
 
 @njit(cache=True, parallel=True)
-def third_pass(xy, rows, ptr, nbr, counts, sigma, d1, d2, threshold, out):
+def third_pass(xy: Floats, rows: Ints, ptr: Ints, nbr: Neighbours, counts: Ints, sigma: Floats, d1: Floats,
+               d2: Floats, threshold: float, out: Floats) -> None:
     """Third derivatives, GET and cl_GET per scale into out[row, s] (NaN where undefined).
     GET's magnitude is made dimensionless by sigma^2.
 
@@ -148,7 +161,7 @@ def third_pass(xy, rows, ptr, nbr, counts, sigma, d1, d2, threshold, out):
 
 
 @njit(cache=True)
-def _pack_rows(idx, n, out):
+def _pack_rows(idx: Ints, n: Ints, out: Neighbours) -> None:
     # concatenate the first n[b] entries of every row
     pos = 0
     for b in range(idx.shape[0]):
@@ -160,7 +173,7 @@ def _pack_rows(idx, n, out):
 class _Block:
     """A block of query rows with its neighbour lists, waiting for passes 2 and 3."""
 
-    def __init__(self, rows, batch):
+    def __init__(self, rows: Ints, batch: NeighborhoodBatch) -> None:
         self.rows = rows
         self.ptr = np.zeros(len(rows) + 1, np.int64)
         np.cumsum(batch.n, out=self.ptr[1:])
@@ -173,7 +186,8 @@ class _Block:
         self.passes = 1
 
 
-def line_saliency_of_index(index, z, *, threshold=0.0, progress=False):
+def line_saliency_of_index(index: NeighborIndex, z: Floats, *, threshold: float = 0.0,
+                           progress: bool | None = False) -> Floats:
     """(n, S) cl_GET per point (the index's sorted order) and scale of a cylindrical
     NeighborIndex; NaN where GET is undefined.
 
@@ -185,7 +199,7 @@ def line_saliency_of_index(index, z, *, threshold=0.0, progress=False):
     d1 = np.empty((n, n_scales, 2))
     d2 = np.empty((n, n_scales, 4))
     out = np.empty((n, n_scales))
-    held = []
+    held: list[_Block] = []
     for rows in _progress(index.blocks(), desc="gradient energy tensor", enabled=progress, unit="block"):
         block = _Block(rows, index.query(rows))
         first_pass(xy, z, rows, block.ptr, block.nbr, block.counts, d1)
@@ -195,7 +209,7 @@ def line_saliency_of_index(index, z, *, threshold=0.0, progress=False):
     return out
 
 
-def _advance(held, xy, d1, d2, out, done1, threshold):
+def _advance(held: list[_Block], xy: Floats, d1: Floats, d2: Floats, out: Floats, done1: int, threshold: float) -> None:
     """Run passes 2 and 3 on every held block whose neighbourhoods reach only finished rows.
 
     Rows [0, done1) have pass 1; rows before the first block still waiting for pass 2 have it.

@@ -1,8 +1,16 @@
 """T3DVT: tensor voting with ball tensors, then anisotropic diffusion (docs/descriptors.md, "T3DVT")."""
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any, ClassVar
+
 import numpy as np
+from numpy.typing import NDArray
 
 from ...base.errors import LidarSigError
-from .._kinds import Descriptor
+from .._kinds import Descriptor, Kernels
+
+if TYPE_CHECKING:
+    from ...numerics.neighbors import NeighborhoodBatch
 
 
 class T3DVT(Descriptor):
@@ -30,21 +38,22 @@ class T3DVT(Descriptor):
 
     name = "t3dvt"
     summary = "tensor voting with ball tensors and anisotropic diffusion (T3DVT)"
-    kernels = (("lidar_sig.numerics.kernels", ("voting_eigenvalues",)),)
+    kernels: ClassVar[Kernels] = (("lidar_sig.numerics.kernels", ("voting_eigenvalues",)),)
 
-    def __init__(self, delta=0.16, diffusion=True):
+    def __init__(self, delta: float = 0.16, diffusion: bool = True) -> None:
         if not delta > 0:
             raise LidarSigError(f"diffusion delta must be positive, got {delta}")
         self.delta = float(delta)
         self.diffusion = bool(diffusion)
 
-    def params(self):
+    def params(self) -> dict[str, Any]:
         return {"delta": self.delta, "diffusion": self.diffusion}
 
-    def eigenvalues(self, batch):
+    def eigenvalues(self, batch: NeighborhoodBatch) -> NDArray[np.float64]:
         from ...numerics.kernels import voting_eigenvalues  # numba: loaded to compute, not to list plugins
 
-        w = voting_eigenvalues(batch.xyz, batch.rows, batch.idx, batch.counts, batch.sigma, batch.weights)
+        w: NDArray[np.float64] = voting_eigenvalues(batch.xyz, batch.rows, batch.idx, batch.counts, batch.sigma,
+                                                    batch.weights)
         if not self.diffusion:
             return w
         # eig(D) = exp(-w / delta): the order reverses, so the descending ones come from the

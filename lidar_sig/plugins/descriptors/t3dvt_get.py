@@ -1,9 +1,16 @@
 """T3DVT-GET: tensor voting modified by the 2D gradient energy tensor of the height field."""
+from __future__ import annotations
+
 import warnings
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from .t3dvt import T3DVT
+
+if TYPE_CHECKING:
+    from ...numerics.neighbors import NeighborhoodBatch, ScaleKind
 
 #: Default threshold on the dimensionless GET magnitude m0 * r^2; see docs/descriptors.md for
 #: the measurements on the IGN tiles that chose it.
@@ -34,25 +41,30 @@ class T3DVTGET(T3DVT):
     name = "t3dvt-get"
     summary = "tensor voting modified by the gradient energy tensor of the height field (T3DVT-GET)"
     kernels = (("lidar_sig.numerics.kernels", ("voting_eigenvalues",)),
-               ("lidar_sig.plugins.descriptors.gradient_energy", ("first_pass", "second_pass", "third_pass", "_pack_rows")))
+               ("lidar_sig.plugins.descriptors.gradient_energy",
+                ("first_pass", "second_pass", "third_pass", "_pack_rows")))
 
-    def __init__(self, delta=0.16, diffusion=True, get_threshold=GET_THRESHOLD):
+    def __init__(self, delta: float = 0.16, diffusion: bool = True, get_threshold: float = GET_THRESHOLD) -> None:
         super().__init__(delta=delta, diffusion=diffusion)
         self.get_threshold = float(get_threshold)
-        self.cl_get = None
+        self.cl_get: NDArray[np.float64] | None = None
 
-    def params(self):
+    def params(self) -> dict[str, Any]:
         return {**super().params(), "get_threshold": self.get_threshold}
 
-    def prepare(self, xyz, kind, scales, *, max_neighbors, min_neighbors, progress=None):
+    def prepare(self, xyz: NDArray[np.float64], kind: ScaleKind, scales: NDArray[Any], *, max_neighbors: int,
+                min_neighbors: int, progress: bool | None = None) -> None:
         """(N, S) cl_GET per point (input order) and scale, for the whole cloud."""
         self.cl_get = cl_get_of_cloud(xyz, kind, scales, max_neighbors=max_neighbors,
                                       min_neighbors=min_neighbors, threshold=self.get_threshold,
                                       progress=progress)
 
-    def refine(self, batch, saliency, pick=None):
+    def refine(self, batch: NeighborhoodBatch, saliency: NDArray[np.float64],
+               pick: NDArray[np.int64] | None = None) -> NDArray[np.float64]:
         """Corners where cl_GET, at the chosen scale (``pick``, Optimal-scale) or averaged over
         the scales (``pick`` None, Multiscale), says cp_GET > cl_GET."""
+        if self.cl_get is None:
+            raise RuntimeError("T3DVT-GET refines a block only after prepare() has made cl_GET for the cloud")
         per_scale = self.cl_get[batch.ids]
         if pick is None:
             with warnings.catch_warnings():
@@ -69,8 +81,9 @@ class T3DVTGET(T3DVT):
         return out
 
 
-def cl_get_of_cloud(xyz, kind, scales, *, max_neighbors=512, min_neighbors=3, threshold=0.0,
-                    progress=False):
+def cl_get_of_cloud(xyz: NDArray[np.float64], kind: ScaleKind | str, scales: NDArray[Any], *,
+                    max_neighbors: int = 512, min_neighbors: int = 3, threshold: float = 0.0,
+                    progress: bool | None = False) -> NDArray[np.float64]:
     """(N, S) cl_GET per point (input order) and scale; NaN where GET is undefined.
 
     Cylindrical neighbourhoods: the neighbour search runs on (x, y, 0).

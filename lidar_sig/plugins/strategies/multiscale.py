@@ -1,5 +1,8 @@
 """Multiscale: the average of the per-scale saliency maps (docs/method.md, "Strategies")."""
+from __future__ import annotations
+
 import numpy as np
+from numpy.typing import NDArray
 
 from ...method.scales import knn
 from .._kinds import Strategy
@@ -18,7 +21,7 @@ class Multiscale(Strategy):
     default_scales = knn(20, 30, 40)
     kernels = (("lidar_sig.numerics.kernels", ("mean_over_scales",)),)
 
-    def combine(self, per_scale):
+    def combine(self, per_scale: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.int64] | None]:
         from ...numerics.kernels import mean_over_scales  # numba loads with the first kernel a run calls
 
         # numpy.nanmean's result (all-NaN rows stay NaN) in one pass over the (B, S, 3) values

@@ -1,5 +1,8 @@
 """Optimal-scale: per point, the scale of minimum geometric entropy (docs/method.md, "Strategies")."""
+from __future__ import annotations
+
 import numpy as np
+from numpy.typing import NDArray
 
 from ...method.saliency_map import geometric_entropy
 from ...method.scales import PAPER_K
@@ -17,7 +20,7 @@ class OptimalScale(Strategy):
     default_scales = PAPER_K
     chooses_scale = True
 
-    def combine(self, per_scale):
+    def combine(self, per_scale: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.int64] | None]:
         entropy = geometric_entropy(per_scale)
         undefined = np.isnan(entropy).all(axis=1)
         chosen = np.argmin(np.where(np.isnan(entropy), np.inf, entropy), axis=1)
