@@ -3,7 +3,7 @@ SIGTERM handled from its first instant (before the command line has loaded) to i
 
 The last instant: once the command has ended, the process ends at once with its status
 (``os._exit``, after flushing the output), without the interpreter's shutdown. That shutdown
-lasts 0.15 to 0.4 s and runs no signal handler: a signal then ended the process by the signal
+takes a noticeable time (docs/performance.md) and runs no signal handler: a signal then ended the process by the signal
 itself (status -2 or -15, no message) although its outputs had just replaced the old ones. A
 signal after the command has ended is now said (status 130 or 143 and one line: the outputs
 are whole); one that comes after that last look dies with the process.

@@ -23,7 +23,7 @@ COMMON = (("lidar_sig.numerics._voxels", ("nearest",)),
           ("lidar_sig.numerics.kernels", ("saliency_rows", "entropy_rows", "order_eigenvalues")))
 # numba modules that build an error message when imported, which numba colours through colorama
 # by setting sys.stderr and back; numba imports them at its first load of a cached kernel, so
-# warm_up imports them in the caller's thread first (about 5 ms), see there
+# warm_up imports them in the caller's thread first, see there
 _COLOURING_IMPORTS = ("numba.cpython.listobj",)
 
 
@@ -46,8 +46,8 @@ def load_kernels(kernels=COMMON):
 def warm_up(key, run, kernels):
     """Start ``run``, a tiny run through ``kernels``, those of a run of kind ``key`` (descriptor,
     strategy, kind of scales, weights), in a background thread (once per ``key`` and process),
-    and return the thread: loading the kernels from the cache (about 0.25 s, mostly numba's first
-    call) then overlaps the run's first numpy steps. None when a kernel is not cached: numba
+    and return the thread: loading the kernels from the cache (mostly numba's first call;
+    docs/performance.md) then overlaps the run's first numpy steps. None when a kernel is not cached: numba
     compiles in the run's own thread then. Numba sets ``sys.stderr`` and back each time it
     builds an error message (it colours them through colorama), thousands of times while it
     compiles; from a second thread that would undo a redirection of stderr the caller's thread
@@ -93,8 +93,8 @@ def _cached_here(dispatcher):
     return any(key[1] == machine for key in dispatcher._cache._cache_file._load_index())
 
 
-#: What the first run after installing is told, once per process (measured on 2 cores: the
-#: defaults' kernels compile in 30 s, another descriptor's or strategy's in a few more).
+#: What the first run after installing is told, once per process (how long the kernels take to
+#: compile: docs/performance.md).
 COMPILING = ("compiling the numerical kernels ({what}): about half a minute, once after installing; "
              "later runs load them from the cache")
 

@@ -4,7 +4,7 @@ metrics, point-cloud formats and commands. A package declares its extensions in 
 (``[project.entry-points."lidar_sig.metrics"]`` in its pyproject.toml), and lidar_sig declares
 its built-ins the same way, so that both are found alike.
 
-Listing the extensions reads the installed packages' metadata only (milliseconds, no import);
+Listing the extensions reads the installed packages' metadata only and imports nothing;
 an extension's module is imported when it is first used. An extension that cannot be loaded or
 does not do what its kind must is a :class:`~lidar_sig.base.errors.LidarSigError` naming it and
 the package it came from (:meth:`Extension.fault`): the command line's one line and exit status 2.

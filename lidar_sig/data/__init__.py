@@ -1,7 +1,7 @@
 """The embedded sample, made on request: a synthetic two-epoch urban scene (:mod:`.scene`).
 
 An installed package holds no data files; it makes the sample's three LAZ files, the same byte
-for byte on every machine, in half a second. The repository's ``data_samples/`` holds the same
+for byte on every machine, quickly (docs/performance.md). The repository's ``data_samples/`` holds the same
 files (a test checks it), so the README's first command runs alike from a clone and from an
 installed package:
 

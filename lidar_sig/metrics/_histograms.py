@@ -137,7 +137,7 @@ def emd_img(hist_a, hist_b, *, bins=8):
     Only bins occupied in either histogram enter the transport problem (the others carry no
     mass), which keeps it small.
     """
-    emd = _import_whole("pyemd").emd  # its import (POT, scipy.optimize) lasts half a second: Ctrl-C lands in it
+    emd = _import_whole("pyemd").emd  # its import (POT, scipy.optimize) is long: a Ctrl-C lands in it
 
     a = np.asarray(hist_a, dtype=np.float64)
     b = np.asarray(hist_b, dtype=np.float64)

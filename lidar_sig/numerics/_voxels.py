@@ -27,9 +27,8 @@ from numba import get_num_threads, njit, parallel_chunksize, prange
 from .bounds import column_max, column_min
 
 # Hot loops index with unsigned integers (_U): numba wraps a negative signed index around (one
-# compare per access), which an unsigned index cannot need. The same arithmetic, to the bit; on
-# AHN3, one thread, the k-nearest search took 8% (k = 40) and 17% (k = 100) less time
-# (docs/performance.md).
+# compare per access), which an unsigned index cannot need. The same arithmetic, to the bit, in
+# less time (docs/performance.md).
 _U = np.uint64
 _ZERO = np.uint64(0)
 _ONE = np.uint64(1)
@@ -113,7 +112,7 @@ def _nearest_sorted(d, ix, m, n, span, bucket, counts, tmp_d, tmp_i, out_d, out_
     smallest, each item moving only within its bucket. Around a point on a surface the number
     of points grows as the squared distance, so the buckets fill about evenly and most hold one
     item or none: the insertion sort then rarely moves an item, and its branches are
-    predictable (with m / 4 buckets the k = 100 search took 38% longer, docs/performance.md).
+    predictable (fewer buckets made the search slower: docs/performance.md).
     Any distribution is still sorted exactly (clustered distances only cost more moves). The
     work arrays hold at least m items, ``counts`` at least 2m + 1.
     """
@@ -578,7 +577,7 @@ def nearest_by_scan(pts, queries, k, n_chunks, out_d2, out_idx, out_n, out_rows)
 LUT_CELLS = 2**24
 #: The search kernels split their queries into this many runs of voxels per thread, handed to
 #: the threads one at a time as each finishes its last: queries differ in cost, and an equal share
-#: per thread left one idle at the end of every block (AHN3: 6-8% of the search's time).
+#: per thread left one idle at the end of every block (docs/performance.md).
 _CHUNKS = 8
 
 

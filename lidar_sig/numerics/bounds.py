@@ -1,8 +1,8 @@
 """Per-column minima and maxima of point arrays ((N, D) coordinates or voxel indices).
 
-numpy reduces a C-ordered (N, 3) array along axis 0 about twenty times more slowly than it
-reduces each of its columns in turn (AHN3 cropped_1, 640,510 points: 16.6 ms against 0.8 ms for
-the minima); the values are the same. Every bounding box of a whole cloud is taken here.
+numpy reduces a C-ordered (N, 3) array along axis 0 far more slowly than it reduces each of its
+columns in turn (docs/performance.md has the figures); the values are the same. Every bounding
+box of a whole cloud is taken here.
 """
 from __future__ import annotations
 

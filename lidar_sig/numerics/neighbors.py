@@ -29,18 +29,18 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 # Bytes of neighbour lists (squared distance + index) held at once; bounds memory per block. Small
-# enough that the descriptor reads a block's lists from the cache the search wrote them to: on
-# AHN3 96 MiB took 12% (defaults) to 40% (the paper's radii) longer (docs/performance.md).
+# enough that the descriptor reads a block's lists from the cache the search wrote them to
+# (larger blocks were slower: docs/performance.md).
 _BLOCK_BYTES = 24 * 2**20
 # Voxel shells a k-nearest query may grow in a first search (then see _FARTHER_VOXELS).
 _KNN_SHELLS = 6
 # Queries x points up to which unsettled k-nearest queries scan every point instead of building a
-# k-d tree (about 0.05 s; a tree of 640,000 points takes 0.15 s to build, for a handful of queries).
+# k-d tree: for a handful of queries the scan is the cheaper (docs/performance.md).
 _SCAN_ALL = 50_000_000
 # Voxels the queries left unsettled by the shells may list in all, growing twice as many shells,
-# before a scan or the k-d tree takes them: a few isolated points settle so in well under a
-# millisecond (AHN3 cropped_1 at k = 40: 15 rows, within 12 shells) where a scan of every
-# point took 20 ms; thousands of spikes would list millions of voxels and go to the tree.
+# before a scan or the k-d tree takes them: a few isolated points settle so far sooner than by a
+# scan of every point (docs/performance.md); thousands of spikes would list millions of voxels and
+# go to the tree.
 _FARTHER_VOXELS = 2**22
 
 

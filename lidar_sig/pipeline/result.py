@@ -26,7 +26,7 @@ class Result:
 
     ``signature`` may be given, or made when first asked for by ``make_signature`` (a callable
     of no argument that pickles: :meth:`Pipeline.run` passes one, so that writing the points,
-    which does not need a signature, saves its 0.1 s per million points).
+    which does not need a signature, saves making one: docs/performance.md).
     """
 
     #: False: the values are in memory (see :class:`TiledResult`).

@@ -6,7 +6,7 @@
   :func:`lidar_sig.metrics.compare`'s to rounding (a sum taken in another order); a test checks
   every pair of its catalogue.
 - **Image metrics** (``IMAGE``: s_SSIM of Sg, d_EMD-Img of the Sas colour histograms) need an
-  image or a transport problem per pair (about 10 to 50 ms): they are computed for a shortlist,
+  image or a transport problem per pair (docs/performance.md): they are computed for a shortlist,
   with the metrics' own functions (:func:`pair_metrics`).
 - **The distance** of two tiles is the mean over the metrics of each metric's value, as a
   distance (s_SSIM as 1 - s_SSIM), divided by its **spread**: the median of that metric over the

@@ -5,8 +5,7 @@
 2. **Shortlist**: the ``max(SHORTLIST_FACTOR * top, SHORTLIST_MIN)`` tiles nearest by the
    screening distance (by the chosen metric itself when it is a screening metric).
 3. **Full metrics** for the shortlist, by the metrics' own functions (s_SSIM needs each tile's
-   Sg, made from its counts: the costly step, about 20 to 40 ms a tile, on threads over the
-   cores), then the ranking.
+   Sg, made from its counts: the costly step, on threads over the cores), then the ranking.
 
 The ranking distance is the mean of every metric (those registered,
 :data:`lidar_sig.metrics.METRICS`) each divided by its spread; the screening distance is the same

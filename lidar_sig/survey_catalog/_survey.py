@@ -407,8 +407,8 @@ class Catalog:
     def distances(self, metric: str | None = None) -> Distances:
         """A :class:`Distances` matrix between every pair of tiles: the screening distance
         (default, or "screening"), one metric's values (its key), or "distance", the ranking
-        distance of :meth:`similar` (every metric: image metrics for all N^2 / 2 pairs, about
-        30 ms a pair)."""
+        distance of :meth:`similar` (every metric: image metrics for all N^2 / 2 pairs, the costly
+        part; docs/performance.md)."""
         metric = metric or "screening"
         keys = self.keys
         if metric not in ("screening", "distance") + keys:

@@ -45,7 +45,7 @@ SECOND_GRID_K = 64
 #: A tile's k-nearest queries may grow 12 voxel shells (one block's 6), then 24 when few are
 #: left (neighbors._FARTHER_VOXELS), before going to a scan or the k-d tree: the few isolated
 #: points of a tile (3 of 1.8 million in a generated airborne tile) otherwise cost a tree of
-#: the whole block, 40% of the cap pass's search and 8% of the tiles' time. The neighbours are
+#: the whole block, a large share of the cap pass's search (docs/performance.md). The neighbours are
 #: the same; a distance found by the tree can differ in its last bit (it is squared back from
 #: the tree's), as it already could where a block and the whole cloud sent a query different
 #: ways. Such points lie farther than the area-weight cap, so their weight is the cap either way.
@@ -195,7 +195,7 @@ def first_halo(pipeline, ctx, *, weights_known=False):
     """A halo width (metres) that usually suffices: the largest radius, or four times the
     expected k-th neighbour distance at the set's density (twice left about 40 of 2.5 million
     points of a generated airborne tile, in tree crowns, to be recomputed in blocks of their
-    own: 10% of the tile's time), plus the area-weight cap unless the neighbours' weights are
+    own, at a cost docs/performance.md gives), plus the area-weight cap unless the neighbours' weights are
     known already (``weights_known``: they need no second neighbour inside)."""
     if pipeline.scales.by_count:
         reach = 4.0 * math.sqrt(max(ctx.scales) / (math.pi * ctx.density))

@@ -19,7 +19,7 @@ from ..base.errors import LidarSigError, LidarSigWarning, a_kind, arg, check_nam
 from .memory import DEFAULT_MEMORY, budget_bytes, one_block_note, points_over_budget, size
 
 #: Most local worker processes per core: above the cores, workers take turns on them while each
-#: holds its own memory (32 workers on 2 cores: 5.4 GB and 4 times slower than one), so a few
+#: holds its own memory (docs/scale-out.md has the measurement), so a few
 #: per core are allowed (with a note) and more are refused (docs/scale-out.md, "Options").
 WORKERS_PER_CORE = 4
 
