@@ -179,8 +179,9 @@ def test_a_command_that_is_not_one_is_one_line_naming_it_and_the_others_run(tmp_
     site = broken_distribution(tmp_path, "lidar_sig.commands", "odd = lidar_sig_broken:NOT_A_COMMAND")
     ok, said = one_line_naming(lidar_sig(site, "odd"), "command 'odd' of lidar-sig-broken", "not a click command")
     assert ok, said
-    ok, said = one_line_naming(lidar_sig(site, "--help"), "command 'odd' of lidar-sig-broken")
-    assert ok, said
+    for help_ in (["--help"], []):  # the list of commands, asked for or shown for no command
+        ok, said = one_line_naming(lidar_sig(site, *help_), "command 'odd' of lidar-sig-broken")
+        assert ok, said
     assert lidar_sig(site, "saliency", "--help").returncode == 0  # the other commands are not loaded
 
 

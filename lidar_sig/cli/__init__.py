@@ -21,7 +21,11 @@ def main(argv=None):
     try:
         status = cli.main(args=argv, prog_name="lidar-sig", standalone_mode=False)
     except click.exceptions.NoArgsIsHelpError as exc:
-        click.echo(exc.ctx.get_help())
+        try:
+            click.echo(exc.ctx.get_help())
+        except LidarSigError as error:  # a command that cannot be loaded for its short help
+            click.echo(f"lidar-sig: error: {error}", err=True)
+            return 2
         return 0
     except click.ClickException as exc:  # bad option or argument: one line, not click's three
         command = f"lidar-sig {exc.ctx.info_name}" if getattr(exc, "ctx", None) and exc.ctx.parent else "lidar-sig"
