@@ -85,7 +85,8 @@ def registered(kind: str) -> dict[str, Extension]:
     other packages by package and name. Nothing is imported. A LidarSigError when lidar_sig's own
     are missing (a source tree never installed) or two packages declare one name."""
     group = GROUPS[kind]
-    own, others = [], []
+    own: list[Extension] = []
+    others: list[Extension] = []
     for point in entry_points(group=group):
         distribution = point.dist.name if point.dist is not None else "an unknown package"
         extension = Extension(kind, point.name, point.value, distribution)

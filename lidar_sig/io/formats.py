@@ -62,18 +62,21 @@ class Format:
 
     def load(self, which: str) -> Callable[..., Any]:
         """The format's ``"reader"``, ``"writer"`` or ``"check"`` function, its module imported now."""
-        where = getattr(self, which)
+        where: str | Callable[..., Any] | None = getattr(self, which)
         if where is None:
             raise LidarSigError(f"{self.name} files have no point-cloud {which} here")
         if callable(where):
             return where
         module, _, name = where.partition(":")
+        found: Callable[..., Any]
         if self.built_in:
-            return getattr(importlib.import_module(module), name)  # type: ignore[no-any-return]
+            found = getattr(importlib.import_module(module), name)
+            return found
         try:
-            return getattr(importlib.import_module(module), name)  # type: ignore[no-any-return]
+            found = getattr(importlib.import_module(module), name)
         except Exception as exc:
             raise self._fault(f"cannot load its {which} {where!r}", exc) from None
+        return found
 
     def read(self, path: str | os.PathLike[str], **options: Any) -> PointCloud:
         """The point cloud in ``path``, read by this format's reader with the ``options`` it takes."""
