@@ -98,6 +98,8 @@ def test_the_new_format_writes_and_reads_with_the_new_descriptor_and_strategy(si
                      "--weights", "none", "-q")
     assert done.returncode == 0, done.stderr
     np.testing.assert_allclose(np.asarray(laspy.read(again)["Cl"]), cl, atol=1e-6)
+    shown = lidar_sig(site, "extent", out)  # the new command reads the new format
+    assert shown.returncode == 0 and shown.stdout.splitlines()[0] == f"{out}: {len(las.x):,} points", shown.stderr
 
 
 def test_the_new_command_runs(site, tmp_path):

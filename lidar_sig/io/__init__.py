@@ -58,6 +58,10 @@ def read(path: str | os.PathLike[str], *, columns: str | Sequence[str] | None = 
     ``columns`` names the columns of a text file (see :mod:`lidar_sig.io._text`).
     """
     as_path(path, "read")
+    if columns is not None:  # refused here whatever the file, though only text files take them
+        from ._text import parse_columns
+
+        columns = parse_columns(columns if isinstance(columns, str) else ",".join(map(str, columns)))
     path = Path(path)
     if not path.exists():
         raise LidarSigError("no such file; check the path", path=path)
