@@ -140,9 +140,31 @@ def describe(layer):
         if renderer is not None and renderer.type() == "RuleRenderer":
             out["rules"] = [rule.label() for rule in renderer.rootRule().children()]
         names = layer.fields().names()
+        if renderer is not None and renderer.type() == "RuleRenderer" and "row" in names:
+            out["matched"] = matched_cells(layer, renderer.rootRule().children())
         if "significant" in names and "row" in names:
             out["significant"] = sorted([f["row"], f["col"]] for f in layer.getFeatures() if f["significant"] == 1)
     return out
+
+
+def matched_cells(layer, rules):
+    """{rule's legend label: sorted [row, col] of the cells its filter draws}, evaluated by
+    QGIS's own expression engine on the layer's features."""
+    from qgis.core import QgsExpression, QgsExpressionContext, QgsExpressionContextUtils
+
+    context = QgsExpressionContext()
+    context.appendScopes(QgsExpressionContextUtils.globalProjectLayerScopes(layer))
+    found = {}
+    for rule in rules:
+        expression = QgsExpression(rule.filterExpression())
+        expression.prepare(context)
+        cells = []
+        for feature in layer.getFeatures():
+            context.setFeature(feature)
+            if expression.evaluate(context):
+                cells.append([feature["row"], feature["col"]])
+        found[rule.label()] = sorted(cells)
+    return found
 
 
 def picture(project, layers, path):

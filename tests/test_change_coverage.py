@@ -110,7 +110,8 @@ def test_rows_are_ordered_as_the_header_says():
     header = lines[2]
     assert "rows: significant first, then by z" in header and "ranked by" not in header
     n = int(header.split()[0])
-    rows = [line.split() for line in lines[4:]]
+    start = next(i for i, line in enumerate(lines) if line.split()[:1] == ["rank"]) + 1
+    rows = [line.split() for line in lines[start:]]
     z = [float(r[9]) for r in rows]
     flags = [r[0].endswith("*") for r in rows]
     assert flags == [True] * n + [False] * (len(rows) - n) and n >= 5
@@ -177,3 +178,109 @@ def test_a_run_below_the_density_where_recall_drops_warns_with_the_figure(tmp_pa
     # a survey at or above the figure is not warned about
     dense = changes(SAMPLES / "epoch1.laz", ALIGNED, cell=CELL)
     assert not any("point/m²" in w for w in dense.warnings)
+
+
+def holed(tmp_path):
+    """The sample pair with a square of 2 x 2 cells of A's points removed inside its survey (land
+    A covered around them: appeared inside A's footprint, change) and the cut of :func:`cropped`
+    on both sides (at the surveys' edges: not change); the paths and the (row, col) of the hole."""
+    from edited_epoch import write_las
+
+    (a_path, b_path), west, east = cropped(tmp_path)
+    a = read_epoch(a_path)
+    x_mid = np.floor((west + east) / 2 / CELL) * CELL
+    y_mid = np.floor(np.median(a.xyz[:, 1]) / CELL) * CELL
+    hole = ((a.xyz[:, 0] >= x_mid) & (a.xyz[:, 0] < x_mid + 2 * CELL)
+            & (a.xyz[:, 1] >= y_mid) & (a.xyz[:, 1] < y_mid + 2 * CELL))
+    write_las(PointCloud(a.xyz[~hole], a.labels[~hole], crs=a.crs), tmp_path / "a_holed.laz")
+    return (tmp_path / "a_holed.laz", b_path), (x_mid, y_mid)
+
+
+def test_appeared_and_vanished_land_inside_the_other_survey_is_change_and_its_edge_is_not(tmp_path):
+    # issue 38: one count and one layer rule answer "what changed?"
+    import sqlite3
+
+    (a, b), (x_mid, y_mid) = holed(tmp_path)
+    proc = run("changes", a, b, "--cell", str(CELL), "--cells", tmp_path / "cells.gpkg", "--json", "--top", "0")
+    assert proc.returncode == 0, proc.stderr
+    info = json.loads(proc.stdout)
+    hole = {(c["row"], c["col"]) for c in info["coverage"]["appeared"]
+            if x_mid <= c["bounds"][0] < x_mid + 2 * CELL and y_mid <= c["bounds"][1] < y_mid + 2 * CELL}
+    assert len(hole) == 4, info["coverage"]["appeared"]
+    edge = {(c["row"], c["col"]) for c in info["coverage"]["appeared"] + info["coverage"]["vanished"]} - hole
+    assert len(edge) >= 16
+    assert all(c["changed"] == ((c["row"], c["col"]) in hole)
+               for c in info["coverage"]["appeared"] + info["coverage"]["vanished"])
+    moved = info["coverage"]["changed"]
+    assert moved == {"appeared": 4, "vanished": 0, "at the edges": len(edge)}
+    assert info["grid"]["changed"] == info["grid"]["significant"] + 4
+    # the cells layer's "changed": the significant cells and the hole, never the edges
+    with sqlite3.connect(tmp_path / "cells.gpkg") as db:
+        rows = db.execute("SELECT row, col, changed, significant, coverage FROM cells").fetchall()
+    changed = {(r, c) for r, c, ch, _, _ in rows if ch == 1}
+    significant = {(r, c) for r, c, _, sig, _ in rows if sig == 1}
+    assert changed == significant | hole and not changed & edge
+    assert all(ch is None for _, _, ch, _, state in rows if state == "too few points")
+    # the summary says the same count
+    text = run("changes", a, b, "--cell", str(CELL), "--top", "0", "-q")
+    assert text.returncode == 0, text.stderr
+    line = next(ln for ln in text.stdout.splitlines() if ln.startswith("changed: "))
+    assert line.startswith(f"changed: {len(changed)} cells ({len(significant)} significant, 4 appeared and 0 "
+                           f"vanished inside the other epoch's footprint; {len(edge)} at a survey's edge"), line
+
+
+def test_footprint_holds_the_holes_a_survey_encloses_not_its_edges():
+    from lidar_sig.change_map._cells import in_footprint
+
+    # 5 x 5 cells: A present in a ring around the centre, absent in the first column (its edge)
+    points_a = np.full((5, 5), 100)
+    points_a[2, 2] = 0  # a hole inside A's survey
+    points_a[:, 0] = 0  # beyond A's edge
+    points_b = np.full((5, 5), 100)
+    codes = np.ones((5, 5), np.int8)
+    codes[2, 2] = 2
+    codes[:, 0] = 2  # appeared
+    inside = in_footprint(codes.ravel(), points_a.ravel(), points_b.ravel(), 100, (5, 5)).reshape(5, 5)
+    assert inside[2, 2] and not inside[:, 0].any() and not inside[codes == 1].any()
+    # a sliver of A's points in an appeared cell does not make it A's land
+    points_a[:, 0] = 60
+    inside = in_footprint(codes.ravel(), points_a.ravel(), points_b.ravel(), 100, (5, 5)).reshape(5, 5)
+    assert not inside[:, 0].any() and inside[2, 2]
+
+
+def test_p_values_say_significance_and_q_values_are_benjamini_hochberg():
+    from statistics import NormalDist
+
+    from lidar_sig.change_map._lod import p_values, pooled_confidence, q_values, quantile
+
+    z = np.array([np.nan, -1.0, 0.5, 2.0, 2.3, 4.0])
+    p = p_values(z, 2)
+    expected = [min(1.0, 2 * (1 - NormalDist().cdf(v))) for v in z[1:]]
+    assert np.isnan(p[0]) and np.allclose(p[1:], expected)
+    # significant at 95% over two tests exactly where p < 5%
+    threshold = quantile(pooled_confidence(0.95, 2))
+    assert list(p[1:] < 0.05) == list(z[1:] > threshold)
+    q = q_values(p)
+    m = 5
+    order = np.argsort(p[1:])
+    by_hand = np.array([p[1:][order][i] * m / (i + 1) for i in range(m)])
+    by_hand = np.minimum.accumulate(by_hand[::-1])[::-1]
+    assert np.isnan(q[0]) and np.allclose(q[1:][order], np.minimum(by_hand, 1.0))
+    assert (q[1:] >= p[1:]).all()
+
+
+def test_the_ign_block_s_overlapping_strips_are_quiet_and_their_edges_are_not_change():
+    # issue 38: two passes over the same land (real occlusions, scan angles, strip offsets)
+    import math
+
+    from conftest import IGN, need_data
+    from strip_nulls import BLOCKS, strip_pair, strips
+
+    need_data(IGN)
+    found = strips(BLOCKS["IGN block"])
+    assert sorted(found) == [706, 707]
+    figures = strip_pair(found[706], found[707])
+    assert figures["compared"] >= 10, figures
+    # flagged no more often than the 95% level lets unchanged land be, and no strip edge is change
+    assert figures["changed"] <= math.ceil(0.05 * figures["compared"]), figures
+    assert figures["coverage changed"] == 0 and figures["at the edges"] > 0, figures

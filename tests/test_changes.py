@@ -203,12 +203,15 @@ def test_geotiff_has_the_crs_transform_bands_metadata_and_no_data(sample_run):
         assert [a, b, c, d, e, f] == info["grid"]["transform"]
         assert src.nodata == -9999.0 and src.profile["compress"] == "deflate"
         names = src.descriptions
-        assert names[0].startswith("score: delta_KL") and len(names) == 18
+        assert names[0].startswith("score: delta_KL") and len(names) == 20
         assert names[1].startswith("lod: level of detection") and names[2].startswith("significant:")
         assert {n.split(":")[0] for n in names[3:11]} == {"d_BD-Img", "s_SSIM", "d_EMD-Info", "d_EMD-Img",
                                                           "delta_FV", "delta_KL", "L1", "delta_H"}
         assert names[16].startswith("coverage:") and names[11].startswith("height_lod:")
         assert names[17].startswith("lod_ratio:")  # added last: the seventeen before keep their numbers
+        assert names[18].startswith("q:") and names[19].startswith("changed:")  # and after it, these two
+        changed, significant = src.read(20), src.read(3)
+        assert np.array_equal(changed == 1, significant == 1)  # nothing appeared or vanished here
         height, height_lod, lod_ratio = src.read(11), src.read(12), src.read(18)
         tags = src.tags()
         score, lod, significant = src.read(1), src.read(2), src.read(3)
@@ -273,7 +276,8 @@ def test_cli_prints_the_ranked_cells_and_marks_the_significant_ones():
     assert "delta_KL or delta_H" in lines[2] and "changed significantly" in lines[2]
     n = int(lines[2].split()[0])
     assert n >= 5
-    ranks = [line.split()[0] for line in lines[4:]]
+    assert lines[3].startswith(f"changed: {n} cells ({n} significant, 0 appeared and 0 vanished")
+    ranks = [line.split()[0] for line in lines[5:]]
     assert ranks == [f"{k}*" if k <= n else str(k) for k in range(1, 7)]
 
 
@@ -562,8 +566,8 @@ def test_three_epochs_give_a_series_computed_once_per_epoch(tmp_path, monkeypatc
     series.save(tmp_path / "series.tif")
     with rasterio.open(tmp_path / "series.tif") as src:
         names = src.descriptions
-        assert len(names) == 2 * 18 + 1 and names[-1].startswith("when:")
-        assert names[0].startswith("interval 1 (") and names[18].startswith("interval 2 (")
+        assert len(names) == 2 * 20 + 1 and names[-1].startswith("when:")
+        assert names[0].startswith("interval 1 (") and names[20].startswith("interval 2 (")
         assert np.array_equal(src.read(len(names)) == -9999.0, ~valid.reshape(src.shape))
         assert src.tags()["epoch_3"]
     html = series.report().html()

@@ -252,7 +252,12 @@ def test_changes_in_qgis_loads_the_map_and_the_cells_above_it_in_their_styles(qg
     band, _, _ = lod_ratio_band(tmp_path / "map.tif")
     # the map drawn as one band, how far each cell lies from its level, never as bands 1-3 in RGB
     assert raster["valid"] and raster["renderer"] == "singlebandpseudocolor" and raster["band"] == band
-    assert raster["legend"][0][1] == "under 0.25 x its level of detection" and raster["bands"] == band
+    assert raster["legend"][0][1] == "under 0.25 x its level of detection"
+    import rasterio
+
+    with rasterio.open(tmp_path / "map.tif") as src:
+        assert raster["bands"] == src.count  # every band the file holds is there to pick
+    assert found["results"]["CHANGED"] == info["grid"]["changed"]
     assert [item[0] for item in raster["legend"]][2:4] == [1.0, 2.0]  # the break: at the level of detection
     assert cells["valid"] and cells["renderer"] == "RuleRenderer" and cells["labels"]
     assert cells["rules"][0].startswith("changed significantly") and cells["crs"] == "EPSG:2154"
@@ -330,7 +335,7 @@ def test_every_algorithm_with_temporary_outputs_returns_files_that_exist(qgis, e
     for name in ("changes", "no change"):
         cells, raster = found[f"{name} load"]["loaded"]  # top first
         assert (cells["name"], raster["name"]) == ("Cells", "Change map")
-        assert raster["renderer"] == "singlebandpseudocolor" and raster["band"] == raster["bands"] == 18
+        assert raster["renderer"] == "singlebandpseudocolor" and raster["band"] == 18 and raster["bands"] == 20
         assert cells["renderer"] == "RuleRenderer" and cells["labels"]
         assert raster["source"] == found[f"{name} load"]["results"]["OUTPUT"]
     assert found["no change load"]["loaded"][0]["significant"] == []
@@ -345,7 +350,8 @@ def test_the_dialog_s_default_run_loads_a_map_without_change_styled_below_its_ce
                                                                                    tmp_path):
     # as the dialog runs it: temporary outputs, a background task, then its loading of the layers
     found = qgis("dialog", a=epochs[0], b=unchanged, out=tmp_path)
-    assert found["ok"] and found["results"]["SIGNIFICANT"] == 0 and all(found["exist"].values())
+    assert found["ok"] and found["results"]["SIGNIFICANT"] == found["results"]["CHANGED"] == 0
+    assert all(found["exist"].values())
     assert set(found["exist"]) == {"OUTPUT", "CELLS"}
     cells, raster = found["loaded"]  # top first
     assert cells["source"].split("|")[0] == found["results"]["CELLS"] and cells["renderer"] == "RuleRenderer"
@@ -484,3 +490,25 @@ def test_qgis_opens_the_change_map_and_the_geopackages_in_their_styles_by_themse
     tiles = found[str(tmp_path / "tiles.gpkg")]
     assert tiles["renderer"] == "RuleRenderer" and tiles["rules"][0] == "stands out (score 3.5 or more)"
     assert found[f"{tmp_path / 'series.gpkg'}|layername=cells_2"]["renderer"] == "RuleRenderer"
+
+
+def test_the_cells_style_draws_land_appeared_inside_the_other_survey_as_changed_and_not_its_edge(qgis, tmp_path):
+    # issue 38: QGIS's own expression engine, on the cells layer opened by itself in its style
+    import sqlite3
+
+    from test_change_coverage import holed
+
+    (a, b), _ = holed(tmp_path)
+    done = run("changes", a, b, "--cell", "8", "--cells", tmp_path / "cells.gpkg", "-q")
+    assert done.returncode == 0, done.stderr
+    with sqlite3.connect(tmp_path / "cells.gpkg") as db:
+        rows = db.execute("SELECT row, col, changed, coverage FROM cells").fetchall()
+    changed = {(r, c) for r, c, ch, _ in rows if ch == 1}
+    edges = {(r, c) for r, c, ch, state in rows if state in ("appeared", "vanished") and ch == 0}
+    assert any(state == "appeared" for r, c, ch, state in rows if (r, c) in changed) and edges
+    layer = qgis("open", vectors=[str(tmp_path / "cells.gpkg")])[str(tmp_path / "cells.gpkg")]
+    matched = layer["matched"]
+    said_changed = [label for label in matched if label.startswith("changed") or "; changed:" in label]
+    said_edge = [label for label in matched if "not counted as changed" in label]
+    assert {tuple(c) for label in said_changed for c in matched[label]} == changed
+    assert {tuple(c) for label in said_edge for c in matched[label]} == edges

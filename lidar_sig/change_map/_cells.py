@@ -28,12 +28,15 @@ CHANGE_KEYS = METRIC_KEYS + (HEIGHT,)
 CELL_FIELDS = (("row", np.int32), ("col", np.int32), ("x_min", np.float64), ("y_min", np.float64),
                ("x_max", np.float64), ("y_max", np.float64), ("points_a", np.int64), ("points_b", np.int64),
                ("defined_a", np.int64), ("defined_b", np.int64), ("undefined_a", np.float64),
-               ("undefined_b", np.float64), ("valid", bool), ("coverage", np.int8))
+               ("undefined_b", np.float64), ("valid", bool), ("coverage", np.int8), ("in_footprint", bool))
 #: The coverage states of a cell (the table's ``coverage``, the GeoTIFF's band), by code:
 #: compared (both epochs hold the fewest points), appeared (only the later epoch covers it),
 #: vanished (only the earlier), too few points (points of either or both, not enough to
 #: compare), not covered (no point of either).
 COVERAGE = {1: "compared", 2: "appeared", 3: "vanished", 4: "too few points", 0: "not covered"}
+#: The coverage codes that are change where the other epoch's survey covers the cell
+#: (:func:`in_footprint`): appeared and vanished.
+COVERAGE_CHANGES = (2, 3)
 #: Only one epoch covers a cell where it holds this share of the fewest points or more (a tenth of
 #: a full cell with the automatic minimum: the sliver of points that a shift of a few decimetres
 #: moves across a survey's edge, 1.2% of a full 25 m cell for 0.3 m, does not) ...
@@ -45,7 +48,8 @@ ALMOST_NONE = 0.1
 #: level, z (the larger of the two tests'), how far the cell lies from its levels (lod_ratio)
 #: and the significance.
 RANKING_FIELDS = (("score", np.float64), ("lod", np.float64), ("height_lod", np.float64), ("z", np.float64),
-                  ("lod_ratio", np.float64), ("significant", bool))
+                  ("lod_ratio", np.float64), ("significant", bool), ("p", np.float64), ("q", np.float64),
+                  ("changed", bool))
 
 
 @dataclass
@@ -127,7 +131,9 @@ def cell_table(grid, binned, min_points, densities=(1.0, 1.0)):
         table[f"undefined_{tag}"] = b.undefined / np.maximum(n, 1)
     table["valid"] = (table["defined_a"] >= min_points) & (table["defined_b"] >= min_points)
     table["coverage"] = coverage(table["points_a"], table["points_b"], table["valid"], min_points, densities)
-    for k in CHANGE_KEYS + ("score", "lod", "height_lod", "z", "lod_ratio"):
+    table["in_footprint"] = in_footprint(table["coverage"], table["points_a"], table["points_b"], min_points,
+                                         (grid.rows, grid.cols))
+    for k in CHANGE_KEYS + ("score", "lod", "height_lod", "z", "lod_ratio", "p", "q"):
         table[k] = np.nan
     return table
 
@@ -145,6 +151,35 @@ def coverage(points_a, points_b, valid, min_points, densities=(1.0, 1.0)):
     vanished = (points_a >= least) & (per_b < ALMOST_NONE * per_a)
     code = np.select([valid, appeared, vanished, (points_a > 0) | (points_b > 0)], [1, 2, 3, 4], 0)
     return code.astype(np.int8)
+
+
+def footprint(present):
+    """(rows, cols) bool: the land an epoch surveyed, from the cells where it holds points
+    (``present``, (rows, cols) bool): those cells and every hole they enclose, a hole being
+    cells without its points that no path of such cells (edge to edge) joins to the grid's border."""
+    from scipy.ndimage import binary_fill_holes
+
+    return binary_fill_holes(present)
+
+
+def in_footprint(codes, points_a, points_b, min_points, shape):
+    """(cells,) bool: the appeared cells inside A's :func:`footprint` and the vanished cells
+    inside B's: land the other survey covered around them but found no points on (a building
+    raised on water, a roof removed from the ground's survey), not the edge of a survey that did
+    not reach so far. An epoch is present in a cell where it holds :data:`COVERS` x
+    ``min_points`` points or more and the cell is not named as only the other's (a cell at the
+    edge of A's survey, holding a sliver of its points, is not A's land); False for every other
+    coverage state."""
+    least = max(1, int(np.ceil(COVERS * min_points)))
+    codes = np.asarray(codes)
+    inside = np.zeros(len(codes), bool)
+    for code, points in ((2, points_a), (3, points_b)):
+        mine = codes == code
+        if mine.any():
+            present = (np.asarray(points) >= least) & ~mine
+            surveyed = footprint(present.reshape(shape)).ravel()
+            inside |= mine & surveyed
+    return inside
 
 
 def observed_metrics(table, binned, classes, *, render="smooth", frame=CELL_FRAME, progress=None):

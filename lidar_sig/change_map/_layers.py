@@ -8,6 +8,7 @@ import numpy as np
 
 from ..metrics import METRIC, METRIC_KEYS
 from ._cells import COVERAGE as STATES
+from ._cells import COVERAGE_CHANGES
 
 #: Each covered cell's coverage, in the legend's order; cells neither epoch covers are left out.
 COVERAGE = ("compared", "appeared", "vanished", "too few points")
@@ -57,7 +58,8 @@ def class_changes(names, counts_a, counts_b):
 def cell_features(cm):
     """[(ring (5, 2), fields)] of every cell either epoch covers: row, col, coverage
     (:func:`coverage`), points of each epoch, rank (most changed first, compared cells), score, level of detection, z,
-    lod_ratio, significant (1/0; NULL where not compared), the metrics in which it changed significantly,
+    lod_ratio, significant (1/0; NULL where not compared), changed (1/0: significant, or appeared or vanished
+    inside the other epoch's footprint; NULL with too few points), p and q, the metrics in which it changed significantly,
     every metric, and the classes that changed most (share of B minus share of A, points)."""
     t = cm.table
     state = coverage(t)
@@ -76,6 +78,8 @@ def cell_features(cm):
                   "rank": int(ranks[i]) if compared else None, "score": _number(rec["score"]),
                   "lod": _number(rec["lod"]), "z": _number(rec["z"]), "lod_ratio": _number(rec["lod_ratio"]),
                   "significant": int(rec["significant"]) if compared else None,
+                  "changed": int(rec["changed"]) if compared or rec["coverage"] in COVERAGE_CHANGES else None,
+                  "p": _number(rec["p"]), "q": _number(rec["q"]),
                   "significant_metrics": ", ".join(k for k in METRIC_KEYS if k in cm.levels
                                                    and cm.levels[k].significant[i]) if compared else None,
                   **{k: _number(rec[k]) for k in METRIC_KEYS},
@@ -87,7 +91,7 @@ def cell_features(cm):
 
 
 #: SQL types of the cells' fields that may be NULL in every cell.
-CELL_TYPES = {"rank": "INTEGER", "significant": "INTEGER", "significant_metrics": "TEXT", "top_class": "TEXT",
+CELL_TYPES = {"rank": "INTEGER", "significant": "INTEGER", "changed": "INTEGER", "p": "REAL", "q": "REAL", "significant_metrics": "TEXT", "top_class": "TEXT",
               "top_class_change": "REAL", "classes_changed": "TEXT", "score": "REAL", "lod": "REAL", "z": "REAL",
               "lod_ratio": "REAL",
               **{k: "REAL" for k in METRIC_KEYS}}
@@ -103,20 +107,28 @@ def cells_layer(cm, name="cells"):
 
 
 def cells_style():
-    """The QGIS style of the cells (QML): the cells that changed significantly (lod_ratio above 1,
-    the break of the map's colours, :data:`LEVEL_CLASSES`) outlined near black and labelled with
-    their rank, the other compared cells thin grey, appeared and vanished cells hatched, those
-    with too few points dashed; no fill where compared, so that the map's colours show through."""
+    """The QGIS style of the cells (QML): what changed (the ``changed`` rule: significant, or
+    appeared or vanished inside the other epoch's footprint) outlined near black, significant
+    cells labelled with their rank; the other compared cells thin grey; appeared and vanished
+    cells hatched (solid outline where they changed, dashed at a survey's edge), those with too
+    few points dashed; no fill where compared, so that the map's colours show through."""
     from ..io.styles import Rule, polygon_qml
+
+    def hatched(state, changed, pattern, colour):
+        rule = f"\"coverage\" = '{state}' AND \"changed\" = {int(changed)}"
+        means = COVERAGE_MEANS[state] + ("; changed: inside the other epoch's footprint" if changed
+                                         else "; at a survey's edge, not counted as changed")
+        return Rule(means, rule, SIGNIFICANT_OUTLINE if changed else colour, 0.7 if changed else 0.4,
+                    fill=colour, fill_alpha=255, pattern=pattern, line="solid" if changed else "dash")
 
     return polygon_qml([
         Rule("changed significantly: above its level of detection", '"significant" = 1', SIGNIFICANT_OUTLINE, 0.7),
         Rule("compared, not significantly changed", "\"coverage\" = 'compared' AND \"significant\" = 0",
              (110, 110, 110), 0.2),
-        Rule(COVERAGE_MEANS["appeared"], "\"coverage\" = 'appeared'", (33, 102, 172), 0.4, fill=(33, 102, 172),
-             fill_alpha=255, pattern="b_diagonal"),
-        Rule(COVERAGE_MEANS["vanished"], "\"coverage\" = 'vanished'", (217, 95, 2), 0.4, fill=(217, 95, 2),
-             fill_alpha=255, pattern="f_diagonal"),
+        hatched("appeared", True, "b_diagonal", (33, 102, 172)),
+        hatched("vanished", True, "f_diagonal", (217, 95, 2)),
+        hatched("appeared", False, "b_diagonal", (33, 102, 172)),
+        hatched("vanished", False, "f_diagonal", (217, 95, 2)),
         Rule(COVERAGE_MEANS["too few points"], "\"coverage\" = 'too few points'", (150, 150, 150), 0.3, line="dash"),
     ], label_expression='if("significant" = 1, "rank", NULL)')
 

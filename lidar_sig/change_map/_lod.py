@@ -137,6 +137,31 @@ def pooled_confidence(confidence, tests):
     return 1.0 - (1.0 - confidence) / tests
 
 
+def p_values(z, tests=1):
+    """(cells,) the p-value of each cell's larger z over ``tests`` tests (Bonferroni): the
+    chance that unchanged land lies this far above its level's centre in any of them,
+    min(1, tests x (1 - Phi(z))); NaN where z is. A cell is significant at a confidence
+    exactly where its p-value is below 1 - confidence (docs/changes.md, "Significance")."""
+    from scipy.special import ndtr
+
+    return np.minimum(1.0, tests * ndtr(-np.asarray(z, dtype=np.float64)))
+
+
+def q_values(p):
+    """(cells,) Benjamini-Hochberg q-values of the p-values ``p`` over the cells where they are
+    defined (NaN elsewhere): the least false discovery rate at which a cell would be flagged,
+    i.e. the expected share of unchanged land among the cells whose q-value is this or less."""
+    p = np.asarray(p, dtype=np.float64)
+    q = np.full(p.shape, np.nan)
+    defined = np.flatnonzero(np.isfinite(p))
+    if not len(defined):
+        return q
+    order = defined[np.argsort(p[defined], kind="stable")]
+    ranked = p[order] * len(order) / np.arange(1, len(order) + 1)
+    q[order] = np.minimum(1.0, np.minimum.accumulate(ranked[::-1])[::-1])
+    return q
+
+
 def quantile(confidence):
     """z_q: the one-sided standard normal quantile of ``confidence`` (1.645 at 0.95)."""
     return NormalDist().inv_cdf(confidence)

@@ -18,11 +18,11 @@ from ..metrics import METRIC, METRIC_NAMES, METRICS
 from ..base.progress import step
 from ..method.signature_raster import Frame
 from ..base.views import Records
-from ._cells import CELL_FRAME, CHANGE_KEYS, COVERAGE, cell_signature, epoch_cells
+from ._cells import CELL_FRAME, CHANGE_KEYS, COVERAGE, COVERAGE_CHANGES, cell_signature, epoch_cells
 from ._epochs import Epoch
 from ._grid import Grid
 from ._heights import HEIGHT, HEIGHT_NAME
-from ._lod import CONFIDENCE, Levels, level_of_detection, pooled_confidence
+from ._lod import CONFIDENCE, Levels, level_of_detection, p_values, pooled_confidence, q_values
 
 if TYPE_CHECKING:
     from ..reporting import Report
@@ -39,11 +39,18 @@ LABEL_FREE_SCORE = "fv"
 BANDS = ("score", "lod", "significant")
 COUNT_BANDS = ("height_lod", "points_a", "points_b", "undefined_a", "undefined_b", "coverage")
 #: Bands after those, so that the first seventeen keep their numbers: how far each cell lies from
-#: its level of detection (the band the map's style draws).
-LEVEL_BANDS = ("lod_ratio",)
+#: its level of detection (the band the map's style draws), its q-value, and whether it changed
+#: (significant, or appeared or vanished inside the other epoch's footprint).
+LEVEL_BANDS = ("lod_ratio", "q", "changed")
 #: The smallest float32 above 1: the lod_ratio of a significant cell whose quotient rounds to 1,
 #: so that "above 1" is "significant" in the table and in the GeoTIFF's float32 band alike.
 ABOVE_ONE = float(np.nextafter(np.float32(1.0), np.float32(2.0)))
+#: Below this density (points per m²) the change map finds fewer of the known changes
+#: (docs/changes.md, power table): a map without a significant cell says so.
+SPARSE = 1.0
+#: Above this survey spread (tau, log scale: a factor of 2 from cell to cell) the level of
+#: detection is called wide when no cell is significant.
+WIDE_TAU = float(np.log(2.0))
 #: Names of what the change map compares: the metrics' and delta_H's.
 NAMES = {**METRIC_NAMES, HEIGHT: HEIGHT_NAME}
 
@@ -193,7 +200,8 @@ class ChangeMap:
                  f"{item['score']:.4f}", "yes" if item["significant"] else "no") for item in self.top(5)]
         facts = [f"{self.a.name} -> {self.b.name}", f"{self.grid.rows} x {self.grid.cols} cells of {self.cell:g} m, "
                  f"{int(self.table['valid'].sum())} compared, {self.n_significant} significant "
-                 f"({self.confidence:.0%} level of detection of {self.score})"]
+                 f"({self.confidence:.0%} level of detection of {self.score}); {self.n_changed} changed with the "
+                 "appeared and vanished land inside the other epoch's footprint"]
         return card(title, facts + [f"warning: {w}" for w in self.warnings],
                     header=("rank", "x, y min", "points A", "points B", "score", "significant"), rows=rows,
                     numeric=(0, 2, 3, 4), image=self.thumbnail(), width=220,
@@ -206,7 +214,11 @@ class ChangeMap:
         confidence of each of the two tests (:func:`~lidar_sig.change_map._lod.pooled_confidence`),
         ``z`` the larger of their z, ``significant`` where either exceeds its level, and
         ``lod_ratio`` the larger of score / lod and delta_H / height_lod: how far the cell lies
-        from its levels (1 at the level), above 1 exactly where significant."""
+        from its levels (1 at the level), above 1 exactly where significant; ``p`` and ``q``
+        each compared cell's p-value over the two tests and its q-value over the map
+        (:func:`~lidar_sig.change_map._lod.p_values`, :func:`~lidar_sig.change_map._lod.q_values`);
+        ``changed`` the significant cells and the appeared or vanished ones inside the other
+        epoch's footprint (``in_footprint``): the map's one answer to "what changed?"."""
         self.score = score
         each = pooled_confidence(self.confidence, len(self.tests))
         t = self.table
@@ -218,6 +230,9 @@ class ChangeMap:
             t["significant"] = t["valid"] & ((t["score"] > t["lod"]) | (t[HEIGHT] > t["height_lod"]))
             ratio = np.fmax(t["score"] / t["lod"], t[HEIGHT] / t["height_lod"])
         t["lod_ratio"] = np.where(t["valid"], np.where(t["significant"], np.fmax(ratio, ABOVE_ONE), ratio), np.nan)
+        t["p"] = np.where(t["valid"], p_values(t["z"], len(self.tests)), np.nan)
+        t["q"] = q_values(t["p"])
+        t["changed"] = t["significant"] | (np.isin(t["coverage"], COVERAGE_CHANGES) & t["in_footprint"])
 
     @property
     def names(self) -> dict[str, str]:
@@ -240,6 +255,48 @@ class ChangeMap:
     def n_significant(self) -> int:
         """Cells whose score exceeds its level of detection."""
         return int(self.table["significant"].sum())
+
+    @property
+    def n_changed(self) -> int:
+        """Cells that changed: the significant ones and the appeared or vanished ones inside the
+        other epoch's footprint (:meth:`coverage_changes`)."""
+        return int(self.table["changed"].sum())
+
+    def coverage_changes(self) -> dict[str, int]:
+        """{"appeared": cells, "vanished": cells, "at the edges": cells}: the appeared and
+        vanished cells inside the other epoch's footprint (change of coverage, counted as
+        changed), and those at a survey's edge (not counted: the other survey did not reach
+        so far)."""
+        t = self.table
+        named = np.isin(t["coverage"], COVERAGE_CHANGES)
+        return {"appeared": int(((t["coverage"] == 2) & t["in_footprint"]).sum()),
+                "vanished": int(((t["coverage"] == 3) & t["in_footprint"]).sum()),
+                "at the edges": int((named & ~t["in_footprint"]).sum())}
+
+    @property
+    def false_flags(self) -> float:
+        """The number of significant cells expected to be unchanged land at most: each compared
+        cell of unchanged land is flagged with chance 1 - confidence, so (1 - confidence) x the
+        compared cells (docs/changes.md, "How many flags are false"); the table's ``q`` gives each
+        flag's own false discovery rate."""
+        return (1.0 - self.confidence) * int(self.table["valid"].sum())
+
+    def wide_because(self) -> str:
+        """Why this map's level of detection is wide, in words ("" where nothing says so): too
+        few cells for the survey part, an epoch below 1 point/m², or scores of unchanged land
+        that vary from cell to cell by more than a factor 2 (the survey part's spread tau)."""
+        level = self.levels.get(self.score)
+        if level is None or not level.n_compared:
+            return ""
+        if not level.survey:
+            return f"{level.n_compared} compared cells are too few to learn what differs between the surveys"
+        sparse = [f"{name} holds {d:.2g} points/m²" for name, d in zip("AB", self.density) if d < SPARSE]
+        if sparse:
+            return " and ".join(sparse) + f", below {SPARSE:g} point/m²"
+        if level.tau > WIDE_TAU:
+            return (f"the scores of unchanged land vary from cell to cell by a factor {np.exp(level.tau):.2g} "
+                    f"(tau {level.tau:.2g}): the two surveys differ unevenly")
+        return ""
 
     @property
     def transform(self) -> Any:
@@ -306,7 +363,7 @@ class ChangeMap:
                     "points_a": int(rec["points_a"]), "points_b": int(rec["points_b"]),
                     "undefined_a": float(rec["undefined_a"]), "undefined_b": float(rec["undefined_b"]),
                     "score": float(rec["score"]), "lod": _plain(rec["lod"]), "height_lod": _plain(rec["height_lod"]),
-                    "z": _plain(rec["z"]),
+                    "z": _plain(rec["z"]), "p": _plain(rec["p"]), "q": _plain(rec["q"]),
                     "significant": bool(rec["significant"])}
             item.update({k: _plain(rec[k]) for k in CHANGE_KEYS})
             item["significant_metrics"] = [k for k in CHANGE_KEYS if k in self.levels
@@ -323,12 +380,14 @@ class ChangeMap:
 
     def uncompared(self, state: str) -> list[dict[str, Any]]:
         """The cells in coverage ``state`` ("appeared", "vanished", ...) as plain dicts: row,
-        col, bounds, the points of each epoch."""
+        col, bounds, the points of each epoch, and whether it counts as changed (inside the
+        other epoch's footprint)."""
         code = next(k for k, v in COVERAGE.items() if v == state)
         t = self.table
         return [{"row": int(t["row"][c]), "col": int(t["col"][c]),
                  "bounds": [float(t[k][c]) for k in ("x_min", "y_min", "x_max", "y_max")],
-                 "points_a": int(t["points_a"][c]), "points_b": int(t["points_b"][c])}
+                 "points_a": int(t["points_a"][c]), "points_b": int(t["points_b"][c]),
+                 "changed": bool(t["changed"][c])}
                 for c in np.flatnonzero(t["coverage"] == code)]
 
     def settings(self) -> dict[str, Any]:
@@ -341,8 +400,11 @@ class ChangeMap:
                 "confidence": self.confidence, "render": self.render, "frame_px": self.frame.size,
                 "grid": {"rows": self.grid.rows, "cols": self.grid.cols, "transform": [a, b, c, d, e, f],
                          "cells": self.grid.n_cells, "valid": int(self.table["valid"].sum()),
-                         "significant": self.n_significant},
+                         "significant": self.n_significant, "changed": self.n_changed,
+                         "false_flags": round(self.false_flags, 2)},
+                "wide_because": self.wide_because() if not self.n_significant else "",
                 "coverage": {"cells": self.coverage(), "codes": {str(k): v for k, v in COVERAGE.items()},
+                             "changed": self.coverage_changes(),
                              "appeared": self.uncompared("appeared"), "vanished": self.uncompared("vanished")},
                 "levels": {k: {"beta": v.beta, "tau": v.tau, "survey": v.survey,
                                "significant": int(v.significant.sum())} for k, v in self.levels.items()
@@ -376,6 +438,8 @@ class ChangeMap:
                 r = np.where(self.raster("valid") > 0, r, np.nan)
             elif n.startswith("undefined"):  # shares say nothing where a cell is empty
                 r = np.where(self.raster(n.replace("undefined", "points")) > 0, r, np.nan)
+            elif n == "changed":  # an answer where a cell is compared, appeared or vanished
+                r = np.where(np.isin(self.raster("coverage"), (1, *COVERAGE_CHANGES)), r, np.nan)
             rasters.append(r)
         return rasters, [prefix + _band_description(n, self.score, self.confidence) for n in names]
 
@@ -464,6 +528,10 @@ def _band_description(name, score, confidence=CONFIDENCE):
             "undefined_b": "share of B's points with undefined saliency",
             "coverage": "coverage: " + ", ".join(f"{k} {v}" for k, v in COVERAGE.items())
                         + " (only B covers the cell: appeared; only A: vanished)",
+            "q": "q: the cell's q-value, the false discovery rate at which it would be flagged (Benjamini-Hochberg "
+                 "over the compared cells)",
+            "changed": "changed: 1 where the cell changed significantly, or appeared or vanished inside the other "
+                       "epoch's footprint; 0 where not",
             "lod_ratio": f"lod_ratio: how far the cell lies from its level of detection; the larger of score / lod "
                          f"and {HEIGHT_NAME} / height_lod; 1 at the level, above 1 exactly where significant"}
     return text.get(name) or names[name]

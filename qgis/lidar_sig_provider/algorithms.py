@@ -92,6 +92,16 @@ def choice(name, description, options):
                                       optional=True, usesStaticStrings=True)
 
 
+def asks_temporary(value):
+    """Whether an output's parameter value (a path, or a layer definition whose sink holds one)
+    asks QGIS for a temporary output: decided from what was asked, as the path QGIS made of it
+    may lie anywhere its settings say."""
+    sink = getattr(value, "sink", None)
+    if sink is not None:
+        value = sink.staticValue()
+    return str(value or "") == QgsProcessing.TEMPORARY_OUTPUT
+
+
 def missing(path):
     """Whether the output file ``path`` (a layer's source may end in ``|layername=...``) is not
     there; a destination that is no file (a database table QGIS wrote) is not checked."""
@@ -234,7 +244,7 @@ class LidarSigAlgorithm(QgsProcessingAlgorithm):
             finished = command.run([executable, *argv], on_progress=progress, on_note=feedback.pushWarning,
                                    on_line=feedback.pushConsoleInfo, cancelled=feedback.isCanceled)
         except command.Cancelled as exc:
-            raise QgsProcessingException(self.cancelled(exc.message, outputs)) from None
+            raise QgsProcessingException(self.cancelled(exc.message, outputs, parameters)) from None
         except command.CommandError as exc:  # the command's one line, naming the file and the fix
             raise QgsProcessingException(exc.message) from None
         if finished.stdout and not finished.stdout.lstrip().startswith("{"):
@@ -283,7 +293,7 @@ class LidarSigAlgorithm(QgsProcessingAlgorithm):
             raise QgsProcessingException(f"More options {text!r} cannot be read ({why}); close the quote, or put a "
                                          "backslash before a quote meant as a character") from None
 
-    def cancelled(self, message, outputs):
+    def cancelled(self, message, outputs, parameters=None):
         """The message of a cancelled run. Where the command says its work is kept "for
         --resume", say how this algorithm can reuse it: through its Resume parameter with the
         same output file, not with a temporary output (a new path each run), and not at all
@@ -292,7 +302,8 @@ class LidarSigAlgorithm(QgsProcessingAlgorithm):
             return message
         if self.parameterDefinition("RESUME") is None:
             return message.replace(" for --resume", " for the command's --resume (this algorithm starts over)")
-        if (outputs.get("OUTPUT") or "").startswith(QgsProcessingUtils.tempFolder()):
+        if asks_temporary((parameters or {}).get("OUTPUT")) or (outputs.get("OUTPUT") or "").startswith(
+                QgsProcessingUtils.tempFolder()):
             return message.replace(" for --resume", ", but a temporary output cannot be resumed: save the output to a "
                                    "file to resume an interrupted run")
         return message.replace(" for --resume", "; to reuse it, run again with the same output and Resume ticked")
@@ -503,6 +514,8 @@ class ChangesAlgorithm(LidarSigAlgorithm):
         self.add_report()
         self.addOutput(QgsProcessingOutputNumber("COMPARED", "Cells compared"))
         self.addOutput(QgsProcessingOutputNumber("SIGNIFICANT", "Cells changed significantly"))
+        self.addOutput(QgsProcessingOutputNumber("CHANGED", "Cells changed (significant, appeared or vanished inside "
+                                                            "the other epoch's footprint)"))
 
     def arguments(self, parameters, context, outputs):
         args = ["changes", self.path(parameters, "EPOCH_A", context), self.path(parameters, "EPOCH_B", context),
@@ -525,9 +538,15 @@ class ChangesAlgorithm(LidarSigAlgorithm):
         self.styled([outputs["CELLS"], outputs["OUTPUT"]], context)  # the cells above the map
         self.load_points(outputs["POINTS"], "later epoch with change", context, feedback)
         grid = data["grid"]
+        moved = data["coverage"]["changed"]
         feedback.pushInfo(f"{grid['valid']} cells compared, {grid['significant']} changed significantly "
-                          f"(score {data['score']}, cells of {data['cell_m']:g} m)")
-        return {**outputs, "COMPARED": grid["valid"], "SIGNIFICANT": grid["significant"]}
+                          f"(score {data['score']}, cells of {data['cell_m']:g} m); {grid['changed']} changed with "
+                          f"{moved['appeared']} appeared and {moved['vanished']} vanished inside the other epoch's "
+                          f"footprint")
+        if data.get("wide_because"):
+            feedback.pushWarning(f"no cell changed significantly and the level of detection is wide: "
+                                 f"{data['wide_because']}; the cells layer's rank says where to look first")
+        return {**outputs, "COMPARED": grid["valid"], "SIGNIFICANT": grid["significant"], "CHANGED": grid["changed"]}
 
 
 # -- survey catalogues ----------------------------------------------------------------------------
