@@ -105,12 +105,9 @@ def noisy_las(path, n=3000, seed=11, version="1.4", point_format=6):
     return scene
 
 
-@pytest.fixture(scope="session", autouse=True)
-def compiled_kernels():
-    """Every kernel compiled and cached before the first test, as after a first run: a test's
-    stderr then holds its own lines, not the first run's compilation notice, on a fresh machine
-    as here (tests/test_release.py and tests/robustness/test_robust_first_run.py check that
-    notice, each on a cache of its own)."""
+def compile_every_kernel():
+    """Run every descriptor, strategy, kind of scale and weighting once on a small cloud, so that
+    each kernel is compiled and cached (later calls load it from the cache)."""
     import lidar_sig as ls
 
     xyz, labels = airborne_like(600)
@@ -119,3 +116,22 @@ def compiled_kernels():
             for scales in (ls.knn(6, 10), ls.radii(2.0, 3.0)):
                 for weights in ("area", "none"):
                     ls.Pipeline(descriptor, strategy, scales, weights=weights, progress=False).run(xyz, labels=labels)
+
+
+def pytest_sessionstart(session):
+    """With the tests spread over processes (pytest-xdist's -n), the controlling process
+    compiles the kernels once before the workers start (xdist starts them after this hook), so
+    that the workers load them from the cache instead of each compiling the same kernels."""
+    config = session.config
+    if not hasattr(config, "workerinput") and getattr(config.option, "numprocesses", None):
+        compile_every_kernel()
+
+
+@pytest.fixture(scope="session", autouse=True)
+def compiled_kernels():
+    """Every kernel compiled and cached before the first test, as after a first run: a test's
+    stderr then holds its own lines, not the first run's compilation notice, on a fresh machine
+    as here (tests/test_release.py and tests/robustness/test_robust_first_run.py check that
+    notice, each on a cache of its own). Under pytest-xdist the kernels are in the cache
+    already (:func:`pytest_sessionstart`) and each worker loads them."""
+    compile_every_kernel()
