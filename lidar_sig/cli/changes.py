@@ -7,6 +7,7 @@ import click
 from ..base.errors import LidarSigError, counted
 from .group import cli
 from .options import Choice, Default, columns_option, metric_keys, overwrite_option, pipeline_options, render_option
+from .summaries import say
 
 
 def _confidence():
@@ -74,15 +75,15 @@ def changes_command(epochs, output, cells, points, cell, min_points, score, conf
         return
     maps = result.maps if isinstance(result, ChangeSeries) else [result]
     first = maps[0]
-    click.echo(f"{first.grid.rows} x {first.grid.cols} cells of {first.cell:g} m ({_rule(first.cell_rule)}), "
+    say(f"{first.grid.rows} x {first.grid.cols} cells of {first.cell:g} m ({_rule(first.cell_rule)}), "
                f"compared where both epochs hold {counted(first.min_points, 'point')} with defined saliency "
                f"({_rule(first.min_points_rule)}); densities "
                + ", ".join(f"{d:.3g}" for d in _densities(result)) + " points/m²")
     for k, cm in enumerate(maps):
         where = f"{result.interval_name(k)}: " if len(maps) > 1 else ""
         for line in _header(cm):
-            click.echo(where + line)
-        click.echo(f"{'rank':>5} {'x min':>10} {'y min':>11} {'points A':>9} {'points B':>9} {'score':>8} "
+            say(where + line)
+        say(f"{'rank':>5} {'x min':>10} {'y min':>11} {'points A':>9} {'points B':>9} {'score':>8} "
                    f"{'lod':>8} {'dH (m)':>7} {'lod':>6} {'z':>5}  classes A -> B")
         for item in cm.top(top):
             classes = ", ".join(f"{k} {na:,}->{nb:,}" for k, (na, nb) in item["classes"].items())
@@ -90,17 +91,17 @@ def changes_command(epochs, output, cells, points, cell, min_points, score, conf
             height_lod = "" if item["height_lod"] is None else f"{item['height_lod']:.2f}"
             z = "" if item["z"] is None else f"{item['z']:.1f}"
             mark = "*" if item["significant"] else " "
-            click.echo(f"{item['rank']:>4}{mark} {item['bounds'][0]:>10.1f} {item['bounds'][1]:>11.1f} "
+            say(f"{item['rank']:>4}{mark} {item['bounds'][0]:>10.1f} {item['bounds'][1]:>11.1f} "
                        f"{item['points_a']:>9,} {item['points_b']:>9,} {item['score']:>8.4f} {lod:>8} "
                        f"{item['height']:>7.2f} {height_lod:>6} {z:>5}  {classes}")
     if len(maps) > 1:
         counts = result.to_dict(0)["when"]["cells"]
-        click.echo("when: " + ", ".join(f"{counts[str(k)]} cells changed most in interval {k}"
+        say("when: " + ", ".join(f"{counts[str(k)]} cells changed most in interval {k}"
                                         for k in range(1, len(maps) + 1))
                    + f"; {counts['0']} compared, never significantly")
     if not quiet:
         for line in written:
-            click.echo(line)
+            say(line)
 
 
 def _header(cm):

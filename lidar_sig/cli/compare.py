@@ -6,7 +6,7 @@ import click
 from ..base.errors import printable
 from .options import (columns_option, execution_options, json_option, overwrite_option, pipeline_options,
                       render_option, report_options)
-from .summaries import archive_summary_line
+from .summaries import archive_summary_line, say
 
 
 @click.command()
@@ -39,13 +39,13 @@ def compare(a, b, as_json, report, plots, render, overwrite, columns, execution,
         return
     for label, side in (("A", result.a), ("B", result.b)):
         line = side.result.summary(side.name) if side.result is not None else archive_summary_line(side)
-        click.echo(f"{label} {line}")
-    click.echo(f"  rendering {result.render}")
-    click.echo("")
+        say(f"{label} {line}")
+    say(f"  rendering {result.render}")
+    say("")
     for m in METRICS:
         value = result.metrics[m.key]
         shown = "n/a" if value is None else f"{value:.4f}"
-        click.echo(f"  {m.name:<11} {shown:>8}   {m.short}, {m.same:g} = same")
+        say(f"  {m.name:<11} {shown:>8}   {m.short}, {m.same:g} = same")
     if not quiet:
         for line in done.lines:
-            click.echo(line)
+            say(line)

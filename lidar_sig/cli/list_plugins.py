@@ -5,6 +5,7 @@ import json
 import click
 
 from .options import json_option
+from .summaries import say
 
 
 @click.command()
@@ -19,4 +20,4 @@ def plugins(as_json):
         click.echo(json.dumps(done.to_dict()))
         return
     for line in done.lines:
-        click.echo(line)
+        say(line)

@@ -7,6 +7,7 @@ import click
 from ..base.errors import counted, printable
 from ..base.progress import settings as progress_settings
 from .options import overwrite_option
+from .summaries import say
 
 
 @click.command()
@@ -36,19 +37,19 @@ def outliers(catalogue, output, report, reach, top, as_json, overwrite, quiet):
         return
     if quiet:
         return
-    click.echo(f"{counted(len(found.results), 'tile')}, neighbours within {found.reach:.3g} m; "
+    say(f"{counted(len(found.results), 'tile')}, neighbours within {found.reach:.3g} m; "
                "score = mean robust z of the median screening distance to the neighbours and to the survey")
     for note in found.notes:
         click.echo(printable(f"lidar-sig: note: {note}"), err=True)
-    click.echo(f"{'rank':>4}  {'score':>6}  {'z neighb.':>9}  {'z survey':>8}  tile  (classes that make the difference)")
+    say(f"{'rank':>4}  {'score':>6}  {'z neighb.':>9}  {'z survey':>8}  tile  (classes that make the difference)")
     for r in found.results[:top]:
         near = "-" if r["z_neighbours"] is None else f"{r['z_neighbours']:.2f}"
         classes = ", ".join(f"{c['class']} {c['difference']:+.1f} pts" for c in r["classes"])
         rank = f"{r['rank']}{'*' if r['outlier'] else ' '}"
-        click.echo(f"{rank:>5} {r['score']:>6.2f}  {near:>9}  {r['z_survey']:>8.2f}  {r['name']}"
+        say(f"{rank:>5} {r['score']:>6.2f}  {near:>9}  {r['z_survey']:>8.2f}  {r['name']}"
                    + (f"  ({classes})" if classes else ""))
     if len(found.results) > top:
-        click.echo(f"  ... {len(found.results) - top:,} more (--top, --json)")
-    click.echo(found.verdict(marked=", marked *"))
+        say(f"  ... {len(found.results) - top:,} more (--top, --json)")
+    say(found.verdict(marked=", marked *"))
     for line in done.lines:
-        click.echo(line)
+        say(line)

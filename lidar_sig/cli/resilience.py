@@ -7,6 +7,7 @@ from ..base.errors import counted
 from ..io import check_output, read
 from .options import (Default, columns_option, not_empty, number_list, overwrite_option, pipeline_options,
                       render_option)
+from .summaries import say
 
 
 def _fractions():
@@ -50,13 +51,13 @@ def resilience_command(source, fractions, repeats, seed, as_json, plot, render, 
         click.echo(json.dumps(result.to_dict()))
         return
     keys = [k for k in METRIC_KEYS if result.to_dict()["metrics"][k] is not None]
-    click.echo(f"{source}: {counted(result.repeats, 'random subsample')} per fraction (seed {result.seed}), "
+    say(f"{source}: {counted(result.repeats, 'random subsample')} per fraction (seed {result.seed}), "
                f"{result.render} rendering; mean ± standard deviation against the full cloud")
     header = f"{'fraction':>8} {'points':>10} " + " ".join(f"{METRIC_NAMES[k]:>17}" for k in keys)
-    click.echo(header)
+    say(header)
     stats = {k: result.summary(k) for k in keys}
     for i, (fraction, n) in enumerate(zip(result.fractions, result.points)):
         cells = " ".join(f"{stats[k][0][i]:>9.4f} ± {stats[k][1][i]:<6.4f}" for k in keys)
-        click.echo(f"{fraction:>8g} {n:>10,} {cells}")
+        say(f"{fraction:>8g} {n:>10,} {cells}")
     if plot and not quiet:
-        click.echo(f"wrote {plot}")
+        say(f"wrote {plot}")

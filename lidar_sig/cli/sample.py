@@ -4,6 +4,7 @@ import json
 import click
 
 from .options import json_option, overwrite_option
+from .summaries import say
 
 
 @click.command()
@@ -25,5 +26,5 @@ def sample(folder, overwrite, as_json):
                                          for f in files]}))
         return
     for f in files:
-        click.echo(f"{'wrote' if f.written else 'kept'} {f.path} ({f.points:,} points"
+        say(f"{'wrote' if f.written else 'kept'} {f.path} ({f.points:,} points"
                    + ("" if f.written else ", already there and the same") + ")")

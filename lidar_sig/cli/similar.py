@@ -5,6 +5,7 @@ import click
 
 from ..base.progress import settings as progress_settings
 from .options import Choice, columns_option, metric_keys
+from .summaries import say
 
 
 @click.command()
@@ -35,11 +36,11 @@ def similar(query, catalogue, top, metric, shortlist, as_json, columns, quiet):
     q, s = found.query, found.shortlist
     kind = {"tile": "a tile of the catalogue, left out of the list", "cloud": "a cloud, computed with the catalogue's method",
             "archive": "an archive made with the catalogue's method"}[q["kind"]]
-    click.echo(f"query {q['name']} ({kind}); ranked by {metric}; full metrics for {s['screened_by']}"
+    say(f"query {q['name']} ({kind}); ranked by {metric}; full metrics for {s['screened_by']}"
                + ("" if s["certain"] else " (the top may miss a tile outside the shortlist)"))
     keys = [k for k in METRIC_KEYS if k in found.results[0]] if found.results else []
     head = f"{'rank':>4}  {'distance':>8}  " + "  ".join(f"{METRIC_NAMES[k]:>10}" for k in keys) + "  tile"
-    click.echo(head)
+    say(head)
     for r in found.results:
-        click.echo(f"{r['rank']:>4}  {r['distance']:>8.4f}  " + "  ".join(f"{r[k]:>10.4f}" for k in keys)
+        say(f"{r['rank']:>4}  {r['distance']:>8.4f}  " + "  ".join(f"{r[k]:>10.4f}" for k in keys)
                    + f"  {r['name']}")

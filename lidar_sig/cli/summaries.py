@@ -6,6 +6,12 @@ import click
 from ..base.errors import counted, printable
 
 
+def say(line=""):
+    """Print one line of a command's output on stdout as one line, whatever the file, tile or
+    class names it shows hold (:func:`printable`: a name with a line break cannot forge a row)."""
+    click.echo(printable(line))
+
+
 def archive_summary_line(side):
     """One line for an archive input of compare."""
     from ..reporting.sections import scales_text

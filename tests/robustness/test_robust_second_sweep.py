@@ -372,6 +372,18 @@ def test_a_line_break_in_a_file_name_does_not_split_an_error_or_a_repr(tmp_path)
         assert "\n" not in repr(shown) and "\r" not in repr(shown) and repr(shown).startswith("<"), repr(shown)
 
 
+def test_a_line_break_in_a_file_name_cannot_forge_a_row_of_a_printed_table(tmp_path):
+    # the tables on stdout name files, tiles and classes: each row stays one row
+    forged = tmp_path / "a\n  d_BD-Img      9.9999   forged.laz"
+    shutil.copyfile(EPOCH1, forged)
+    proc = run("compare", forged, EPOCH2)
+    assert proc.returncode == 0, proc.stderr
+    lines = proc.stdout.splitlines()
+    assert any(line.startswith("A ") and "a\\n  d_BD-Img      9.9999   forged.laz: " in line for line in lines), lines
+    assert [line for line in lines if line.lstrip().startswith("d_BD-Img")] == [
+        line for line in lines if line.startswith("  d_BD-Img ") and "9.9999" not in line]
+
+
 def test_a_line_break_in_a_tile_name_keeps_each_problem_on_its_line(tmp_path):
     tiles = tmp_path / "tiles"
     tiles.mkdir()
