@@ -107,12 +107,13 @@ def m3c2_flags(pool, a, b, grid, density):
     return n, np.where(n > 0, k / np.maximum(n, 1), 0.0)
 
 
-def run_pair(pool, epoch_a, b, moved, pipeline, density):
-    """Both tools on one pair: the change map (on B as it is), and M3C2's core points and share
-    of them changed per cell (on B registered: the move taken back)."""
+def run_pair(pool, epoch_a, b, moved, pipeline, density, class_map=None):
+    """Both tools on one pair: the change map (on B as it is, with ``class_map`` where the
+    epochs' class schemes differ), and M3C2's core points and share of them changed per cell
+    (on B registered: the move taken back)."""
     import lidar_sig as ls
 
-    cm = ls.changes(epoch_a, b, pipeline=pipeline)
+    cm = ls.changes(epoch_a, b, pipeline=pipeline, class_map=class_map)
     registered = b.xyz - np.asarray(SHIFT) if moved else b.xyz
     n_core, share = m3c2_flags(pool, epoch_a.cloud.xyz, registered, cm.grid, density)
     return cm, n_core, share
@@ -125,6 +126,9 @@ def main():
     parser.add_argument("--densities", type=float, nargs="+", default=list(DENSITIES))
     parser.add_argument("--surveys", nargs="+", choices=sorted(SURVEYS), default=["ign", "ahn3"])
     parser.add_argument("--dump", help="write every evaluated cell as JSON (for other thresholds)")
+    parser.add_argument("--kinds", nargs="+", choices=("resampled", "campaigns"), default=["resampled", "campaigns"],
+                        help="resampled: halves, copy and edited copies of one flight; campaigns: strip pairs and "
+                             "modelled campaign differences, each null and edited (benchmarks/campaigns.py)")
     args = parser.parse_args()
     if args.quick:
         args.densities, args.pairs = [0.5, 2.0, 10.0], 1
@@ -147,6 +151,8 @@ def main():
         xyz, labels = (block.xyz, block.labels) if kept is None else (block.xyz[kept], block.labels[kept])
         full = density_of(xyz[:, :2])
         edited = [edit_block(xyz, labels, vegetation=vegetation, rank=r) for r in range(args.pairs)]
+        campaign = (Campaign(key, folder, block, kept, xyz, labels, vegetation, edited[0] if edited else None)
+                    if "campaigns" in args.kinds else None)
         print(f"{title}: {len(xyz):,} points, {full:.1f} points/m²; edited cells: " + "; ".join(
             ", ".join(f"{e} {c}" for e, c in edits.items()) for _, _, edits in edited), file=sys.stderr)
         for d in args.densities:
@@ -158,14 +164,22 @@ def main():
             u = rng.random(len(xyz))
             a = thinned(block, xyz, labels, u < p, name="A")
             epoch_a = compute_epoch(a, pipeline)
-            pairs = [("halves", {}, False, thinned(block, xyz, labels, u >= 1 - p, name="B (other half)")),
-                     ("copy", {}, True, thinned(block, xyz, labels, rng.random(len(xyz)) < p, rng, "B (copy)", True))]
-            for r, (e_xyz, e_labels, edits) in enumerate(edited):
-                pairs.append((f"edited {r + 1}", edits, True, thinned(block, e_xyz, e_labels,
-                                                                      rng.random(len(e_xyz)) < p, rng, "B", True)))
-            for kind, edits, moved, b in pairs:
+            pairs = []
+            if "resampled" in args.kinds:
+                pairs += [("halves", {}, False, thinned(block, xyz, labels, u >= 1 - p, name="B (other half)")),
+                          ("copy", {}, True, thinned(block, xyz, labels, rng.random(len(xyz)) < p, rng, "B (copy)",
+                                                     True))]
+                for r, (e_xyz, e_labels, edits) in enumerate(edited):
+                    pairs.append((f"edited {r + 1}", edits, True, thinned(block, e_xyz, e_labels,
+                                                                          rng.random(len(e_xyz)) < p, rng, "B", True)))
+            if "campaigns" in args.kinds:
+                pairs += campaign_pairs(campaign, block, d, p, epoch_a, pipeline, np.random.default_rng([int(d * 100), 2]))
+            for kind, edits, moved, b, *given in pairs:
+                epoch, class_map = given if given else (epoch_a, None)
+                if epoch is None:
+                    continue
                 t0 = time.perf_counter()
-                cm, n_core, share = run_pair(pool, epoch_a, b, moved, pipeline, d)
+                cm, n_core, share = run_pair(pool, epoch, b, moved, pipeline, d, class_map)
                 edit_of = {}
                 for name, (i, j) in edits.items():
                     centre = np.array([[(i + 0.5) * 25.0, (j + 0.5) * 25.0]])
@@ -188,17 +202,83 @@ def main():
     pool.shutdown()
     if args.dump:
         Path(args.dump).write_text(json.dumps(cells))
-    print_tables(cells, args.densities, EDITS, args.surveys)
+    if "resampled" in args.kinds:
+        print_tables([r for r in cells if r["pair"] in NULLS or r["pair"].startswith("edited")], args.densities,
+                     EDITS, args.surveys)
+    if "campaigns" in args.kinds:
+        from campaigns import KINDS
+
+        for kind in KINDS:
+            print_tables([r for r in cells if r["pair"] in (kind, f"{kind} edited")], args.densities, EDITS,
+                         args.surveys, nulls=(kind,), title=f"{kind}: ")
     print(f"\n{time.perf_counter() - start:.0f} s in all", file=sys.stderr)
+
+
+class Campaign:
+    """A survey's campaign differences, made once (benchmarks/campaigns.py): its two most
+    overlapping strips (the second also edited inside the cells both cover fully), the block
+    misaligned strip by strip (and its edited copy), and the edited block of the resampled pairs."""
+
+    def __init__(self, key, folder, block, kept, xyz, labels, vegetation, edited):
+        from campaigns import block_sources, edits_in, misaligned, strip_pair
+        from power_edits import edit_block
+
+        source = block_sources(folder, len(block.xyz))
+        source = source if kept is None else source[kept]
+        self.key, self.vegetation, self.xyz, self.labels, self.edited = key, vegetation, xyz, labels, edited
+        self.strips, shared = strip_pair(xyz, source)
+        one, two = (source == k for k in self.strips)
+        self.strip_a, self.strip_b = (xyz[one], labels[one]), (xyz[two], labels[two])
+        self.strip_b_edited = edits_in(xyz[two], labels[two], shared[two], vegetation=vegetation)
+        self.misaligned = misaligned(xyz, source, np.random.default_rng(38))
+        self.misaligned_edited = edit_block(self.misaligned, labels, vegetation=vegetation)
+
+
+def campaign_pairs(c, block, d, p, epoch_a, pipeline, rng):
+    """[(kind, edits, moved, B, epoch A, class map)] of the campaign kinds at density ``d``
+    (``p`` of the block's points): each null and edited; the strips thinned to ``d`` each,
+    the others against the block's ``epoch_a``."""
+    from campaigns import DENSITY_RATIO, SCHEMES, leaf_off, other_scheme
+
+    from lidar_sig.change_map import compute_epoch
+    from lidar_sig.change_map import density as density_of
+
+    def cloud(x, l, name, share=1.0):
+        return thinned(block, x, l, rng.random(len(x)) < share, name=name)
+
+    pairs = []
+    (xa, la), (xb, lb) = c.strip_a, c.strip_b
+    pa, pb = d / density_of(xa[:, :2]), d / density_of(xb[:, :2])
+    if max(pa, pb) <= 1:
+        strip_a = compute_epoch(cloud(xa, la, f"strip {c.strips[0]}", pa), pipeline)
+        ex, el, edits = c.strip_b_edited
+        pairs += [("strips", {}, False, cloud(xb, lb, f"strip {c.strips[1]}", pb), strip_a, None),
+                  ("strips edited", edits, False, cloud(ex, el, f"strip {c.strips[1]} edited", pb), strip_a, None)]
+    e_xyz, e_labels, edits = c.edited
+    plain, changed = (c.xyz, c.labels, {}), (e_xyz, e_labels, edits)
+    for kind, (x, l, e) in (("leaf-off", plain), ("leaf-off edited", changed)):
+        keep = rng.random(len(x)) < p
+        lx, ll = leaf_off(x[keep], l[keep], c.vegetation, rng)
+        pairs.append((kind, e, False, cloud(lx, ll, kind), epoch_a, None))
+    mx, ml, m_edits = c.misaligned_edited
+    for kind, (x, l, e) in (("misaligned", (c.misaligned, c.labels, {})), ("misaligned edited", (mx, ml, m_edits))):
+        pairs.append((kind, e, False, cloud(x, l, kind, p), epoch_a, None))
+    if p * DENSITY_RATIO <= 1:
+        for kind, (x, l, e) in (("density x3", plain), ("density x3 edited", changed)):
+            pairs.append((kind, e, False, cloud(x, l, kind, p * DENSITY_RATIO), epoch_a, None))
+    _, class_map = SCHEMES[c.key]
+    for kind, (x, l, e) in (("class scheme", plain), ("class scheme edited", changed)):
+        pairs.append((kind, e, False, cloud(x, other_scheme(l, c.key), kind, p), epoch_a, class_map))
+    return pairs
 
 
 def m3c2_flag(rec, share=M3C2_SHARE):
     return rec["core"] >= M3C2_MIN_CORE and rec["m3c2_share"] >= share
 
 
-def print_tables(cells, densities, edits, surveys):
+def print_tables(cells, densities, edits, surveys, nulls=NULLS, title=""):
     """The table of docs/changes.md: per density and tool, edits found per kind, all edits,
-    unchanged cells flagged; then per survey."""
+    unchanged cells flagged (of the pairs ``nulls``); then per survey."""
     tools = (("change map", lambda r: r["compared"] and r["flagged"], lambda r: r["compared"]),
              ("score alone", lambda r: r["compared"] and r["alone"], lambda r: r["compared"]),
              ("M3C2", m3c2_flag, lambda r: r["core"] >= M3C2_MIN_CORE))
@@ -218,13 +298,13 @@ def print_tables(cells, densities, edits, surveys):
                     row.append(f"{sum(map(flag, of))} / {len(of)}")
                 of = [r for r in here if r["edit"]]
                 row.append(f"{sum(map(flag, of)) / max(len(of), 1):.0%} ({sum(map(flag, of))} / {len(of)})")
-                null = [r for r in here if r["pair"] in NULLS and evaluated(r)]
+                null = [r for r in here if r["pair"] in nulls and evaluated(r)]
                 row.append(f"{sum(map(flag, null)) / max(len(null), 1):.1%} ({sum(map(flag, null))} / {len(null)})")
                 print(f"| {d:g} | {name} | " + " | ".join(row) + " |")
 
-    table(cells, "Both surveys")
+    table(cells, f"{title}Both surveys")
     for s in surveys:
-        table([r for r in cells if r["survey"] == s], SURVEYS[s][0])
+        table([r for r in cells if r["survey"] == s], f"{title}{SURVEYS[s][0]}")
 
 
 if __name__ == "__main__":

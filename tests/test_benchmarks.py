@@ -3,6 +3,7 @@ import importlib.util
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 from conftest import IGN, ROOT, need_data
@@ -93,7 +94,7 @@ def test_power_benchmark_finds_every_kind_of_edit_at_2_points_per_m2_beside_m3c2
     # most 5% of the unchanged pairs' cells, and M3C2's row beside the change map's
     need_data(IGN / "test_data_77060_627760_LA93_IGN69.laz")
     proc = subprocess.run([sys.executable, str(BENCH / "change_power.py"), "--surveys", "ign", "--densities", "2",
-                           "--pairs", "1"], capture_output=True, text=True, timeout=1200)
+                           "--pairs", "1", "--kinds", "resampled"], capture_output=True, text=True, timeout=1200)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     rows = {line.split(" | ")[1]: line.strip("| ").split(" | ") for line in proc.stdout.splitlines()
             if line.startswith("| 2 |")}
@@ -103,3 +104,42 @@ def test_power_benchmark_finds_every_kind_of_edit_at_2_points_per_m2_beside_m3c2
     flagged, of = (int(v) for v in rows["change map"][8].split("(")[1].rstrip(")").split(" / "))
     assert of >= 40 and flagged <= 0.05 * of
     assert not list((ROOT / "benchmarks").glob("py4dgeo.log")) and not list(ROOT.glob("py4dgeo.log"))
+
+
+def test_the_campaign_differences_of_the_power_benchmark_do_what_its_docs_say():
+    # issue 38: the modelled differences between campaigns (benchmarks/campaigns.py), on the IGN block
+    need_data(IGN)
+    sys.path.insert(0, str(BENCH))
+    from campaigns import (LEAF_OFF, SHIFT_RANGE, TILT_RANGE, block_sources, leaf_off, misaligned, other_scheme,
+                           strip_pair)
+    from power_edits import _ground_level
+
+    from lidar_sig.change_map import read_epoch
+
+    block = read_epoch(IGN)
+    xyz, labels = block.xyz, block.labels
+    source = block_sources(IGN, len(xyz))
+    assert set(np.unique(source)) == {706, 707}
+    (first, second), shared = strip_pair(xyz, source)
+    assert {first, second} == {706, 707} and 0 < shared.mean() < 1
+    rng = np.random.default_rng(0)
+    # leaf-off: about LEAF_OFF of the vegetation 2 m above the ground gone, ground gained under it
+    height = xyz[:, 2] - _ground_level(xyz, labels)
+    crowns = (labels == 5) & (height >= 2.0)
+    off_xyz, off_labels = leaf_off(xyz, labels, 5, rng)
+    off_height = off_xyz[:, 2] - _ground_level(off_xyz, off_labels)
+    kept = ((off_labels == 5) & (off_height >= 2.0)).sum() / crowns.sum()
+    assert abs(kept - (1 - LEAF_OFF)) < 0.02, kept
+    assert (off_labels == 2).sum() > (labels == 2).sum()
+    # misaligned: each strip moved as a rigid body, by a shift and a tilt within their ranges
+    moved = misaligned(xyz, source, rng)
+    for k in (706, 707):
+        mine = source == k
+        shift = np.linalg.norm(moved[mine].mean(axis=0) - xyz[mine].mean(axis=0))
+        assert SHIFT_RANGE[0] - 1e-6 <= shift <= SHIFT_RANGE[1] + 1e-6, shift
+        before, after = xyz[mine] - xyz[mine].mean(axis=0), moved[mine] - moved[mine].mean(axis=0)
+        assert np.allclose(np.linalg.norm(before, axis=1), np.linalg.norm(after, axis=1), atol=1e-6)
+        tilt = np.degrees(np.abs(after[:, 2] - before[:, 2]).max() / np.linalg.norm(before[:, :2], axis=1).max())
+        assert tilt <= TILT_RANGE[1] * 1.01, tilt
+    # another class scheme: vegetation put in class 1
+    assert set(np.unique(other_scheme(labels, "ign"))) == set(np.unique(labels)) - {3, 4, 5} | {1}
