@@ -189,6 +189,7 @@ def main():
                     if not (t["valid"][c] or n_core[c] >= M3C2_MIN_CORE or c in edit_of):
                         continue
                     rec = {"survey": key, "density": d, "pair": kind, "edit": edit_of.get(c), "cell": c,
+                           "row": int(t["row"][c]), "col": int(t["col"][c]),
                            "compared": bool(t["valid"][c]), "points": [int(t["points_a"][c]), int(t["points_b"][c])],
                            "flagged": bool(t["significant"][c]), "alone": bool(cm.levels[cm.score].significant[c]),
                            "core": int(n_core[c]), "m3c2_share": float(share[c])}

@@ -260,6 +260,9 @@ def test_p_values_say_significance_and_q_values_are_benjamini_hochberg():
     # significant at 95% over two tests exactly where p < 5%
     threshold = quantile(pooled_confidence(0.95, 2))
     assert list(p[1:] < 0.05) == list(z[1:] > threshold)
+    # the step down from the larger p-values and the cap at 1, by hand
+    assert np.allclose(q_values([0.04, 0.03, 0.01, np.nan])[:3], [0.04, 0.04, 0.03])
+    assert np.allclose(q_values([0.9, 0.8]), [0.9, 0.9]) and q_values([1.0, 0.99])[1] == 1.0
     q = q_values(p)
     m = 5
     order = np.argsort(p[1:])
@@ -284,3 +287,26 @@ def test_the_ign_block_s_overlapping_strips_are_quiet_and_their_edges_are_not_ch
     # flagged no more often than the 95% level lets unchanged land be, and no strip edge is change
     assert figures["changed"] <= math.ceil(0.05 * figures["compared"]), figures
     assert figures["coverage changed"] == 0 and figures["at the edges"] > 0, figures
+
+
+def test_a_bay_open_at_a_corner_and_a_gap_larger_than_a_hectare_are_not_the_survey_s_land():
+    # a hole joined to the outside by one diagonal step is an edge; a hole over HOLE_M2 is a gap
+    # in the survey (a tile missing from a delivery), not land that changed
+    from lidar_sig.change_map._cells import HOLE_M2, in_footprint
+
+    def appeared_inside(absent, shape, cell_m=None):
+        points_a = np.full(shape, 100)
+        codes = np.ones(shape, np.int8)
+        for r, c in absent:
+            points_a[r, c] = 0
+            codes[r, c] = 2
+        inside = in_footprint(codes.ravel(), points_a.ravel(), np.full(shape, 100).ravel(), 100, shape, cell_m)
+        return {(r, c) for r, c in absent if inside.reshape(shape)[r, c]}
+
+    bay = [(1, 1), (1, 2), (2, 1), (2, 2)]
+    assert appeared_inside(bay + [(0, 0)], (6, 6)) == set()  # open through the corner (0, 0)
+    assert appeared_inside(bay, (6, 6)) == set(bay)  # closed: the survey's land
+    gap = [(r, c) for r in range(3, 8) for c in range(3, 8)]  # 5 x 5 cells
+    assert HOLE_M2 < 25 * 25.0 ** 2  # 25 cells of 25 m: more than a hectare
+    assert appeared_inside(gap, (12, 12), cell_m=25.0) == set()
+    assert appeared_inside(gap, (12, 12), cell_m=10.0) == set(gap)  # 0.25 ha: land that changed

@@ -4,6 +4,7 @@ environment, in a folder outside the checkout, the README's first command writes
 first run there compiles the kernels and says so once, on a stderr that is not a terminal."""
 import importlib.util
 import os
+import shutil
 import subprocess
 import sys
 import sysconfig
@@ -21,10 +22,15 @@ needs_build = pytest.mark.skipif(importlib.util.find_spec("build") is None,
 @pytest.fixture(scope="module")
 def dist(tmp_path_factory):
     """The sdist and wheel of the checkout, built as `python -m build` builds them (without build
-    isolation: the test environment has setuptools), and what the build printed."""
+    isolation: the test environment has setuptools), and what the build printed. Built from a
+    copy of the checkout: the build rewrites the project's lidar_sig.egg-info, whose entry points
+    the tests running beside this one (pytest-xdist) read."""
     out = tmp_path_factory.mktemp("dist")
+    source = tmp_path_factory.mktemp("checkout") / "lidar_sig"
+    shutil.copytree(ROOT, source, ignore=shutil.ignore_patterns(".git", "*.egg-info", "build", "dist", "out",
+                                                                 "__pycache__", ".pytest_cache", "report.html"))
     env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}  # setuptools warns under it
-    built = subprocess.run([sys.executable, "-m", "build", "--no-isolation", "--outdir", str(out), str(ROOT)],
+    built = subprocess.run([sys.executable, "-m", "build", "--no-isolation", "--outdir", str(out), str(source)],
                            capture_output=True, text=True, env=env, timeout=600)
     assert built.returncode == 0, built.stdout + built.stderr
     (sdist,), (wheel,) = out.glob("*.tar.gz"), out.glob("*.whl")

@@ -37,6 +37,10 @@ COVERAGE = {1: "compared", 2: "appeared", 3: "vanished", 4: "too few points", 0:
 #: The coverage codes that are change where the other epoch's survey covers the cell
 #: (:func:`in_footprint`): appeared and vanished.
 COVERAGE_CHANGES = (2, 3)
+#: The largest hole in a survey's footprint (m²) whose cells count as its land: a hectare, some
+#: blocks of buildings or a quarry's pit. Larger holes are gaps in the survey (a 1 km tile missing
+#: from a delivery is 100 ha), and their appeared or vanished cells are not counted as change.
+HOLE_M2 = 10_000.0
 #: Only one epoch covers a cell where it holds this share of the fewest points or more (a tenth of
 #: a full cell with the automatic minimum: the sliver of points that a shift of a few decimetres
 #: moves across a survey's edge, 1.2% of a full 25 m cell for 0.3 m, does not) ...
@@ -111,7 +115,7 @@ def cell_signature(epoch, idx, classes, labelled, frame):
                                    egeom=sal.egeom[idx])
 
 
-def cell_table(grid, binned, min_points, densities=(1.0, 1.0)):
+def cell_table(grid, binned, min_points, densities=(1.0, 1.0), cell_m=None):
     """The per-cell table of two binned epochs: bounds, counts and ``valid`` (both epochs hold
     ``min_points`` points with defined saliency: the signatures leave the others out, and a cell
     of points all undefined, e.g. spherical scales on a sparse cell, has no signature to
@@ -132,7 +136,7 @@ def cell_table(grid, binned, min_points, densities=(1.0, 1.0)):
     table["valid"] = (table["defined_a"] >= min_points) & (table["defined_b"] >= min_points)
     table["coverage"] = coverage(table["points_a"], table["points_b"], table["valid"], min_points, densities)
     table["in_footprint"] = in_footprint(table["coverage"], table["points_a"], table["points_b"], min_points,
-                                         (grid.rows, grid.cols))
+                                         (grid.rows, grid.cols), cell_m)
     for k in CHANGE_KEYS + ("score", "lod", "height_lod", "z", "lod_ratio", "p", "q"):
         table[k] = np.nan
     return table
@@ -153,31 +157,44 @@ def coverage(points_a, points_b, valid, min_points, densities=(1.0, 1.0)):
     return code.astype(np.int8)
 
 
-def footprint(present):
+def footprint(present, most_cells=None):
     """(rows, cols) bool: the land an epoch surveyed, from the cells where it holds points
-    (``present``, (rows, cols) bool): those cells and every hole they enclose, a hole being
-    cells without its points that no path of such cells (edge to edge) joins to the grid's border."""
-    from scipy.ndimage import binary_fill_holes
+    (``present``, (rows, cols) bool): those cells and the holes they enclose. A hole is a set of
+    cells without its points that no path of such cells, edge or corner, joins to the grid's
+    border (a bay whose mouth is one diagonal step is open); with ``most_cells``, only holes of
+    at most that many cells: a larger one is a gap in the survey (a tile missing from a
+    delivery, a strip not flown), not land that changed."""
+    from scipy.ndimage import binary_fill_holes, label
 
-    return binary_fill_holes(present)
+    around = np.ones((3, 3), bool)  # the outside reaches a hole through corners too
+    filled = binary_fill_holes(present, structure=around)
+    if most_cells is None:
+        return filled
+    holes, n = label(filled & ~present, structure=around)
+    sizes = np.bincount(holes.ravel(), minlength=n + 1)
+    small = sizes <= most_cells
+    small[0] = False
+    return present | small[holes]
 
 
-def in_footprint(codes, points_a, points_b, min_points, shape):
+def in_footprint(codes, points_a, points_b, min_points, shape, cell_m=None):
     """(cells,) bool: the appeared cells inside A's :func:`footprint` and the vanished cells
     inside B's: land the other survey covered around them but found no points on (a building
     raised on water, a roof removed from the ground's survey), not the edge of a survey that did
-    not reach so far. An epoch is present in a cell where it holds :data:`COVERS` x
+    not reach so far, nor a gap in it larger than :data:`HOLE_M2` (with ``cell_m``, the cell's
+    side in metres). An epoch is present in a cell where it holds :data:`COVERS` x
     ``min_points`` points or more and the cell is not named as only the other's (a cell at the
     edge of A's survey, holding a sliver of its points, is not A's land); False for every other
     coverage state."""
     least = max(1, int(np.ceil(COVERS * min_points)))
+    most = None if cell_m is None else max(1, int(HOLE_M2 // (cell_m * cell_m)))
     codes = np.asarray(codes)
     inside = np.zeros(len(codes), bool)
     for code, points in ((2, points_a), (3, points_b)):
         mine = codes == code
         if mine.any():
             present = (np.asarray(points) >= least) & ~mine
-            surveyed = footprint(present.reshape(shape)).ravel()
+            surveyed = footprint(present.reshape(shape), most).ravel()
             inside |= mine & surveyed
     return inside
 

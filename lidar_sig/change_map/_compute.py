@@ -189,7 +189,7 @@ def _interval(k, epochs, binned, grid, classes, min_points, cell, render, frame,
               units, names, min_points_rule, densities):
     """The ChangeMap of epochs k and k + 1: table, metrics, levels of detection, ranking."""
     pair = binned[k:k + 2]
-    table = cell_table(grid, pair, min_points, densities)
+    table = cell_table(grid, pair, min_points, densities, cell)
     if not table["valid"].any():  # the points are there, their saliency is not
         most = int(np.minimum(table["defined_a"], table["defined_b"]).max())
         fix = _fewer_points(min_points_rule, min_points)

@@ -59,8 +59,8 @@ def cell_features(cm):
     """[(ring (5, 2), fields)] of every cell either epoch covers: row, col, coverage
     (:func:`coverage`), points of each epoch, rank (most changed first, compared cells), score, level of detection, z,
     lod_ratio, significant (1/0; NULL where not compared), changed (1/0: significant, or appeared or vanished
-    inside the other epoch's footprint; NULL with too few points), p and q, the metrics in which it changed significantly,
-    every metric, and the classes that changed most (share of B minus share of A, points)."""
+    inside the other epoch's footprint; NULL with too few points), p and q, the metrics in which it changed
+    significantly, every metric, and the classes that changed most (share of B minus share of A, points)."""
     t = cm.table
     state = coverage(t)
     ranks = np.zeros(len(t), np.int64)
@@ -91,7 +91,8 @@ def cell_features(cm):
 
 
 #: SQL types of the cells' fields that may be NULL in every cell.
-CELL_TYPES = {"rank": "INTEGER", "significant": "INTEGER", "changed": "INTEGER", "p": "REAL", "q": "REAL", "significant_metrics": "TEXT", "top_class": "TEXT",
+CELL_TYPES = {"rank": "INTEGER", "significant": "INTEGER", "changed": "INTEGER", "p": "REAL", "q": "REAL",
+              "significant_metrics": "TEXT", "top_class": "TEXT",
               "top_class_change": "REAL", "classes_changed": "TEXT", "score": "REAL", "lod": "REAL", "z": "REAL",
               "lod_ratio": "REAL",
               **{k: "REAL" for k in METRIC_KEYS}}

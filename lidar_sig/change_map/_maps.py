@@ -19,6 +19,7 @@ from ..base.progress import step
 from ..method.signature_raster import Frame
 from ..base.views import Records
 from ._cells import CELL_FRAME, CHANGE_KEYS, COVERAGE, COVERAGE_CHANGES, cell_signature, epoch_cells
+from ._density import LEAST_DENSITY
 from ._epochs import Epoch
 from ._grid import Grid
 from ._heights import HEIGHT, HEIGHT_NAME
@@ -47,7 +48,7 @@ LEVEL_BANDS = ("lod_ratio", "q", "changed")
 ABOVE_ONE = float(np.nextafter(np.float32(1.0), np.float32(2.0)))
 #: Below this density (points per m²) the change map finds fewer of the known changes
 #: (docs/changes.md, power table): a map without a significant cell says so.
-SPARSE = 1.0
+SPARSE = LEAST_DENSITY
 #: Above this survey spread (tau, log scale: a factor of 2 from cell to cell) the level of
 #: detection is called wide when no cell is significant.
 WIDE_TAU = float(np.log(2.0))
@@ -265,8 +266,8 @@ class ChangeMap:
     def coverage_changes(self) -> dict[str, int]:
         """{"appeared": cells, "vanished": cells, "at the edges": cells}: the appeared and
         vanished cells inside the other epoch's footprint (change of coverage, counted as
-        changed), and those at a survey's edge (not counted: the other survey did not reach
-        so far)."""
+        changed), and those at a survey's edge or in a gap of it larger than a hectare (not
+        counted: the other survey did not reach there)."""
         t = self.table
         named = np.isin(t["coverage"], COVERAGE_CHANGES)
         return {"appeared": int(((t["coverage"] == 2) & t["in_footprint"]).sum()),
@@ -423,6 +424,7 @@ class ChangeMap:
                 "min_points_rule": self.min_points_rule, "density_points_per_m2": ", ".join(
                     f"{v:.4g}" for v in self.density), "score": self.score, "confidence": f"{self.confidence:g}",
                 "compared": str(int(self.table["valid"].sum())), "significant": str(self.n_significant),
+                "changed": str(self.n_changed),
                 "epoch_a": self.a.name, "epoch_b": self.b.name}
 
     def bands(self, prefix=""):
@@ -531,7 +533,7 @@ def _band_description(name, score, confidence=CONFIDENCE):
             "q": "q: the cell's q-value, the false discovery rate at which it would be flagged (Benjamini-Hochberg "
                  "over the compared cells)",
             "changed": "changed: 1 where the cell changed significantly, or appeared or vanished inside the other "
-                       "epoch's footprint; 0 where not",
+                       "epoch's footprint; 0 where not; no data with too few points or none",
             "lod_ratio": f"lod_ratio: how far the cell lies from its level of detection; the larger of score / lod "
                          f"and {HEIGHT_NAME} / height_lod; 1 at the level, above 1 exactly where significant"}
     return text.get(name) or names[name]

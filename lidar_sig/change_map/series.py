@@ -125,7 +125,9 @@ class ChangeSeries:
             d = m.to_dict(n)
             intervals.append({"interval": k + 1, **{key: d[key] for key in ("a", "b", "density", "coverage",
                                                                               "levels", "warnings", "top")},
-                              "valid": d["grid"]["valid"], "significant": d["grid"]["significant"]})
+                              "valid": d["grid"]["valid"], "significant": d["grid"]["significant"],
+                              "changed": d["grid"]["changed"], "false_flags": d["grid"]["false_flags"],
+                              "wide_because": d["wide_because"]})
         return {"epochs": [e.name for e in self.epochs], **shared, "grid": grid, "intervals": intervals,
                 "when": {"cells": counts, "never_significant": NEVER, "meaning": "the interval (1-based) in which "
                          "the cell changed most; 0 compared but never significant"}}

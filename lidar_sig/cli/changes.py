@@ -76,15 +76,15 @@ def changes_command(epochs, output, cells, points, cell, min_points, score, conf
     maps = result.maps if isinstance(result, ChangeSeries) else [result]
     first = maps[0]
     say(f"{first.grid.rows} x {first.grid.cols} cells of {first.cell:g} m ({_rule(first.cell_rule)}), "
-               f"compared where both epochs hold {counted(first.min_points, 'point')} with defined saliency "
-               f"({_rule(first.min_points_rule)}); densities "
-               + ", ".join(f"{d:.3g}" for d in _densities(result)) + " points/m²")
+        f"compared where both epochs hold {counted(first.min_points, 'point')} with defined saliency "
+        f"({_rule(first.min_points_rule)}); densities "
+        + ", ".join(f"{d:.3g}" for d in _densities(result)) + " points/m²")
     for k, cm in enumerate(maps):
         where = f"{result.interval_name(k)}: " if len(maps) > 1 else ""
         for line in _header(cm):
             say(where + line)
         say(f"{'rank':>5} {'x min':>10} {'y min':>11} {'points A':>9} {'points B':>9} {'score':>8} "
-                   f"{'lod':>8} {'dH (m)':>7} {'lod':>6} {'z':>5}  classes A -> B")
+            f"{'lod':>8} {'dH (m)':>7} {'lod':>6} {'z':>5}  classes A -> B")
         for item in cm.top(top):
             classes = ", ".join(f"{k} {na:,}->{nb:,}" for k, (na, nb) in item["classes"].items())
             lod = "" if item["lod"] is None else f"{item['lod']:.4f}"
@@ -92,13 +92,13 @@ def changes_command(epochs, output, cells, points, cell, min_points, score, conf
             z = "" if item["z"] is None else f"{item['z']:.1f}"
             mark = "*" if item["significant"] else " "
             say(f"{item['rank']:>4}{mark} {item['bounds'][0]:>10.1f} {item['bounds'][1]:>11.1f} "
-                       f"{item['points_a']:>9,} {item['points_b']:>9,} {item['score']:>8.4f} {lod:>8} "
-                       f"{item['height']:>7.2f} {height_lod:>6} {z:>5}  {classes}")
+                f"{item['points_a']:>9,} {item['points_b']:>9,} {item['score']:>8.4f} {lod:>8} "
+                f"{item['height']:>7.2f} {height_lod:>6} {z:>5}  {classes}")
     if len(maps) > 1:
         counts = result.to_dict(0)["when"]["cells"]
         say("when: " + ", ".join(f"{counts[str(k)]} cells changed most in interval {k}"
-                                        for k in range(1, len(maps) + 1))
-                   + f"; {counts['0']} compared, never significantly")
+                                 for k in range(1, len(maps) + 1))
+            + f"; {counts['0']} compared, never significantly")
     if not quiet:
         for line in written:
             say(line)
@@ -127,7 +127,7 @@ def _answer(cm):
              f"({1 - cm.confidence:.0%} of the compared cells)" if cm.n_significant else "")
     lines = [f"changed: {cm.n_changed} cells ({cm.n_significant} significant, {moved['appeared']} appeared and "
              f"{moved['vanished']} vanished inside the other epoch's footprint; {moved['at the edges']} at a "
-             f"survey's edge not counted){false}"]
+             f"survey's edge or in a gap of it not counted){false}"]
     why = "" if cm.n_significant else cm.wide_because()
     if why:
         lines.append(f"no cell changed significantly and the level of detection is wide: {why}; the ranking still "

@@ -38,7 +38,7 @@ def outliers(catalogue, output, report, reach, top, as_json, overwrite, quiet):
     if quiet:
         return
     say(f"{counted(len(found.results), 'tile')}, neighbours within {found.reach:.3g} m; "
-               "score = mean robust z of the median screening distance to the neighbours and to the survey")
+        "score = mean robust z of the median screening distance to the neighbours and to the survey")
     for note in found.notes:
         click.echo(printable(f"lidar-sig: note: {note}"), err=True)
     say(f"{'rank':>4}  {'score':>6}  {'z neighb.':>9}  {'z survey':>8}  tile  (classes that make the difference)")
@@ -47,7 +47,7 @@ def outliers(catalogue, output, report, reach, top, as_json, overwrite, quiet):
         classes = ", ".join(f"{c['class']} {c['difference']:+.1f} pts" for c in r["classes"])
         rank = f"{r['rank']}{'*' if r['outlier'] else ' '}"
         say(f"{rank:>5} {r['score']:>6.2f}  {near:>9}  {r['z_survey']:>8.2f}  {r['name']}"
-                   + (f"  ({classes})" if classes else ""))
+            + (f"  ({classes})" if classes else ""))
     if len(found.results) > top:
         say(f"  ... {len(found.results) - top:,} more (--top, --json)")
     say(found.verdict(marked=", marked *"))

@@ -52,7 +52,7 @@ def resilience_command(source, fractions, repeats, seed, as_json, plot, render, 
         return
     keys = [k for k in METRIC_KEYS if result.to_dict()["metrics"][k] is not None]
     say(f"{source}: {counted(result.repeats, 'random subsample')} per fraction (seed {result.seed}), "
-               f"{result.render} rendering; mean ± standard deviation against the full cloud")
+        f"{result.render} rendering; mean ± standard deviation against the full cloud")
     header = f"{'fraction':>8} {'points':>10} " + " ".join(f"{METRIC_NAMES[k]:>17}" for k in keys)
     say(header)
     stats = {k: result.summary(k) for k in keys}

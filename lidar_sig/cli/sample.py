@@ -27,4 +27,4 @@ def sample(folder, overwrite, as_json):
         return
     for f in files:
         say(f"{'wrote' if f.written else 'kept'} {f.path} ({f.points:,} points"
-                   + ("" if f.written else ", already there and the same") + ")")
+            + ("" if f.written else ", already there and the same") + ")")

@@ -37,10 +37,10 @@ def similar(query, catalogue, top, metric, shortlist, as_json, columns, quiet):
     kind = {"tile": "a tile of the catalogue, left out of the list", "cloud": "a cloud, computed with the catalogue's method",
             "archive": "an archive made with the catalogue's method"}[q["kind"]]
     say(f"query {q['name']} ({kind}); ranked by {metric}; full metrics for {s['screened_by']}"
-               + ("" if s["certain"] else " (the top may miss a tile outside the shortlist)"))
+        + ("" if s["certain"] else " (the top may miss a tile outside the shortlist)"))
     keys = [k for k in METRIC_KEYS if k in found.results[0]] if found.results else []
     head = f"{'rank':>4}  {'distance':>8}  " + "  ".join(f"{METRIC_NAMES[k]:>10}" for k in keys) + "  tile"
     say(head)
     for r in found.results:
         say(f"{r['rank']:>4}  {r['distance']:>8.4f}  " + "  ".join(f"{r[k]:>10.4f}" for k in keys)
-                   + f"  {r['name']}")
+            + f"  {r['name']}")

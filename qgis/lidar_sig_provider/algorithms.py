@@ -302,8 +302,7 @@ class LidarSigAlgorithm(QgsProcessingAlgorithm):
             return message
         if self.parameterDefinition("RESUME") is None:
             return message.replace(" for --resume", " for the command's --resume (this algorithm starts over)")
-        if asks_temporary((parameters or {}).get("OUTPUT")) or (outputs.get("OUTPUT") or "").startswith(
-                QgsProcessingUtils.tempFolder()):
+        if asks_temporary((parameters or {}).get("OUTPUT")):
             return message.replace(" for --resume", ", but a temporary output cannot be resumed: save the output to a "
                                    "file to resume an interrupted run")
         return message.replace(" for --resume", "; to reuse it, run again with the same output and Resume ticked")
@@ -538,15 +537,16 @@ class ChangesAlgorithm(LidarSigAlgorithm):
         self.styled([outputs["CELLS"], outputs["OUTPUT"]], context)  # the cells above the map
         self.load_points(outputs["POINTS"], "later epoch with change", context, feedback)
         grid = data["grid"]
-        moved = data["coverage"]["changed"]
+        moved = data["coverage"].get("changed")  # a lidar-sig older than the plugin has no such count
         feedback.pushInfo(f"{grid['valid']} cells compared, {grid['significant']} changed significantly "
-                          f"(score {data['score']}, cells of {data['cell_m']:g} m); {grid['changed']} changed with "
-                          f"{moved['appeared']} appeared and {moved['vanished']} vanished inside the other epoch's "
-                          f"footprint")
+                          f"(score {data['score']}, cells of {data['cell_m']:g} m)" + (
+                              f"; {grid['changed']} changed with {moved['appeared']} appeared and {moved['vanished']} "
+                              "vanished inside the other epoch's footprint" if moved else ""))
         if data.get("wide_because"):
             feedback.pushWarning(f"no cell changed significantly and the level of detection is wide: "
                                  f"{data['wide_because']}; the cells layer's rank says where to look first")
-        return {**outputs, "COMPARED": grid["valid"], "SIGNIFICANT": grid["significant"], "CHANGED": grid["changed"]}
+        return {**outputs, "COMPARED": grid["valid"], "SIGNIFICANT": grid["significant"],
+                "CHANGED": grid.get("changed")}
 
 
 # -- survey catalogues ----------------------------------------------------------------------------
