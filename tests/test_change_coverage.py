@@ -310,3 +310,28 @@ def test_a_bay_open_at_a_corner_and_a_gap_larger_than_a_hectare_are_not_the_surv
     assert HOLE_M2 < 25 * 25.0 ** 2  # 25 cells of 25 m: more than a hectare
     assert appeared_inside(gap, (12, 12), cell_m=25.0) == set()
     assert appeared_inside(gap, (12, 12), cell_m=10.0) == set(gap)  # 0.25 ha: land that changed
+
+
+def test_an_epoch_given_as_a_glob_or_a_virtual_point_cloud_gives_the_map_of_its_files(tmp_path):
+    # issue 37: epochs as a glob pattern of tiles or a .vpc (a STAC ItemCollection, as QGIS and PDAL write)
+    import shutil
+
+    tiles = tmp_path / "tiles"
+    tiles.mkdir()
+    shutil.copyfile(ALIGNED, tiles / "later.laz")
+    vpc = tiles / "later.vpc"
+    vpc.write_text(json.dumps({"type": "FeatureCollection", "features": [
+        {"type": "Feature", "stac_version": "1.0.0", "assets": {"data": {"href": "./later.laz", "roles": ["data"]}}}]}))
+    answers = []
+    for later in (ALIGNED, tiles / "lat*.laz", vpc):
+        done = run("changes", SAMPLES / "epoch1.laz", later, "--cell", str(CELL), "--json", "--top", "100000")
+        assert done.returncode == 0, done.stderr
+        info = json.loads(done.stdout)
+        answers.append((info["grid"], [(c["row"], c["col"], c["score"], c["significant"]) for c in info["top"]]))
+    assert answers[1] == answers[0] and answers[2] == answers[0]
+    # a pattern that matches nothing, and a .vpc that lists a missing tile: one line naming them
+    from robustness.helpers import assert_one_line_error
+
+    assert_one_line_error(run("changes", SAMPLES / "epoch1.laz", tiles / "*.las"), "*.las", "matches no")
+    vpc.write_text(vpc.read_text().replace("later.laz", "gone.laz"))
+    assert_one_line_error(run("changes", SAMPLES / "epoch1.laz", vpc), "later.vpc", "gone.laz")
