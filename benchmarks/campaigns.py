@@ -43,18 +43,20 @@ SCHEMES = {"ign": ((3, 4, 5), "1,3,4,5=vegetation-or-other"),
 KINDS = ("strips", "leaf-off", "misaligned", "density x3", "class scheme")
 
 
-def block_sources(folder, n_points):
-    """(N,) the ``point_source_id`` (flight strip) of each point of the survey block read from
-    ``folder`` by :func:`lidar_sig.change_map.read_epoch` (files in the same sorted order)."""
+def block_sources(source, n_points):
+    """(N,) the ``point_source_id`` (flight strip) of each point of the survey block that
+    :func:`lidar_sig.change_map.read_epoch` reads from ``source`` (a folder, or a list of files;
+    the files in the same order)."""
     import laspy
 
     from lidar_sig.io import CLOUD_EXTENSIONS
 
-    paths = sorted(p for p in Path(folder).iterdir() if p.suffix.lower() in CLOUD_EXTENSIONS and p.is_file())
-    source = np.concatenate([np.asarray(laspy.read(p).point_source_id, np.int64) for p in paths])
-    if len(source) != n_points:
-        raise SystemExit(f"{folder}: {len(source)} strip ids for {n_points} points; the block was read otherwise")
-    return source
+    paths = (list(source) if isinstance(source, (list, tuple)) else
+             sorted(p for p in Path(source).iterdir() if p.suffix.lower() in CLOUD_EXTENSIONS and p.is_file()))
+    ids = np.concatenate([np.asarray(laspy.read(p).point_source_id, np.int64) for p in paths])
+    if len(ids) != n_points:
+        raise SystemExit(f"{source}: {len(ids)} strip ids for {n_points} points; the block was read otherwise")
+    return ids
 
 
 def strip_pair(xyz, source):

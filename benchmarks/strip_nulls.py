@@ -24,6 +24,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "benchmarks"))
 DATA = ROOT.parent / "shared" / "data"
 BLOCKS = {"IGN block": sorted((DATA / "ign_lidarhd_montpellier").glob("*.laz")),
           "AHN3 crop 1": [DATA / "ahn3_delft" / "ahn3_cropped_1.laz"],
@@ -33,21 +34,17 @@ LEAST_SHARE = 0.05
 
 
 def strips(paths):
-    """{point_source_id: PointCloud} of the strips of the files ``paths`` joined."""
-    import laspy
+    """{point_source_id: PointCloud} of the strips of the files ``paths`` joined (read as the
+    change map reads an epoch; the strip of each point from benchmarks/campaigns.py)."""
+    from campaigns import block_sources
 
+    from lidar_sig.change_map import read_epoch
     from lidar_sig.method.cloud import PointCloud
 
-    xyz, labels, source, crs = [], [], [], None
-    for path in paths:
-        las = laspy.read(path)
-        xyz.append(np.column_stack([las.x, las.y, las.z]))
-        labels.append(np.asarray(las.classification))
-        source.append(np.asarray(las.point_source_id))
-        crs = crs or las.header.parse_crs()
-    xyz, labels, source = np.vstack(xyz), np.concatenate(labels), np.concatenate(source)
+    block = read_epoch(list(paths))
+    source = block_sources(list(paths), len(block.xyz))
     ids, counts = np.unique(source, return_counts=True)
-    return {int(k): PointCloud(xyz[source == k], labels[source == k], crs=crs)
+    return {int(k): PointCloud(block.xyz[source == k], block.labels[source == k], crs=block.crs)
             for k in ids[counts >= LEAST_SHARE * len(source)]}
 
 

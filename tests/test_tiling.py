@@ -348,3 +348,18 @@ def test_a_signal_during_a_streamed_write_stops_it_at_the_next_chunk(tmp_path):
                          chunk_points=5_000)
     assert len(asked) == 2  # not the 9 chunks of the file
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_set_of_tiles_may_be_named_by_a_glob_pattern_or_a_virtual_point_cloud(tmp_path):
+    # the tiles of a set as QGIS and PDAL list them (.vpc), or a quoted pattern, as a folder's
+    import json
+
+    from lidar_sig.tiling.sources import expand
+
+    folder = need_data(IGN)
+    vpc = tmp_path / "ign.vpc"
+    vpc.write_text(json.dumps({"type": "FeatureCollection", "features": [
+        {"type": "Feature", "assets": {"data": {"href": str(p), "roles": ["data"]}}} for p in IGN_FILES]}))
+    assert expand([folder / "*.laz"]) == expand([folder]) == expand([vpc])
+    with pytest.raises(ls.LidarSigError, match="matches no point-cloud file"):
+        expand([folder / "*.las"])

@@ -142,13 +142,18 @@ def cell_table(grid, binned, min_points, densities=(1.0, 1.0), cell_m=None):
     return table
 
 
+def covering(min_points):
+    """The points from which one epoch covers a cell: :data:`COVERS` x ``min_points``, at least one."""
+    return max(1, int(np.ceil(COVERS * min_points)))
+
+
 def coverage(points_a, points_b, valid, min_points, densities=(1.0, 1.0)):
     """(cells,) int8 :data:`COVERAGE` code of each cell from its points in each epoch, whether it
     is compared and the epochs' ``densities``: appeared where B holds :data:`COVERS` x
     ``min_points`` points or more (at least one) and A, per unit of its density, less than
     :data:`ALMOST_NONE` of B's; vanished the other way round; too few points where either holds
     a point; not covered where neither does."""
-    least = max(1, int(np.ceil(COVERS * min_points)))
+    least = covering(min_points)
     points_a, points_b = np.asarray(points_a), np.asarray(points_b)
     per_a, per_b = points_a / densities[0], points_b / densities[1]  # points as if at one density
     appeared = (points_b >= least) & (per_a < ALMOST_NONE * per_b)
@@ -186,7 +191,7 @@ def in_footprint(codes, points_a, points_b, min_points, shape, cell_m=None):
     ``min_points`` points or more and the cell is not named as only the other's (a cell at the
     edge of A's survey, holding a sliver of its points, is not A's land); False for every other
     coverage state."""
-    least = max(1, int(np.ceil(COVERS * min_points)))
+    least = covering(min_points)
     most = None if cell_m is None else max(1, int(HOLE_M2 // (cell_m * cell_m)))
     codes = np.asarray(codes)
     inside = np.zeros(len(codes), bool)

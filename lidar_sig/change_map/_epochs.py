@@ -12,6 +12,7 @@ import numpy as np
 from ..method.cloud import PointCloud
 from ..method.crs import crs_name, same_crs
 from ..base.errors import LidarSigError, a_kind, as_path
+from ..io.tile_lists import tile_list
 
 
 @dataclass
@@ -44,55 +45,6 @@ def compute_epoch(source, pipeline=None, *, columns=None):
     return Epoch(cloud.path or "(in memory)", cloud, sal, stats, kept=pipeline.kept(cloud))
 
 
-#: Characters that make an epoch given as text a glob pattern of tiles (``"2019/*.laz"``).
-GLOB = set("*?[")
-
-
-def tile_paths(source):
-    """The tiles an epoch given as text names, or None where it names one file or a folder: the
-    files a glob pattern matches (sorted; point-cloud extensions only), or the data assets a
-    virtual point cloud file (``.vpc``: a STAC ItemCollection, one feature per tile, each
-    asset's ``href`` relative to the file) lists."""
-    from ..io import CLOUD_EXTENSIONS
-
-    text = str(source)
-    if text.lower().endswith(".vpc"):
-        return _vpc_paths(Path(text))
-    if GLOB & set(text) and not Path(text).exists():
-        import glob
-
-        paths = sorted(Path(p) for p in glob.glob(text) if Path(p).suffix.lower() in CLOUD_EXTENSIONS
-                       and Path(p).is_file())
-        if not paths:
-            raise LidarSigError(f"matches no point-cloud file ({', '.join(CLOUD_EXTENSIONS)}); check the pattern, "
-                                "and quote it so that the shell does not expand it", path=text)
-        return paths
-    return None
-
-
-def _vpc_paths(path):
-    """The tiles a virtual point cloud file lists (:func:`tile_paths`)."""
-    import json
-
-    try:
-        features = json.loads(path.read_text(encoding="utf-8"))["features"]
-        hrefs = [next(a["href"] for a in f["assets"].values() if "data" in a.get("roles", ["data"]))
-                 for f in features]
-    except FileNotFoundError:
-        raise LidarSigError("does not exist; give an existing .vpc file", path=path) from None
-    except (OSError, ValueError, KeyError, TypeError, StopIteration, AttributeError) as exc:
-        raise LidarSigError(f"cannot be read as a virtual point cloud ({type(exc).__name__}: {exc}); give a .vpc "
-                            "file as QGIS or PDAL write it (a STAC ItemCollection of the tiles)", path=path) from None
-    if not hrefs:
-        raise LidarSigError("lists no tile; give a .vpc file that lists the epoch's tiles", path=path)
-    paths = [Path(h) if Path(h).is_absolute() else path.parent / h for h in hrefs]
-    missing = [p for p in paths if not p.is_file()]
-    if missing:
-        raise LidarSigError(f"lists {missing[0]}, which does not exist ({len(missing)} of {len(paths)} tiles "
-                            "missing); give the .vpc beside its tiles, as it was written", path=path)
-    return paths
-
-
 def read_epoch(source, *, columns=None):
     """A PointCloud from a file, a folder of tiles, a list of files, a glob pattern of tiles, a
     virtual point cloud file (``.vpc``), or a PointCloud.
@@ -108,7 +60,7 @@ def read_epoch(source, *, columns=None):
         return source.cloud
     if isinstance(source, (str, Path)):
         as_path(source, "an epoch")  # a name the system cannot take is named first
-    listed = tile_paths(source) if isinstance(source, (str, Path)) else None
+    listed = tile_list(source) if isinstance(source, (str, Path)) else None
     if listed is not None:
         paths = listed
     elif isinstance(source, (str, Path)) and Path(source).is_dir():

@@ -282,6 +282,22 @@ class ChangeMap:
         flag's own false discovery rate."""
         return (1.0 - self.confidence) * int(self.table["valid"].sum())
 
+    def answer(self) -> list[str]:
+        """The map's answer to "what changed?" in lines: the changed cells (significant, and
+        appeared or vanished inside the other epoch's footprint), how many flags may be false,
+        and, on a map without a significant cell whose level is wide, why and where to look."""
+        moved = self.coverage_changes()
+        false = (f"; of the significant, expect up to {min(self.false_flags, self.n_significant):.1f} to be "
+                 f"unchanged land ({1 - self.confidence:.0%} of the compared cells)" if self.n_significant else "")
+        lines = [f"changed: {self.n_changed} cells ({self.n_significant} significant, {moved['appeared']} appeared "
+                 f"and {moved['vanished']} vanished inside the other epoch's footprint; {moved['at the edges']} at a "
+                 f"survey's edge or in a gap of it not counted){false}"]
+        why = "" if self.n_significant else self.wide_because()
+        if why:
+            lines.append(f"no cell changed significantly and the level of detection is wide: {why}; the ranking "
+                         "still says where to look first (the rows below)")
+        return lines
+
     def wide_because(self) -> str:
         """Why this map's level of detection is wide, in words ("" where nothing says so): too
         few cells for the survey part, an epoch below 1 point/m², or scores of unchanged land
@@ -403,7 +419,7 @@ class ChangeMap:
                          "cells": self.grid.n_cells, "valid": int(self.table["valid"].sum()),
                          "significant": self.n_significant, "changed": self.n_changed,
                          "false_flags": round(self.false_flags, 2)},
-                "wide_because": self.wide_because() if not self.n_significant else "",
+                "wide_because": self.wide_because() if not self.n_significant else "", "answer": self.answer(),
                 "coverage": {"cells": self.coverage(), "codes": {str(k): v for k, v in COVERAGE.items()},
                              "changed": self.coverage_changes(),
                              "appeared": self.uncompared("appeared"), "vanished": self.uncompared("vanished")},

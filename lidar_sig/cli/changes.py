@@ -115,24 +115,7 @@ def _header(cm):
             f"{counts['not covered']} not covered",
             f"{cm.n_significant} changed significantly ({score} or {height} above its level of detection, "
             f"{cm.confidence:.0%} together), marked *; rows: significant first, then by z (the larger test's, in "
-            "spreads above its level)", *_answer(cm)]
-
-
-def _answer(cm):
-    """The map's answer to "what changed?" (significant, appeared and vanished cells inside the
-    other epoch's footprint), how many flags may be false, and where to look on a map without
-    a significant cell."""
-    moved = cm.coverage_changes()
-    false = (f"; of the significant, expect up to {min(cm.false_flags, cm.n_significant):.1f} to be unchanged land "
-             f"({1 - cm.confidence:.0%} of the compared cells)" if cm.n_significant else "")
-    lines = [f"changed: {cm.n_changed} cells ({cm.n_significant} significant, {moved['appeared']} appeared and "
-             f"{moved['vanished']} vanished inside the other epoch's footprint; {moved['at the edges']} at a "
-             f"survey's edge or in a gap of it not counted){false}"]
-    why = "" if cm.n_significant else cm.wide_because()
-    if why:
-        lines.append(f"no cell changed significantly and the level of detection is wide: {why}; the ranking still "
-                     "says where to look first (the rows below)")
-    return lines
+            "spreads above its level)", *cm.answer()]
 
 
 def _densities(result):

@@ -84,18 +84,7 @@ def coverage_text(cm):
     text = ("<p>Coverage: " + ", ".join(f"{n} {page.esc(state)}" for state, n in counts.items())
             + " (appeared: only B covers the cell; vanished: only A; too few points: points of either or both, "
             f"fewer than {cm.min_points:,} with defined saliency in one of them; not covered: no point).</p>")
-    moved = cm.coverage_changes()
-    false = (f" Of the significant cells, up to {min(cm.false_flags, cm.n_significant):.1f} may be unchanged land "
-             f"({1 - cm.confidence:.0%} of the {int(cm.table['valid'].sum())} compared cells)."
-             if cm.n_significant else "")
-    text += (f"<p><b>Changed: {cm.n_changed} cells</b>: the {cm.n_significant} significant, and {moved['appeared']} "
-             f"appeared and {moved['vanished']} vanished inside the other epoch's footprint (land it surveyed around "
-             f"them); {moved['at the edges']} appeared or vanished at a survey's edge or in a gap of it are not "
-             f"counted.{false} Each cell's q-value is in the cells layer and the JSON.</p>")
-    why = "" if cm.n_significant else cm.wide_because()
-    if why:
-        text += (f"<p>No cell changed significantly and the level of detection is wide: {page.esc(why)}. The ranking "
-                 "still says where to look first (the table below).</p>")
+    text += "".join(f"<p>{page.esc(line[:1].upper() + line[1:])}.</p>" for line in cm.answer())
     rows = [[page.esc(state), f"{c['bounds'][0]:.0f} to {c['bounds'][2]:.0f}<br>{c['bounds'][1]:.0f} to "
              f"{c['bounds'][3]:.0f}", f"{c['points_a']:,} / {c['points_b']:,}",
              "yes" if c["changed"] else "no: an edge or a gap"]

@@ -30,6 +30,7 @@ from ..numerics.bounds import bounds
 from ..method.cloud import MAX_COORDINATE, check_magnitude, kept_points
 from ..base.errors import LidarSigError, arg, as_path, counted, reason, special_file
 from ..io import LAS_EXTENSIONS
+from ..io.tile_lists import tile_list
 from .work import STAGED
 
 #: Bits of a point identifier that hold its index in its file (files up to 10^12 points).
@@ -43,11 +44,18 @@ RECORD = np.dtype([("x", "f8"), ("y", "f8"), ("z", "f8"), ("label", "i8"), ("id"
 
 
 def expand(inputs: Iterable[str | os.PathLike[str]]) -> list[Path]:
-    """The LAS/LAZ files of ``inputs`` (files and folders; a folder's files sorted by name)."""
+    """The LAS/LAZ files of ``inputs`` (files, folders, glob patterns and ``.vpc`` files,
+    :func:`lidar_sig.io.tile_lists.tile_list`; a folder's files sorted by name)."""
     files = []
     for given in inputs:
         p = as_path(given, "the inputs")
-        if p.is_dir():
+        listed = tile_list(p)  # a glob pattern of tiles, or a .vpc
+        if listed is not None:
+            for q in listed:
+                if q.suffix.lower() not in LAS_EXTENSIONS:
+                    raise LidarSigError(f"lists {q.name}; a set of tiles is read from LAS/LAZ files only", path=p)
+            files += listed
+        elif p.is_dir():
             found = sorted(q for q in p.iterdir() if q.is_file() and q.suffix.lower() in LAS_EXTENSIONS)
             if not found:
                 raise LidarSigError("the folder holds no .las or .laz file; give a folder of LAS/LAZ tiles",

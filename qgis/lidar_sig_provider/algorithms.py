@@ -537,14 +537,10 @@ class ChangesAlgorithm(LidarSigAlgorithm):
         self.styled([outputs["CELLS"], outputs["OUTPUT"]], context)  # the cells above the map
         self.load_points(outputs["POINTS"], "later epoch with change", context, feedback)
         grid = data["grid"]
-        moved = data["coverage"].get("changed")  # a lidar-sig older than the plugin has no such count
         feedback.pushInfo(f"{grid['valid']} cells compared, {grid['significant']} changed significantly "
-                          f"(score {data['score']}, cells of {data['cell_m']:g} m)" + (
-                              f"; {grid['changed']} changed with {moved['appeared']} appeared and {moved['vanished']} "
-                              "vanished inside the other epoch's footprint" if moved else ""))
-        if data.get("wide_because"):
-            feedback.pushWarning(f"no cell changed significantly and the level of detection is wide: "
-                                 f"{data['wide_because']}; the cells layer's rank says where to look first")
+                          f"(score {data['score']}, cells of {data['cell_m']:g} m)")
+        for line in data.get("answer", []):  # the map's own answer (a lidar-sig older than the plugin has none)
+            feedback.pushInfo(line)
         return {**outputs, "COMPARED": grid["valid"], "SIGNIFICANT": grid["significant"],
                 "CHANGED": grid.get("changed")}
 

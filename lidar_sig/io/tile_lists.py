@@ -1,0 +1,55 @@
+"""Sets of tiles named by one text: a glob pattern of tiles (``"2019/*.laz"``) or a virtual point
+cloud file (``.vpc``: a STAC ItemCollection, one feature per tile, as QGIS and PDAL write it).
+Used wherever a set of tiles is taken: a change map's epoch, the inputs of a tiled run."""
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+from ..base.errors import LidarSigError
+
+#: Characters that make a text a glob pattern of tiles.
+GLOB = set("*?[")
+
+
+def tile_list(source: str | os.PathLike[str]) -> list[Path] | None:
+    """The tiles ``source`` names, or None where it names one file or a folder: the files a
+    glob pattern matches (sorted; point-cloud extensions only), or the data assets a ``.vpc``
+    file lists (each asset's ``href`` relative to the file)."""
+    from . import CLOUD_EXTENSIONS  # the installed formats', made when first asked for
+
+    text = str(source)
+    if text.lower().endswith(".vpc"):
+        return _vpc_paths(Path(text))
+    if GLOB & set(text) and not Path(text).exists():
+        import glob
+
+        paths = sorted(Path(p) for p in glob.glob(text) if Path(p).suffix.lower() in CLOUD_EXTENSIONS
+                       and Path(p).is_file())
+        if not paths:
+            raise LidarSigError(f"matches no point-cloud file ({', '.join(CLOUD_EXTENSIONS)}); check the pattern, "
+                                "and quote it so that the shell does not expand it", path=text)
+        return paths
+    return None
+
+
+def _vpc_paths(path: Path) -> list[Path]:
+    """The tiles a virtual point cloud file lists (:func:`tile_list`)."""
+    try:
+        features = json.loads(path.read_text(encoding="utf-8"))["features"]
+        hrefs = [next(a["href"] for a in f["assets"].values() if "data" in a.get("roles", ["data"]))
+                 for f in features]
+    except FileNotFoundError:
+        raise LidarSigError("does not exist; give an existing .vpc file", path=path) from None
+    except (OSError, ValueError, KeyError, TypeError, StopIteration, AttributeError) as exc:
+        raise LidarSigError(f"cannot be read as a virtual point cloud ({type(exc).__name__}: {exc}); give a .vpc "
+                            "file as QGIS or PDAL write it (a STAC ItemCollection of the tiles)", path=path) from None
+    if not hrefs:
+        raise LidarSigError("lists no tile; give a .vpc file that lists the epoch's tiles", path=path)
+    paths = [Path(h) if Path(h).is_absolute() else path.parent / h for h in hrefs]
+    missing = [p for p in paths if not p.is_file()]
+    if missing:
+        raise LidarSigError(f"lists {missing[0]}, which does not exist ({len(missing)} of {len(paths)} tiles "
+                            "missing); give the .vpc beside its tiles, as it was written", path=path)
+    return paths
