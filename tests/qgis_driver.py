@@ -179,7 +179,7 @@ def picture(project, layers, path):
     page.setPageSize(QgsLayoutSize(340, 180, QgsUnitTypes.LayoutMillimeters))
     title = QgsLayoutItemLabel(layout)
     title.setText("lidar_sig change map in QGIS: each cell's distance from its level of detection, and the "
-                  "cells above it (outlined where significant)")
+                  "cells above it (outlined where they changed)")
     title.attemptMove(QgsLayoutPoint(8, 4, QgsUnitTypes.LayoutMillimeters))
     title.attemptResize(QgsLayoutSize(280, 10, QgsUnitTypes.LayoutMillimeters))
     layout.addLayoutItem(title)
