@@ -122,17 +122,23 @@ def cell_table(grid, binned, min_points, densities=(1.0, 1.0), cell_m=None):
     compare), ``coverage`` (:func:`coverage`, with the epochs' ``densities`` in points per m²);
     the metrics and ranking fields NaN (False) for :func:`observed_metrics` and the ranking to
     fill."""
+    return counts_table(grid, [np.diff(b.starts) for b in binned], [b.undefined for b in binned], min_points,
+                        densities, cell_m)
+
+
+def counts_table(grid, points, undefined, min_points, densities=(1.0, 1.0), cell_m=None):
+    """:func:`cell_table` from each epoch's points and undefined points per cell ((cells,)
+    arrays), as a survey-scale map gathers them from its work units."""
     n_cells = grid.n_cells
     dtype = list(CELL_FIELDS) + [(k, np.float64) for k in CHANGE_KEYS] + list(RANKING_FIELDS)
     table = np.zeros(n_cells, dtype=dtype)
     flat = np.arange(n_cells)
     table["row"], table["col"] = np.divmod(flat, grid.cols)
     table["x_min"], table["y_min"], table["x_max"], table["y_max"] = grid.bounds(flat)
-    for tag, b in zip("ab", binned):
-        n = np.diff(b.starts)
+    for tag, n, u in zip("ab", points, undefined):
         table[f"points_{tag}"] = n
-        table[f"defined_{tag}"] = n - b.undefined
-        table[f"undefined_{tag}"] = b.undefined / np.maximum(n, 1)
+        table[f"defined_{tag}"] = n - u
+        table[f"undefined_{tag}"] = u / np.maximum(n, 1)
     table["valid"] = (table["defined_a"] >= min_points) & (table["defined_b"] >= min_points)
     table["coverage"] = coverage(table["points_a"], table["points_b"], table["valid"], min_points, densities)
     table["in_footprint"] = in_footprint(table["coverage"], table["points_a"], table["points_b"], min_points,
@@ -225,18 +231,19 @@ def _compared(sig_a, sig_b, z_a, z_b, render):
 
 
 def null_metrics(table, binned, classes, *, replicates=REPLICATES, render="smooth", frame=CELL_FRAME, seed=SEED,
-                 stream=0, progress=None):
+                 stream=0, progress=None, flat=None):
     """(cells, 2 x replicates, :data:`CHANGE_KEYS`) values of every metric between resamples of one
     epoch's points, NaN outside the valid cells: for each epoch and replicate, the cell's
     points of that epoch drawn with replacement at A's count and at B's count (undefined
     points included, as the class totals count them) and compared. What unchanged land gives,
     sampled as this cell is: the sampling part of the level of detection. Each cell draws from
-    the random stream (``seed``, ``stream``, cell)."""
+    the random stream (``seed``, ``stream``, cell), the cell its flat index on the map's grid
+    (``flat[c]`` for row c of a work unit's table, :mod:`~lidar_sig.change_map._units`)."""
     n_metrics = len(CHANGE_KEYS)
     out = np.full((len(table), 2 * replicates, n_metrics), np.nan)
     cells = np.flatnonzero(table["valid"])
     for c in (progress.track(cells, unit="cell") if progress is not None else cells):
-        rng = np.random.default_rng([seed, stream, int(c)])
+        rng = np.random.default_rng([seed, stream, int(c if flat is None else flat[c])])
         sizes = (int(table["points_a"][c]), int(table["points_b"][c]))
         j = 0
         for b in binned:

@@ -23,6 +23,7 @@ from ._grid import MAX_CELLS, Grid, check_cell
 from ._lod import CONFIDENCE, MIN_CELLS, REPLICATES
 from ._maps import LABEL_FREE_SCORE, SCORE, ChangeMap, metric_levels
 from .series import ChangeSeries
+from ._in_units import changes_in_units, in_units
 
 if TYPE_CHECKING:
     from ..pipeline.flow import Pipeline
@@ -34,7 +35,8 @@ AUTO = "auto"
 @overload
 def changes(a: Any, b: Any, /, *, cell: float | str = AUTO, pipeline: Pipeline | None = None,
             min_points: int | str = AUTO, score: str | None = None, render: str = "smooth", frame: Frame = CELL_FRAME,
-            columns: Any = None, confidence: float = CONFIDENCE, class_map: Any = None, seed: int = SEED) -> ChangeMap:
+            columns: Any = None, confidence: float = CONFIDENCE, class_map: Any = None, seed: int = SEED,
+            execution: Any = None, resume: bool = False, work: Any = None) -> ChangeMap:
     ...
 
 
@@ -42,14 +44,15 @@ def changes(a: Any, b: Any, /, *, cell: float | str = AUTO, pipeline: Pipeline |
 def changes(a: Any, b: Any, c: Any, /, *more: Any, cell: float | str = AUTO, pipeline: Pipeline | None = None,
             min_points: int | str = AUTO, score: str | None = None, render: str = "smooth", frame: Frame = CELL_FRAME,
             columns: Any = None, confidence: float = CONFIDENCE, class_map: Any = None,
-            seed: int = SEED) -> ChangeSeries:
+            seed: int = SEED, execution: Any = None, resume: bool = False, work: Any = None) -> ChangeSeries:
     ...
 
 
 def changes(a: Any, b: Any, *more: Any, cell: float | str = AUTO, pipeline: Pipeline | None = None,
             min_points: int | str = AUTO, score: str | None = None, render: str = "smooth", frame: Frame = CELL_FRAME,
             columns: Any = None, confidence: float = CONFIDENCE, class_map: Any = None,
-            seed: int = SEED) -> ChangeMap | ChangeSeries:
+            seed: int = SEED, execution: Any = None, resume: bool = False,
+            work: Any = None) -> ChangeMap | ChangeSeries:
     """Per-cell change map between epochs of the same area (registration-free), with a level of
     detection per cell and metric.
 
@@ -85,6 +88,16 @@ def changes(a: Any, b: Any, *more: Any, cell: float | str = AUTO, pipeline: Pipe
         ``"1,3,4,5=vegetation-or-other"`` (see :func:`lidar_sig.method.class_maps.parse_class_map`).
     seed : int
         Seed of the resampling behind the level of detection (each cell has its own stream).
+    execution : Execution, optional
+        Memory budget of each process, workers or a Dask scheduler (default: 1 GiB, all cores).
+        Two epochs of LAS/LAZ files whose one block would need more than the budget, or with a
+        tile size, workers or a scheduler asked, are mapped in work units
+        (docs/changes.md, "At survey scale"): the same map, in bounded memory.
+    resume : bool
+        Reuse what an interrupted run in work units finished in its work folder (``work``).
+    work : str or Path, optional
+        Work folder of a run in work units (default: a new one in the execution's ``work_dir``
+        or the temporary folder, removed with the map's ``close()``).
 
     Returns
     -------
@@ -106,6 +119,17 @@ def changes(a: Any, b: Any, *more: Any, cell: float | str = AUTO, pipeline: Pipe
     seed = whole_number(seed, "seed")
     pipeline = pipeline_or_default(pipeline)
     table_of_classes = merge_classes(pipeline.classes, class_map)  # a bad map is refused before reading
+    from ..tiling.execution import as_execution
+
+    execution = as_execution(execution)
+    files = None if any(isinstance(x, Epoch) for x in sources) else in_units(sources, execution, resume)
+    if files is None and (resume or work is not None):
+        raise LidarSigError("resume and work are for a change map in work units: two epochs of LAS/LAZ files with "
+                            "a tile size, workers or a scheduler (Execution), or above the memory budget")
+    if files is not None:
+        return _in_units(sources, files, pipeline, execution, resume, work, table_of_classes, class_map, dict(
+            cell=cell, min_points=min_points, cell_rule=cell_rule, min_points_rule=min_points_rule, score=score,
+            render=render, frame=frame, confidence=confidence, seed=seed, memory=execution.memory))
     given = [x if isinstance(x, Epoch) else None for x in sources]  # saliency computed already
     for x in given:
         differ = [] if x is None else method_differences(x.metadata, pipeline.method())
@@ -183,6 +207,36 @@ def changes(a: Any, b: Any, *more: Any, cell: float | str = AUTO, pipeline: Pipe
     for text in dict.fromkeys(w for m in maps for w in m.warnings):  # each once
         warnings.warn(text, LidarSigWarning, stacklevel=2)
     return maps[0] if len(maps) == 1 else ChangeSeries(maps, epochs)
+
+
+def _in_units(sources, files, pipeline, execution, resume, work, table_of_classes, class_map, settings):
+    """The map of two epochs of LAS/LAZ ``files`` in work units (:mod:`~lidar_sig.change_map._in_units`)."""
+    from pathlib import Path
+
+    from ..tiling.work import discard_work, fresh_work, remove_work
+
+    names = [str(x) if not isinstance(x, (list, tuple)) else
+             (str(x[0]) if len(x) == 1 else f"{x[0]} (+{len(x) - 1} tiles)") for x in sources]
+    remove = remove_work if work is not None else discard_work
+    work = Path(work) if work is not None else fresh_work(execution.work_dir)
+    try:
+        cm = changes_in_units(files, names, pipeline=pipeline, execution=execution, work=work, resume=resume,
+                              settings=settings, classes_table=table_of_classes, remove=remove)
+    except BaseException:
+        if remove is discard_work:
+            remove(work)
+        raise
+    if class_map and cm.class_table is UNLABELED:
+        cm.close()
+        raise LidarSigError("a class map merges class codes, but not every epoch has class labels; leave out "
+                            "--class-map")
+    if settings["score"] in METRIC and METRIC[settings["score"]].needs_labels and cm.class_table is UNLABELED:
+        cm.close()
+        raise LidarSigError(f"score {settings['score']!r} needs class labels in every epoch; use fv or another "
+                            "geometric metric")
+    for text in dict.fromkeys(cm.warnings):
+        warnings.warn(text, LidarSigWarning, stacklevel=3)
+    return cm
 
 
 def _interval(k, epochs, binned, grid, classes, min_points, cell, render, frame, confidence, seed, score, method,

@@ -31,6 +31,30 @@ class Epoch:
         """The rows of per-point ``values`` (coordinates, saliency) of the points the run used."""
         return values if self.kept is None else values[self.kept]
 
+    @property
+    def n_points(self):
+        """The epoch's points, withheld and noise ones included."""
+        return len(self.cloud)
+
+    def cell_signature(self, flat, grid, classes, labelled, frame):
+        """The signature of cell ``flat`` of ``grid`` (:func:`~lidar_sig.change_map._cells.cell_signature`)."""
+        from ._cells import cell_signature, epoch_cells
+
+        return cell_signature(self, np.flatnonzero(epoch_cells(self, grid) == flat), classes, labelled, frame)
+
+    def view(self):
+        """(coordinates (N, 3), saliency (N, 3)) of the points the run used: a report's top view."""
+        return self.used(self.cloud.xyz), self.used(self.saliency.values)
+
+    def write_points(self, path, extra, *, overwrite=False):
+        """Write the epoch's points with their saliency and the fields ``extra(xy)`` of their
+        (N, 2) coordinates (a change map's per-point change) to the point cloud ``path``."""
+        from ..io import write_cloud
+
+        write_cloud(path, self.cloud, self.saliency, scale_kind=self.metadata.get("scale_kind"),
+                    scale_values=self.metadata.get("scale_values"), overwrite=overwrite,
+                    extra=extra(self.cloud.xyz[:, :2]))
+
 
 def compute_epoch(source, pipeline=None, *, columns=None):
     """The :class:`Epoch` of ``source`` (as :func:`read_epoch` takes it): read, and its saliency

@@ -167,6 +167,29 @@ def quantile(confidence):
     return NormalDist().inv_cdf(confidence)
 
 
+def sampling_part(null):
+    """The sampling part of the level of detection from the replicate scores ``null`` (cells,
+    replicates) of unchanged land: per cell the replicates' mean (floored at
+    :data:`VALUE_FLOOR`), the spread of their logs and whether every replicate is defined;
+    (cells,) arrays, NaN where not every replicate is. Cell by cell, so that work units of a
+    survey-scale map (:mod:`~lidar_sig.change_map._units`) give each its cells' part."""
+    null = np.asarray(null, dtype=np.float64)
+    n = len(null)
+    defined = np.isfinite(null).all(axis=1)
+    mu0, sigma = np.full(n, np.nan), np.full(n, np.nan)
+    replicates = null[defined]
+    mean = replicates.mean(axis=1)
+    mu0[defined] = np.maximum(mean, VALUE_FLOOR)
+    # the spread of the replicates' logs from their mean and variance, as of a lognormal sample
+    # (var ln X = ln(1 + CV²)): a replicate of 0, where one epoch's cell holds a single class
+    # and compares exactly equal with itself, is a small value here, where its logarithm
+    # (floored) made the spread, and the level of detection, thousands of times too large
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cv2 = np.where(mean > 0, replicates.var(axis=1, ddof=1) / mean ** 2, 0.0)
+    sigma[defined] = np.maximum(np.sqrt(np.log1p(cv2)), SPREAD_FLOOR)
+    return mu0, sigma, defined
+
+
 def level_of_detection(scores, null, valid, *, confidence=CONFIDENCE, key=""):
     """The :class:`Level` of one metric.
 
@@ -175,24 +198,21 @@ def level_of_detection(scores, null, valid, *, confidence=CONFIDENCE, key=""):
     ``valid``: (cells,) bool, the compared cells (where a metric is undefined, e.g. delta_KL of
     unlabelled epochs, its scores are NaN and nothing is significant); ``key`` names the metric.
     """
+    return level_from_sampling(scores, *sampling_part(null), valid, confidence=confidence, key=key)
+
+
+def level_from_sampling(scores, mu0, sigma, defined, valid, *, confidence=CONFIDENCE, key=""):
+    """The :class:`Level` of one metric from each cell's sampling part (:func:`sampling_part`:
+    ``mu0``, ``sigma``, ``defined``) and its observed ``scores``; the survey part over all the
+    compared cells of the map."""
     scores = np.asarray(scores, dtype=np.float64)
-    null = np.asarray(null, dtype=np.float64)
     n = len(scores)
-    use = np.asarray(valid, bool) & np.isfinite(scores) & np.isfinite(null).all(axis=1)
-    mu0, sigma, z, lod = (np.full(n, np.nan) for _ in range(4))
+    use = np.asarray(valid, bool) & np.isfinite(scores) & np.asarray(defined, bool)
+    z, lod = np.full(n, np.nan), np.full(n, np.nan)
+    mu0, sigma = np.where(use, mu0, np.nan), np.where(use, sigma, np.nan)
     significant = np.zeros(n, bool)
     if not use.any():
         return Level(mu0, sigma, z, lod, significant, 0.0, 0.0, False, confidence, key)
-    replicates = null[use]
-    mean = replicates.mean(axis=1)
-    mu0[use] = np.maximum(mean, VALUE_FLOOR)
-    # the spread of the replicates' logs from their mean and variance, as of a lognormal sample
-    # (var ln X = ln(1 + CV²)): a replicate of 0, where one epoch's cell holds a single class
-    # and compares exactly equal with itself, is a small value here, where its logarithm
-    # (floored) made the spread, and the level of detection, thousands of times too large
-    with np.errstate(invalid="ignore", divide="ignore"):
-        cv2 = np.where(mean > 0, replicates.var(axis=1, ddof=1) / mean ** 2, 0.0)
-    sigma[use] = np.maximum(np.sqrt(np.log1p(cv2)), SPREAD_FLOOR)
     ratio = np.log(np.maximum(scores[use], VALUE_FLOOR) / mu0[use])
     survey = int(use.sum()) >= MIN_CELLS
     if survey:

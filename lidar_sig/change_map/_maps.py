@@ -18,12 +18,12 @@ from ..metrics import METRIC, METRIC_NAMES, METRICS
 from ..base.progress import step
 from ..method.signature_raster import Frame
 from ..base.views import Records
-from ._cells import CELL_FRAME, CHANGE_KEYS, COVERAGE, COVERAGE_CHANGES, cell_signature, epoch_cells
+from ._cells import CELL_FRAME, CHANGE_KEYS, COVERAGE, COVERAGE_CHANGES
 from ._density import LEAST_DENSITY
 from ._epochs import Epoch
 from ._grid import Grid
 from ._heights import HEIGHT, HEIGHT_NAME
-from ._lod import CONFIDENCE, Levels, level_of_detection, p_values, pooled_confidence, q_values
+from ._lod import CONFIDENCE, Levels, level_from_sampling, p_values, pooled_confidence, q_values, sampling_part
 
 if TYPE_CHECKING:
     from ..reporting import Report
@@ -73,13 +73,23 @@ def score_values(table, score):
     return oriented(table[score], score)
 
 
-def metric_levels(table, null, *, confidence=CONFIDENCE):
+def sampling_parts(null):
+    """{metric key: (mu0, sigma, defined)} the sampling part of every metric's level of detection
+    (:func:`~lidar_sig.change_map._lod.sampling_part`) from the replicates ``null`` (cells,
+    replicates, metrics) of :func:`~lidar_sig.change_map._cells.null_metrics`, oriented as the
+    scores are."""
+    return {k: sampling_part(oriented(null[:, :, m], k)) for m, k in enumerate(CHANGE_KEYS)}
+
+
+def metric_levels(table, null=None, *, confidence=CONFIDENCE, sampled=None):
     """The :class:`~lidar_sig.change_map._lod.Levels` (metric key -> Level) of every metric, from
     the table's observed values and the replicates ``null`` (cells, replicates, metrics) of
-    :func:`~lidar_sig.change_map._cells.null_metrics`."""
-    return Levels({k: level_of_detection(oriented(table[k], k), oriented(null[:, :, m], k), table["valid"],
-                                         confidence=confidence, key=k)
-                   for m, k in enumerate(CHANGE_KEYS)})
+    :func:`~lidar_sig.change_map._cells.null_metrics`, or their sampling parts ``sampled``
+    (:func:`sampling_parts`, as a survey-scale map gathers them from its work units)."""
+    sampled = sampling_parts(null) if sampled is None else sampled
+    return Levels({k: level_from_sampling(oriented(table[k], k), *sampled[k], table["valid"], confidence=confidence,
+                                          key=k)
+                   for k in CHANGE_KEYS})
 
 
 def _where(cell):
@@ -351,8 +361,7 @@ class ChangeMap:
             raise LidarSigError(f"no cell {flat!r} in a grid of {self.grid.n_cells:,} cells; give a flat cell index "
                                 "from the table (row x columns + col)")
         labelled = bool(self.class_table.names)
-        return tuple(cell_signature(e, np.flatnonzero(epoch_cells(e, self.grid) == flat),
-                                    self.class_table, labelled, self.frame) for e in (self.a, self.b))
+        return tuple(e.cell_signature(flat, self.grid, self.class_table, labelled, self.frame) for e in (self.a, self.b))
 
     def to_pandas(self) -> Any:
         """The table as a pandas DataFrame (needs pandas)."""
@@ -497,14 +506,10 @@ class ChangeMap:
             with step(f"writing {Path(path).name}", cells=int(self.table["valid"].sum())):
                 write_geopackage(path, [cells_layer(self)], overwrite=overwrite)
         elif POINTS in holds:
-            from ..io import write_cloud
             from ._layers import point_change
 
-            e = self.b
-            with step(f"writing {Path(path).name}", points=len(e.cloud)):
-                write_cloud(path, e.cloud, e.saliency, scale_kind=e.metadata.get("scale_kind"),
-                            scale_values=e.metadata.get("scale_values"), overwrite=overwrite,
-                            extra=point_change(self))
+            with step(f"writing {Path(path).name}", points=self.b.n_points):
+                self.b.write_points(path, lambda xy: point_change(self, xy), overwrite=overwrite)
         elif IMAGE in holds:
             from ..io.png import write_png
             from ..reporting import change_map_image
@@ -517,6 +522,13 @@ class ChangeMap:
             ext = Path(path).suffix.lower()
             raise LidarSigError(f"cannot write a change map as {ext or '(no extension)'!r}; use .tif, .gpkg, "
                                 ".png, .html or a point-cloud format (.laz, .las, .ply, .csv, ...)", path=path)
+
+    def close(self) -> None:
+        """Remove the work folder of a map made in work units (docs/changes.md, "At survey
+        scale"): its per-cell values remain, its points go. Nothing for a map of one block."""
+        for e in (self.a, self.b):
+            if hasattr(e, "close"):
+                e.close()
 
     def report(self) -> Report:
         """The HTML report: the map over a top view of both epochs and the signatures of the top

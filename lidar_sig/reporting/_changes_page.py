@@ -34,9 +34,9 @@ def changes_report(change_map, *, top=TOP):
                 pngs[f"cell{rank}_{tag}.png"] = encode_png(signature_image(sig, "sas", cm.render, scale=scale))
     title = f"lidar_sig change map: {names[0]} and {names[1]}"
     summary = (f"<ul><li><span class=\"a\">A</span> <code>{page.esc(cm.a.name)}</code> "
-               f"({counted(len(cm.a.cloud), 'point')})</li><li><span class=\"b\">B</span> "
+               f"({counted(cm.a.n_points, 'point')})</li><li><span class=\"b\">B</span> "
                f"<code>{page.esc(cm.b.name)}</code> "
-               f"({counted(len(cm.b.cloud), 'point')})</li></ul>" + settings_text(cm))
+               f"({counted(cm.b.n_points, 'point')})</li></ul>" + settings_text(cm))
     maps = ('<div class="grid">'
             + page.image(pngs["map_a.png"], "change map over A", caption=f"Score over a top view of A, "
                          f"<code>{page.esc(names[0])}</code>")

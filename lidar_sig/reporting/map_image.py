@@ -77,7 +77,7 @@ def change_map_image(change_map, epoch="b", *, display=640, top=TOP):
 
     cm = change_map
     e = cm.a if epoch == "a" else cm.b
-    rgb, edges = _backdrop(cm.grid, e.used(e.cloud.xyz), e.used(e.saliency.values), display)
+    rgb, edges = _backdrop(cm.grid, *e.view(), display)
     t = cm.table
     valid, significant = t["valid"], t["significant"]
     top_value = float(np.nanmax(t["score"][valid])) if valid.any() else 1.0

@@ -23,6 +23,8 @@ WORK_MARK = "LIDAR_SIG_WORK"
 AREA_CAP_FILE = "area_cap.json"
 #: Sub-folder of the staged parts of a set's files (each with its record, ``.json``).
 STAGED = "stage"
+#: Sub-folder of a change map's finished work units (:mod:`lidar_sig.change_map._units`).
+UNITS = "units"
 #: Sub-folder of the finished tiles (each with its result, ``.npz``, written last).
 FINISHED = "tiles"
 #: Bytes the lock of a work folder adds to its name (``.NAME.lock`` beside it).
@@ -148,11 +150,13 @@ def resumable(work: str | os.PathLike[str], finished_only: bool = False) -> bool
     work = Path(work)
     if not (work / WORK_MARK).is_file():
         return False
-    wanted = [(FINISHED, ".npz")] + ([] if finished_only else [(STAGED, ".json")])
+    wanted = [(FINISHED, ".npz"), (UNITS, ".npz")] + ([] if finished_only else [(STAGED, ".json")])
     for sub, ext in wanted:
         with contextlib.suppress(OSError):
             if any(p.suffix == ext and not p.name.startswith(".") for p in (work / sub).iterdir()):
                 return True
+    with contextlib.suppress(OSError):  # a change map's folder holds each epoch's run in its own
+        return any(sub.is_dir() and resumable(sub, finished_only) for sub in work.iterdir())
     return False
 
 

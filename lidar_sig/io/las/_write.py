@@ -53,10 +53,12 @@ def with_fields(cloud, fields):
 
 
 def write_las_chunks(path, source, saliency_chunks, *, scale_kind=None, scale_values=None, overwrite=False,
-                     chunk_points=500_000):
+                     chunk_points=500_000, extra=None):
     """Write the LAS/LAZ file ``source`` with saliency extra dimensions to ``path``, as
     :func:`write_las` does, chunk by chunk: ``saliency_chunks(start, stop)`` gives the Saliency
-    of points [start, stop). Memory is bounded by the chunk, whatever the file's size."""
+    of points [start, stop), ``extra(xyz)`` (optional) more :class:`~lidar_sig.io.fields.Fields`
+    of the chunk's points from their (N, 3) coordinates (a change map's per-point change).
+    Memory is bounded by the chunk, whatever the file's size."""
     notes = []
     ranges = {}
     with laspy.open(source) as reader:
@@ -70,7 +72,10 @@ def write_las_chunks(path, source, saliency_chunks, *, scale_kind=None, scale_va
                 part = laspy.LasData(header=copy.deepcopy(header), points=chunk)
                 cloud = PointCloud(np.column_stack([np.asarray(chunk.x), np.asarray(chunk.y), np.asarray(chunk.z)]),
                                    source=part, path=str(source), crs=crs, units=units)
-                las, notes = with_fields(cloud, saliency_fields(saliency_chunks(start, stop), scale_kind, scale_values))
+                fields = saliency_fields(saliency_chunks(start, stop), scale_kind, scale_values)
+                if extra is not None:
+                    fields.update(extra(cloud.xyz))
+                las, notes = with_fields(cloud, fields)
                 if writer is None:
                     writer_cm = _las_writer(path, las.header, overwrite)
                     writer = writer_cm.__enter__()

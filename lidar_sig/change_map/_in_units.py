@@ -1,0 +1,327 @@
+"""The change map of two epochs at survey scale, in work units within the memory budget
+(docs/changes.md, "At survey scale"): each epoch's saliency as a tiled run of its files
+(:func:`lidar_sig.tiling.run_set.run_set`, halos checked per point), then the tasks of
+:mod:`~lidar_sig.change_map._units` on the same backend (this process, local processes or a Dask
+cluster), then the survey part of the level of detection over every cell, the ranking and the
+same :class:`~lidar_sig.change_map.ChangeMap` as one block gives. Its epochs are
+:class:`TiledEpoch`: their points stay in the work folder, read again for a cell's signature,
+the report's top view and the per-point change, streamed."""
+from __future__ import annotations
+
+import json
+import math
+import time
+import weakref
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+
+from ..base.errors import LidarSigError, amount, counted
+from ..base.progress import progress, step
+from ..method.classes import UNLABELED
+from ..method.crs import crs_name, same_crs
+from ..method.signature_raster import Signature
+from ._cells import CHANGE_KEYS, counts_table
+from ._density import LEAST_DENSITY, RECALL_BELOW, auto_cell, auto_min_points
+from ._grid import MAX_CELLS, Grid
+from ._units import (UNIT_BYTES_PER_POINT, VIEW_POINTS, UnitPlan, code_task, density_pixel, density_task,
+                     unit_points, unit_task, view_path)
+
+#: Bytes a change map computed in one block holds per point of both epochs (the clouds, their
+#: saliency, the binned codes): above the memory budget, the map is made in work units.
+ONE_BLOCK_BYTES_PER_POINT = 180
+#: Work units per worker at least, so that every worker has work while the last ones finish.
+UNITS_PER_WORKER = 2
+
+
+def epoch_files(source):
+    """The LAS/LAZ files of an epoch given as a file, folder, list, glob pattern or ``.vpc``
+    (in the order in which one block joins them), or None when it is anything else."""
+    import os
+
+    from ..tiling.sources import expand
+
+    if isinstance(source, (str, os.PathLike)):
+        given = [source]
+    elif isinstance(source, (list, tuple)) and source and all(isinstance(p, (str, os.PathLike)) for p in source):
+        given = list(source)
+    else:
+        return None
+    try:
+        return expand(given)
+    except LidarSigError:  # not all LAS/LAZ, or not there: one block reads it and says why
+        return None
+
+
+def in_units(sources, execution, resume=False):
+    """The LAS/LAZ files of each of two epochs when their change map runs in work units: a
+    tile size, workers, a scheduler or ``resume`` asked for it, or one block of both epochs
+    would need more than the memory budget; else None."""
+    from ..tiling.memory import header_points
+
+    if len(sources) != 2:
+        return None
+    files = [epoch_files(s) for s in sources]
+    if any(f is None for f in files):
+        return None
+    if execution.tiles_asked or resume:
+        return files
+    try:
+        n = sum(header_points(p) or 0 for f in files for p in f)
+    except Exception:  # a damaged header: one block reads it and says why
+        return None
+    return files if n * ONE_BLOCK_BYTES_PER_POINT > int(execution.memory) else None
+
+
+class TiledEpoch:
+    """An epoch of a change map made in work units: its name, its tiled saliency run (a
+    :class:`~lidar_sig.tiling._set_run.SetRun`), its method, and its coded points in the work
+    folder, read again for a cell's signature, the top view and the per-point change."""
+
+    def __init__(self, name, run, uplan, index, tiles_of, metadata, holder):
+        self.name, self.run, self.metadata = name, run, metadata
+        self._uplan, self._index, self._tiles_of, self._holder = uplan, index, tiles_of, holder
+
+    def __repr__(self):
+        return f"<TiledEpoch {self.name}: {counted(self.n_points, 'point')} in {Path(self._uplan.work)}>"
+
+    @property
+    def n_points(self):
+        return sum(s.n_points for s in self.run.sources)
+
+    def close(self):
+        """Remove the work folder (the map's per-cell values remain)."""
+        self._holder.close()
+
+    def cell_signature(self, flat, grid, classes, labelled, frame):
+        """The signature of cell ``flat``, from its work unit's coded points."""
+        self._holder.check()
+        unit = int(self._uplan.unit_of([flat])[0])
+        rec = unit_points(self._uplan, self._index, unit, self._tiles_of.get(unit, []))
+        rec = rec[rec["cell"] == flat]
+        return Signature.from_codes(rec["pixel"], rec["egeom"], rec["cls"], classes=classes, frame=frame)
+
+    def view(self):
+        """(coordinates (N, 3), saliency (N, 3)) of a thinned sample of the points (about
+        :data:`~lidar_sig.change_map._units.VIEW_POINTS`): the report's top view."""
+        self._holder.check()
+        parts = [np.load(view_path(self._uplan.work, self._index, ij)) for ij in self.run.tile_stats]
+        rec = np.concatenate(parts)
+        return np.column_stack([rec["x"], rec["y"], rec["z"]]), rec["values"]
+
+    def write_points(self, path, extra, *, overwrite=False):
+        """Stream the epoch's file with its saliency and the fields ``extra(xy)`` to the LAS/LAZ
+        ``path``, chunk by chunk (one file: a map of several tiles writes none)."""
+        from ..io.las import write_las_chunks
+
+        self._holder.check()
+        if len(self.run.sources) != 1:
+            raise LidarSigError(f"{self.name} is {counted(len(self.run.sources), 'file')}: the per-point change of a "
+                                "map in work units is written for one file; give the later epoch as one file, or leave "
+                                "out the points", path=path)
+        source = self.run.sources[0]
+        pipe = self.run.plan.pipeline
+        write_las_chunks(path, source.path, self.run.point_values(source), scale_kind=pipe.scales.kind,
+                         scale_values=pipe.scales.values, overwrite=overwrite, extra=lambda xyz: extra(xyz[:, :2]))
+
+
+class WorkHolder:
+    """The work folder of a change map made in work units, kept while its map is used: removed
+    by :meth:`close` (or when the map is collected), after which the map's per-cell values stay
+    and what reads its points refuses."""
+
+    def __init__(self, work, remove):
+        self.work = Path(work)
+        self._finalizer = weakref.finalize(self, remove, self.work)
+
+    def check(self):
+        if not self._finalizer.alive:
+            raise LidarSigError("the change map's work folder was removed (close()); its per-cell values remain, "
+                                "its points do not: compute the map again to read them", path=self.work)
+
+    def close(self):
+        self._finalizer()
+
+
+def staged_bounds(run):
+    """(lo (3,), hi (3,), points) of the points an epoch's tiled run staged and kept, exactly, in
+    the files' coordinates (from its staged parts' records)."""
+    from ..tiling.work import STAGED
+
+    records = [json.loads(p.read_text()) for p in sorted((Path(run.plan.work) / STAGED).glob("s*p*.json"))]
+    lo = np.min([r["lo"] for r in records], axis=0)
+    hi = np.max([r["hi"] for r in records], axis=0)
+    return lo, hi, sum(r["n"] - r["n_excluded"] for r in records), records
+
+
+def changes_in_units(files, names, *, pipeline, execution, work, resume, settings, classes_table, remove):
+    """The :class:`~lidar_sig.change_map.ChangeMap` of two epochs' LAS/LAZ ``files`` in work
+    units, with scratch files in ``work`` (``remove(work)`` removes it with the map's
+    :class:`WorkHolder`); ``settings`` are those of :func:`~lidar_sig.change_map.changes`."""
+    from ..tiling.run_set import run_set
+    from ..tiling.work import prepare_work, work_scope
+
+    with work_scope(work):
+        work = prepare_work(work, resume, keep=[p for f in files for p in f])
+        with execution.backend() as backend:
+            start = time.perf_counter()
+            runs, seconds = [], []
+            for e, tag in enumerate("ab"):
+                t0 = time.perf_counter()
+                with step(f"saliency of {names[e]}", files=len(files[e])):
+                    run = run_set(pipeline, files[e], work=work / f"epoch_{tag}", tile_size=execution.tile_size,
+                                  backend=backend, resume=resume, memory=execution.memory)
+                if not run.complete:
+                    shown = run.missing[:3] + ([f"and {len(run.missing) - 3} more"] if len(run.missing) > 3 else [])
+                    raise LidarSigError(f"the epoch {names[e]} could not be computed: " + "; ".join(shown))
+                runs.append(run)
+                seconds.append(time.perf_counter() - t0)
+            cm = _map(runs, names, files, pipeline, backend, work, settings, classes_table, remove)
+            cm.timings["saliency"] = seconds
+            cm.timings["all"] = time.perf_counter() - start
+            return cm
+
+
+def _map(runs, names, files, pipeline, backend, work, settings, classes_table, remove):
+    """The map of two complete tiled runs: densities, grid, coded points, work units, levels."""
+    from ..method.crs import las_units
+    from ._compute import _fewer_points, _scheme_warnings
+    from ._lod import MIN_CELLS, REPLICATES
+    from ._maps import LABEL_FREE_SCORE, SCORE, ChangeMap, metric_levels
+    import laspy
+
+    s = SimpleNamespace(**settings)
+    crs = [run.sources[0].crs for run in runs]
+    if (crs[0] is None) != (crs[1] is None) or not same_crs(crs[0], crs[1]):
+        raise LidarSigError(f"{names[0]} and {names[1]} are in different CRS ({crs_name(crs[0]) or 'none'} / "
+                            f"{crs_name(crs[1]) or 'none'}); reproject one epoch into the other's CRS first")
+    with laspy.open(runs[0].sources[0].path) as reader:
+        _, units = las_units(reader.header, path=runs[0].sources[0].path)
+    bounds = [staged_bounds(run) for run in runs]
+    densities = [_density(run, b, units, backend) for run, b in zip(runs, bounds)]
+    notes = []
+    sparse = int(np.argmin(densities))
+    if densities[sparse] < LEAST_DENSITY:
+        notes.append(f"{names[sparse]} holds {densities[sparse]:.2g} points/m²: below {LEAST_DENSITY:g} point/m² the "
+                     f"change map finds fewer than 80% of known changes ({RECALL_BELOW:.0%} at 0.5 points/m² in its "
+                     "benchmark, docs/changes.md), so a cell that is not significant may still have changed")
+    cell = auto_cell(min(densities)) if s.cell is None else s.cell
+    min_points = auto_min_points(min(densities), cell) if s.min_points is None else s.min_points
+    (lo_a, hi_a, _, _), (lo_b, hi_b, _, _) = bounds
+    if np.any(hi_a[:2] < lo_b[:2]) or np.any(hi_b[:2] < lo_a[:2]):
+        raise LidarSigError(f"{names[0]} and {names[1]} do not overlap; give epochs of the same area")
+    grid = Grid.covering(np.array([lo_a[:2], hi_a[:2], lo_b[:2], hi_b[:2]]), cell / units.horizontal)
+    if grid.n_cells > MAX_CELLS:
+        raise LidarSigError(f"the epochs span {amount(grid.cols)} x {amount(grid.rows)} cells of {cell:g} m, more than "
+                            f"{MAX_CELLS:,}; use a larger cell size (--cell) or remove far outlying points")
+    labelled = runs[0].labelled and runs[1].labelled
+    if runs[0].labelled != runs[1].labelled:
+        bare = names[0] if not runs[0].labelled else names[1]
+        notes.append(f"{bare} has no class labels: the cells are compared by geometry only (ranked by "
+                     f"{LABEL_FREE_SCORE}) and every epoch's points are shown as one class")
+    classes = classes_table if labelled else UNLABELED
+    side = _unit_side(runs, bounds, grid, cell, backend.workers, int(s.memory))
+    uplan = UnitPlan(str(work), grid, side, s.frame, classes, labelled, (runs[0].plan, runs[1].plan), int(min_points),
+                     s.render, s.seed, 0)
+    tiles_of = [_code(uplan, e, runs[e], bounds[e][2], backend) for e in (0, 1)]
+    units = sorted(set(tiles_of[0]) | set(tiles_of[1]))
+    gathered = _gather(uplan, units, tiles_of, backend, len(classes))
+    filled = np.minimum(gathered["points"][0] - gathered["undefined"][0], gathered["points"][1] - gathered["undefined"][1])
+    table = counts_table(grid, gathered["points"], gathered["undefined"], min_points, densities, cell)
+    if not table["valid"].any():
+        most = int(filled.max(initial=0))
+        raise LidarSigError(f"no cell of {cell:g} m holds {counted(min_points, 'point')} with defined saliency in both "
+                            f"{names[0]} and {names[1]} (at most {most:,}); "
+                            f"{_fewer_points(s.min_points_rule, min_points)}")
+    for m, k in enumerate(CHANGE_KEYS):
+        table[k] = gathered["metrics"][:, m]
+    sampled = {k: (gathered["mu0"][:, m], gathered["sigma"][:, m], gathered["defined"][:, m])
+               for m, k in enumerate(CHANGE_KEYS)}
+    holder = WorkHolder(work, remove)
+    epochs = [TiledEpoch(names[e], runs[e], uplan, e, tiles_of[e], {**pipeline.method(), "n_points": bounds[e][2]},
+                         holder) for e in (0, 1)]
+    binned = [SimpleNamespace(classes=gathered["classes"][e]) for e in (0, 1)]
+    schemes = _scheme_warnings(binned, classes, names, ranked_by=s.score)[0] if labelled else []
+    score = s.score or (SCORE if labelled and not schemes else LABEL_FREE_SCORE)
+    method = {k: v for k, v in pipeline.method().items()
+              if k in ("descriptor", "strategy", "scale_kind", "scale_values", "scale_units", "weights")}
+    n_valid = int(table["valid"].sum())
+    t0 = time.perf_counter()
+    levels = metric_levels(table, sampled=sampled, confidence=s.confidence)
+    if n_valid < MIN_CELLS:
+        notes.append(f"the level of detection covers sampling noise only: {n_valid} compared "
+                     f"cell{'s' if n_valid != 1 else ''}, fewer than {MIN_CELLS}, cannot tell what differs between "
+                     "the two surveys everywhere; use smaller cells (--cell) for more")
+    cm = ChangeMap(table, gathered["classes"][0], gathered["classes"][1], grid, crs[0], units, cell, int(min_points),
+                   score, s.render, classes, epochs[0], epochs[1], s.frame, method, levels, s.confidence,
+                   warnings=notes + schemes, timings={"lod": time.perf_counter() - t0, "replicates": 2 * REPLICATES})
+    cm.rank_by(score)
+    cm.cell_rule, cm.min_points_rule = s.cell_rule, s.min_points_rule
+    cm.density = tuple(densities)
+    cm.timings["units"] = {"units": len(units), "side_cells": side}
+    return cm
+
+
+def _density(run, bounds, units, backend):
+    """Points per m² of an epoch's kept points over the 10 m pixels they occupy, as
+    :func:`~lidar_sig.change_map._density.density` gives for one block (the pixels from the
+    lowest kept point)."""
+    lo, _, n, _ = bounds
+    pixel = density_pixel(units.horizontal)
+    keys = []
+    items = [(run.plan, ij, tuple(lo[:2]), pixel) for ij in run.tile_stats]
+    for _, found, err in progress(backend.run(density_task, items), total=len(items), desc="densities", unit="tile"):
+        if err is not None:
+            raise err
+        keys.append(found)
+    occupied = len(np.unique(np.concatenate(keys))) if keys else 0
+    from ._density import DENSITY_PIXEL
+
+    return n / (max(occupied, 1) * DENSITY_PIXEL ** 2)
+
+
+def _unit_side(runs, bounds, grid, cell, workers, memory):
+    """Cells per side of a work unit: as many as hold both epochs' points within ``memory`` at
+    their densest staging cells, and at least :data:`UNITS_PER_WORKER` units per worker."""
+    from ..tiling.sources import densest
+
+    dense = sum(densest({i: r for i, r in enumerate(b[3])}, run.plan.cells, run.ctx.factors)
+                for run, b in zip(runs, bounds))
+    points = max(memory // UNIT_BYTES_PER_POINT, 1)
+    side = max(1, int(math.sqrt(points / max(dense * cell * cell, 1e-12))))
+    spread = max(1, math.ceil(math.sqrt(grid.n_cells / (UNITS_PER_WORKER * max(workers, 1)))))
+    return min(side, spread)
+
+
+def _code(uplan, e, run, n_points, backend):
+    """Code an epoch's tiles (:func:`~lidar_sig.change_map._units.code_task`); {unit: [tiles]}."""
+    step_ = max(1, math.ceil(n_points / VIEW_POINTS))
+    tiles_of = {}
+    items = [(uplan, e, ij, step_) for ij in run.tile_stats]
+    for (_, _, ij, _), counts, err in progress(backend.run(code_task, items), total=len(items),
+                                               desc=f"coding epoch {'AB'[e]}", unit="tile"):
+        if err is not None:
+            raise err
+        for u in counts:
+            tiles_of.setdefault(int(u), []).append(ij)
+    return tiles_of
+
+
+def _gather(uplan, units, tiles_of, backend, n_classes):
+    """Every cell's values over the grid from the work units' results."""
+    n, k = uplan.grid.n_cells, len(CHANGE_KEYS)
+    out = {"points": np.zeros((2, n), np.int64), "undefined": np.zeros((2, n), np.int64),
+           "classes": np.zeros((2, n, n_classes), np.int64), "metrics": np.full((n, k), np.nan),
+           "mu0": np.full((n, k), np.nan), "sigma": np.full((n, k), np.nan), "defined": np.zeros((n, k), bool)}
+    items = [(uplan, u, (tiles_of[0].get(u, []), tiles_of[1].get(u, []))) for u in units]
+    with step("work units", units=len(items), side=f"{uplan.side} cells"):
+        for _, res, err in progress(backend.run(unit_task, items), total=len(items), desc="cells", unit="unit"):
+            if err is not None:
+                raise err
+            cells = res["cells"]
+            for name in ("points", "undefined", "classes"):
+                out[name][:, cells] = res[name]
+            for name in ("metrics", "mu0", "sigma", "defined"):
+                out[name][cells] = res[name]
+    return out

@@ -1,0 +1,276 @@
+"""Work units of a change map at survey scale (docs/changes.md, "At survey scale"): the tasks
+that turn two epochs' tiled saliency runs (:func:`lidar_sig.tiling.run_set.run_set`) into the
+cells' metrics and the sampling part of their level of detection, each holding a bounded share
+of the points.
+
+1. :func:`density_task`, per processing tile: the 10 m pixels its points occupy, from which
+   each epoch's density (and so the cell size and the fewest points) follows as in one block.
+2. :func:`code_task`, per processing tile: each core point coded once (its cell, identifier,
+   pixel in the cell frame, Egeom bin, class and height) and filed by work unit, a square block
+   of cells; a thinned sample of its points is kept for the report's top view.
+3. :func:`unit_task`, per work unit: its cells' points of both epochs, ordered by cell and then
+   by identifier (the order of the one-block run, whose epochs join the same files in the same
+   order), the signatures' metrics and the resamples, each cell drawing from its own random
+   stream; what it returns depends only on the points of its cells, so the cells of a unit
+   get the values of the one-block run.
+
+The survey part of the level of detection is a statistic over every cell of the map: the main
+process computes it once the units are done (:mod:`~lidar_sig.change_map._in_units`). Every
+file is written whole or not at all, with the key of what it was computed from, so that a
+resumed run reuses it.
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..method.saliency_map import Saliency
+from ..method.signature_raster import Frame, point_codes
+from ..tiling._core import tile_name
+from ..tiling._tasks import points_paths
+from ..tiling.sources import load_cells
+from ..tiling.work import UNITS
+from ._cells import CHANGE_KEYS, Binned, null_metrics, observed_metrics
+from ._density import DENSITY_PIXEL
+
+#: One coded point of a work unit: its flat cell on the map's grid, its identifier in its
+#: epoch's set (file number and point number: the one-block run's order), its codes in a
+#: cell's signature (:func:`lidar_sig.method.signature_raster.point_codes`) and its height in
+#: metres.
+CODED = np.dtype([("cell", "i8"), ("id", "i8"), ("pixel", "i8"), ("egeom", "i8"), ("cls", "i8"),
+                  ("height", "f8")])
+#: Bytes a work unit holds per point of its cells (both epochs): the coded records, their
+#: order, the binned arrays and the drawn resamples (docs/performance.md has the measurement).
+UNIT_BYTES_PER_POINT = 200
+#: Points of the thinned sample that draws the report's top view of an epoch (in all).
+VIEW_POINTS = 1_000_000
+#: One point of that sample: raw coordinates and saliency.
+VIEW = np.dtype([("x", "f8"), ("y", "f8"), ("z", "f8"), ("values", "f8", 3)])
+#: Margin of a tile's box when its core points are read (metres): the core is then decided by
+#: the tiling's own index, as the saliency run decided it, not by the box's round-off.
+READ_MARGIN = 0.01
+
+
+@dataclass(frozen=True)
+class UnitPlan:
+    """Everything the tasks of a change map in work units share (small: pickled to each
+    worker): the work folder, the map's grid, the side of a unit in cells, the signatures'
+    frame and class table, whether the epochs are labelled, and each epoch's tiled run plan
+    (:class:`lidar_sig.tiling._tasks.Plan`)."""
+
+    work: str
+    grid: object
+    side: int
+    frame: Frame
+    classes: object
+    labelled: bool
+    epochs: tuple
+    min_points: int = 1
+    render: str = "smooth"
+    seed: int = 17
+    stream: int = 0
+
+    @property
+    def shape(self):
+        """Work units along the grid's rows and columns."""
+        return math.ceil(self.grid.rows / self.side), math.ceil(self.grid.cols / self.side)
+
+    @property
+    def n_units(self):
+        return math.prod(self.shape)
+
+    def unit_of(self, cells):
+        """(N,) the work unit of each flat cell."""
+        row, col = np.divmod(np.asarray(cells), self.grid.cols)
+        return (row // self.side) * self.shape[1] + col // self.side
+
+    def cells_of(self, unit):
+        """The flat cells of work ``unit``, ascending."""
+        ur, uc = divmod(int(unit), self.shape[1])
+        rows = np.arange(ur * self.side, min((ur + 1) * self.side, self.grid.rows))
+        cols = np.arange(uc * self.side, min((uc + 1) * self.side, self.grid.cols))
+        return (rows[:, None] * self.grid.cols + cols[None, :]).ravel()
+
+    def key(self, epoch=None):
+        """Changes whenever a coded tile (of ``epoch``) or a unit's result would."""
+        runs = [p.key() for p in self.epochs] if epoch is None else [self.epochs[epoch].key()]
+        return json.dumps([runs, repr(self.grid), self.side, self.frame.size, self.frame.margin, self.classes.name,
+                           self.labelled, self.min_points, self.render, self.seed, self.stream], default=str)
+
+
+def _save(path, **arrays):
+    """``arrays`` as the .npz ``path``, whole or not at all."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp.npz")
+    np.savez(tmp, **arrays)
+    os.replace(tmp, path)
+
+
+def _done(path, key):
+    """The arrays of ``path`` when it was written from ``key``, else None (and it goes)."""
+    if not path.is_file():
+        return None
+    with np.load(path) as done:
+        if str(done["key"]) == key:
+            return {k: done[k] for k in done.files}
+    path.unlink()
+    return None
+
+
+def core_points(plan, ij):
+    """(raw coordinates (N, 3), identifiers, class codes) of tile ``ij``'s core points of an
+    epoch's tiled run ``plan``: the staged points whose tile, by the tiling's index, is ``ij``."""
+    x0, y0, x1, y1 = plan.tiling.box(*ij)
+    m = READ_MARGIN
+    rec = load_cells(plan.files, plan.cells, plan._raw((x0 - m, y0 - m, x1 + m, y1 + m)))
+    raw = np.column_stack([rec["x"], rec["y"], rec["z"]])
+    core = np.all(plan.tiling.index(plan.ctx.metric(raw)) == np.asarray(ij), axis=1)
+    return raw[core], rec["id"][core], rec["label"][core]
+
+
+def density_task(plan, ij, lo, pixel):
+    """(pixels,) int64 keys of the ``pixel``-sided squares from the corner ``lo`` (raw units)
+    that tile ``ij``'s core points occupy (:func:`lidar_sig.change_map._density.density`)."""
+    raw, _, _ = core_points(plan, ij)
+    if not len(raw):
+        return np.empty(0, np.int64)
+    ij_px = np.floor((raw[:, :2] - np.asarray(lo)) / pixel).astype(np.int64)
+    return np.unique(ij_px[:, 0] * (1 << 31) + ij_px[:, 1])
+
+
+def density_pixel(units_horizontal):
+    """The side of the density's pixels in the CRS's units."""
+    return DENSITY_PIXEL / units_horizontal
+
+
+def coded_path(work, epoch, ij):
+    return Path(work) / "coded" / f"e{epoch}" / f"{tile_name(*ij)}.npz"
+
+
+def view_path(work, epoch, ij):
+    return Path(work) / "view" / f"e{epoch}" / f"{tile_name(*ij)}.npy"
+
+
+def code_task(uplan, epoch, ij, view_step):
+    """Code tile ``ij``'s core points of ``epoch`` (:data:`CODED`), sorted by work unit, into the
+    work folder with the units they reach and where each starts; keep every ``view_step``-th
+    point for the top view. Returns {unit: points} of the tile."""
+    path = coded_path(uplan.work, epoch, ij)
+    key = uplan.key(epoch)
+    done = _done(path, key)
+    if done is not None:
+        return dict(zip(done["units"].tolist(), np.diff(done["starts"]).tolist()))
+    plan = uplan.epochs[epoch]
+    raw, ids, labels = core_points(plan, ij)
+    ids_path, values_path = points_paths(plan.work, ij)
+    known = np.load(ids_path)
+    at = np.searchsorted(known, ids)
+    if len(known) != len(ids) or (len(ids) and not np.array_equal(known[np.minimum(at, len(known) - 1)], ids)):
+        raise RuntimeError(f"{tile_name(*ij)}: its staged points and its saliency differ")
+    values = np.load(values_path)["values"][at]
+    sal = Saliency.from_values(values)
+    codes = labels if uplan.labelled else np.zeros(len(ids), np.int64)
+    cls = uplan.classes.index(codes)
+    pixel, egeom_bin = point_codes(values, cls, uplan.frame, egeom=sal.egeom)
+    rec = np.empty(len(ids), CODED)
+    rec["cell"] = uplan.grid.cell_of(raw[:, :2])
+    rec["id"], rec["pixel"], rec["egeom"], rec["cls"] = ids, pixel, egeom_bin, cls
+    rec["height"] = raw[:, 2] * plan.ctx.factors[2]
+    unit = uplan.unit_of(rec["cell"])
+    order = np.argsort(unit, kind="stable")
+    rec, unit = rec[order], unit[order]
+    units, starts = np.unique(unit, return_index=True)
+    starts = np.r_[starts, len(rec)]
+    thin = slice(None, None, max(1, int(view_step)))
+    view = np.empty(len(raw[thin]), VIEW)
+    view["x"], view["y"], view["z"] = raw[thin].T
+    view["values"] = values[thin]
+    vpath = view_path(uplan.work, epoch, ij)
+    vpath.parent.mkdir(parents=True, exist_ok=True)
+    tmp = vpath.with_name(f".{vpath.stem}.{os.getpid()}.tmp.npy")
+    np.save(tmp, view)
+    os.replace(tmp, vpath)
+    _save(path, points=rec, units=units, starts=starts, key=np.array(key))  # last: the tile is coded
+    return dict(zip(units.tolist(), np.diff(starts).tolist()))
+
+
+def unit_points(uplan, epoch, unit, tiles):
+    """The coded points of ``epoch`` in work ``unit`` from the coded ``tiles`` that reach it,
+    ordered by cell and then identifier."""
+    parts = []
+    for ij in tiles:
+        with np.load(coded_path(uplan.work, epoch, ij)) as f:
+            units, starts = f["units"], f["starts"]
+            k = int(np.searchsorted(units, unit))
+            if k < len(units) and units[k] == unit:
+                parts.append(f["points"][starts[k]:starts[k + 1]])
+    rec = np.concatenate(parts) if parts else np.empty(0, CODED)
+    return rec[np.lexsort((rec["id"], rec["cell"]))]
+
+
+def binned_unit(rec, cells, n_classes):
+    """The :class:`~lidar_sig.change_map._cells.Binned` of a unit's coded points ``rec`` (ordered
+    by cell) on its flat ``cells``."""
+    local = np.searchsorted(cells, rec["cell"])
+    n = len(cells)
+    starts = np.searchsorted(local, np.arange(n + 1))
+    counts = np.bincount(local * n_classes + rec["cls"], minlength=n * n_classes)[:n * n_classes]
+    undefined = np.bincount(local[rec["pixel"] < 0], minlength=n)[:n]
+    return Binned(np.arange(len(rec)), starts, counts.reshape(n, n_classes), undefined, rec["pixel"],
+                  rec["egeom"], rec["cls"], rec["height"])
+
+
+def unit_path(work, unit):
+    return Path(work) / UNITS / f"u{int(unit)}.npz"
+
+
+def unit_task(uplan, unit, tiles):
+    """The cells of work ``unit``: per cell the points, the undefined ones and each class's in
+    both epochs, every metric (:func:`~lidar_sig.change_map._cells.observed_metrics`) and the
+    replicates' sampling part (:func:`~lidar_sig.change_map._maps.sampling_parts`) of the valid
+    cells, from the coded ``tiles`` of each epoch that reach it; saved in the work folder and
+    returned as a dict of arrays."""
+    from ._maps import sampling_parts
+
+    path = unit_path(uplan.work, unit)
+    key = uplan.key()
+    done = _done(path, key)
+    if done is not None:
+        return done
+    cells = uplan.cells_of(unit)
+    n_classes = len(uplan.classes)
+    pair = [binned_unit(unit_points(uplan, e, unit, tiles[e]), cells, n_classes) for e in (0, 1)]
+    table = unit_table(pair, uplan.min_points)
+    observed_metrics(table, pair, uplan.classes, render=uplan.render, frame=uplan.frame)
+    null = null_metrics(table, pair, uplan.classes, render=uplan.render, frame=uplan.frame, seed=uplan.seed,
+                        stream=uplan.stream, flat=cells)
+    sampled = sampling_parts(null)
+    out = {"cells": cells, "key": np.array(key),
+           "points": np.stack([np.diff(b.starts) for b in pair]), "undefined": np.stack([b.undefined for b in pair]),
+           "classes": np.stack([b.classes for b in pair]),
+           "metrics": np.column_stack([table[k] for k in CHANGE_KEYS]),
+           "mu0": np.column_stack([sampled[k][0] for k in CHANGE_KEYS]),
+           "sigma": np.column_stack([sampled[k][1] for k in CHANGE_KEYS]),
+           "defined": np.column_stack([sampled[k][2] for k in CHANGE_KEYS])}
+    _save(path, **out)
+    return out
+
+
+def unit_table(pair, min_points):
+    """A unit's table of what :func:`observed_metrics` and :func:`null_metrics` read and fill:
+    points of each epoch, ``valid`` (both hold ``min_points`` points with defined saliency) and
+    the compared values (NaN)."""
+    n = len(pair[0].starts) - 1
+    table = np.zeros(n, dtype=[("points_a", np.int64), ("points_b", np.int64), ("valid", bool)]
+                     + [(k, np.float64) for k in CHANGE_KEYS])
+    points = [np.diff(b.starts) for b in pair]
+    table["points_a"], table["points_b"] = points
+    table["valid"] = ((points[0] - pair[0].undefined) >= min_points) & ((points[1] - pair[1].undefined) >= min_points)
+    for k in CHANGE_KEYS:
+        table[k] = np.nan
+    return table

@@ -1,0 +1,147 @@
+"""The change map at survey scale (issue 37): epochs of tiles cut on different grids, mapped in
+work units within a memory budget, on local processes or a Dask cluster, give the map of one
+block; an interrupted run resumes to the same map; the per-point change streams."""
+import sys
+
+import laspy
+import numpy as np
+import pytest
+
+import lidar_sig as ls
+from conftest import IGN_FILES, ROOT
+from lidar_sig.change_map import changes, read_epoch
+from lidar_sig.method.cloud import PointCloud
+from lidar_sig.tiling.execution import Execution
+
+sys.path.insert(0, str(ROOT / "benchmarks"))
+pytestmark = pytest.mark.skipif(not IGN_FILES, reason="the IGN tiles of ../shared/data are not beside the project")
+
+
+@pytest.fixture(scope="module")
+def regridded(tmp_path_factory):
+    """Epoch A: the six IGN tiles as they are. Epoch B: the block edited (a building removed,
+    vegetation removed, a box building added; benchmarks/edited_epoch.py), 80% kept, moved,
+    and cut into 4 tiles on another grid (split at the block's middle, 37 m and 61 m off the IGN
+    tiles' 50 m edges). And the one-block map of the two."""
+    from edited_epoch import edit, write_las
+
+    folder = tmp_path_factory.mktemp("regridded")
+    one = read_epoch(list(IGN_FILES))
+    two, edits = edit(one)
+    x_cut, y_cut = np.median(two.xyz[:, 0]) + 13.0, np.median(two.xyz[:, 1]) - 11.0
+    tiles = []
+    for k, (east, north) in enumerate(((0, 0), (0, 1), (1, 0), (1, 1))):
+        part = ((two.xyz[:, 0] >= x_cut) == bool(east)) & ((two.xyz[:, 1] >= y_cut) == bool(north))
+        tiles.append(folder / f"b_{k}.laz")
+        write_las(PointCloud(two.xyz[part], two.labels[part], crs=one.crs), tiles[-1])
+    pipe = ls.Pipeline(progress=False)
+    whole = changes(list(IGN_FILES), tiles, pipeline=pipe)
+    return tiles, edits, whole
+
+
+def assert_same_map(got, want):
+    """The same cells, metrics within float tolerance, levels, verdicts and ranking."""
+    a, b = want.table, got.table
+    assert a.dtype == b.dtype
+    for k in a.dtype.names:
+        if a.dtype[k].kind == "f":
+            np.testing.assert_allclose(b[k], a[k], rtol=1e-7, atol=1e-12, equal_nan=True, err_msg=k)
+        else:
+            assert np.array_equal(b[k], a[k]), k
+    assert np.array_equal(got.classes_a, want.classes_a) and np.array_equal(got.classes_b, want.classes_b)
+    assert got.grid == want.grid and got.cell == want.cell and got.min_points == want.min_points
+    assert got.density == pytest.approx(want.density, rel=1e-12)
+    assert got.score == want.score and got.method == want.method
+    for k, level in want.levels.items():
+        assert got.levels[k].beta == pytest.approx(level.beta, rel=1e-9, abs=1e-12), k
+        assert got.levels[k].tau == pytest.approx(level.tau, rel=1e-9, abs=1e-12), k
+    assert np.array_equal(got.ranked(), want.ranked())
+    assert got.n_changed == want.n_changed and got.coverage() == want.coverage()
+
+
+def test_tiles_cut_on_another_grid_in_work_units_give_the_one_block_map(regridded, tmp_path):
+    tiles, edits, whole = regridded
+    cm = changes(list(IGN_FILES), tiles, pipeline=ls.Pipeline(progress=False),
+                 execution=Execution(memory="400MiB", workers=2, tile_size=60.0), work=tmp_path / "work")
+    try:
+        assert cm.timings["units"]["units"] >= 4  # several work units, on two processes
+        assert_same_map(cm, whole)
+        assert whole.n_significant >= 2  # the edits are there to be found, in both
+        for flat in cm.ranked(3):  # a cell's signatures are read back from its work unit
+            for s_units, s_whole in zip(cm.signatures(int(flat)), whole.signatures(int(flat))):
+                assert np.array_equal(s_units.counts, s_whole.counts)
+        xyz, values = cm.b.view()
+        assert 0 < len(xyz) <= cm.b.n_points and values.shape == (len(xyz), 3)
+    finally:
+        cm.close()
+    assert not (tmp_path / "work").exists()
+    with pytest.raises(ls.LidarSigError, match="work folder was removed"):
+        cm.signatures(int(cm.ranked(1)[0]))
+
+
+def test_a_dask_cluster_gives_the_map_of_local_processes(regridded, tmp_path):
+    distributed = pytest.importorskip("distributed", reason="the dask extra is not installed")
+    tiles, _, whole = regridded
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as cluster:
+        cm = changes(list(IGN_FILES), tiles, pipeline=ls.Pipeline(progress=False),
+                     execution=Execution(memory="400MiB", scheduler=cluster.scheduler_address))
+    try:
+        assert_same_map(cm, whole)
+    finally:
+        cm.close()
+
+
+def test_an_interrupted_run_resumes_to_the_same_map(regridded, tmp_path, monkeypatch):
+    from lidar_sig.change_map import _units
+
+    tiles, _, whole = regridded
+    work = tmp_path / "work"
+    calls = []
+    real = _units.unit_task
+
+    def fails_third(uplan, unit, tiles_of):
+        calls.append(unit)
+        if len(calls) == 3:
+            raise KeyboardInterrupt  # as Ctrl-C in the middle of the units
+        return real(uplan, unit, tiles_of)
+
+    monkeypatch.setattr(_units, "unit_task", fails_third)
+    monkeypatch.setattr("lidar_sig.change_map._in_units.unit_task", fails_third)
+    options = dict(pipeline=ls.Pipeline(progress=False), execution=Execution(memory="400MiB", workers=1,
+                                                                              tile_size=60.0), work=work)
+    with pytest.raises(KeyboardInterrupt):
+        changes(list(IGN_FILES), tiles, **options)
+    assert work.is_dir() and len(list((work / "units").glob("u*.npz"))) == 2  # what was finished is kept
+    done = sorted(p.stat().st_mtime_ns for p in (work / "units").glob("u*.npz"))
+    calls.clear()
+    monkeypatch.setattr(_units, "unit_task", real)
+    monkeypatch.setattr("lidar_sig.change_map._in_units.unit_task", real)
+    cm = changes(list(IGN_FILES), tiles, resume=True, **options)
+    try:
+        assert_same_map(cm, whole)
+        kept = sorted(p.stat().st_mtime_ns for p in (work / "units").glob("u*.npz"))
+        assert set(done) <= set(kept)  # the finished units were reused, not computed again
+    finally:
+        cm.close()
+
+
+def test_the_per_point_change_streams_as_the_one_block_writes_it(regridded, tmp_path):
+    from edited_epoch import write_las
+
+    tiles, _, _ = regridded
+    b = tmp_path / "b.laz"
+    write_las(read_epoch(tiles), b)
+    pipe = ls.Pipeline(progress=False)
+    whole = changes(list(IGN_FILES), b, pipeline=pipe)
+    cm = changes(list(IGN_FILES), b, pipeline=pipe, execution=Execution(memory="400MiB", workers=1, tile_size=60.0))
+    try:
+        whole.save(tmp_path / "whole.laz")
+        cm.save(tmp_path / "units.laz")
+    finally:
+        cm.close()
+    got, want = laspy.read(tmp_path / "units.laz"), laspy.read(tmp_path / "whole.laz")
+    assert len(got.points) == len(want.points)
+    for name in ("ChangeScore", "ChangeLoD", "ChangeSignificant", "Cl", "Cs", "Cp"):
+        np.testing.assert_allclose(np.asarray(got[name], float), np.asarray(want[name], float), rtol=1e-6,
+                                   equal_nan=True, err_msg=name)
