@@ -10,26 +10,24 @@ from typing import TYPE_CHECKING, Any, overload
 
 import numpy as np
 
-from ..method.class_maps import class_scheme_warnings, merge_classes
+from ..method.class_maps import merge_classes
 from ..method.classes import UNLABELED
 from ..base.errors import LidarSigError, LidarSigWarning, amount, counted, whole_number
 from ..metrics import METRIC, METRIC_KEYS, METRIC_NAMES
 from ..base.progress import step
 from ..method.signature_raster import Frame, method_differences
 from ._cells import CELL_FRAME, SEED, bin_points, cell_table, null_metrics, observed_metrics
-from ._density import LEAST_DENSITY, MIN_POINTS_FLOOR, RECALL_BELOW, auto_cell, auto_min_points, density
+from ._density import AUTO, LEAST_DENSITY, RECALL_BELOW, auto_cell, auto_min_points, density, fewer_points
 from ._epochs import Epoch, check_same_crs, read_epoch
 from ._grid import MAX_CELLS, Grid, check_cell
 from ._lod import CONFIDENCE, MIN_CELLS, REPLICATES
-from ._maps import LABEL_FREE_SCORE, SCORE, ChangeMap, metric_levels
+from ._maps import LABEL_FREE_SCORE, SCORE, ChangeMap, metric_levels, scheme_warnings
 from .series import ChangeSeries
 from ._in_units import changes_in_units, in_units
 
 if TYPE_CHECKING:
     from ..pipeline.flow import Pipeline
 
-#: The value of ``cell`` and ``min_points`` that chooses them from the epochs' densities.
-AUTO = "auto"
 
 
 @overload
@@ -177,7 +175,7 @@ def changes(a: Any, b: Any, *more: Any, cell: float | str = AUTO, pipeline: Pipe
         filled = np.minimum(counts[k], counts[k + 1])
         if filled.max() < min_points:
             pair = "" if len(clouds) == 2 else f" {names[k]} and {names[k + 1]}"
-            fix = _fewer_points(min_points_rule, min_points)
+            fix = fewer_points(min_points_rule, min_points)
             raise LidarSigError(f"no cell of {cell:g} m holds {counted(min_points, 'point')} in both "
                                 f"epochs{pair} (at most {amount(filled.max())}); {fix}")
     epochs, seconds = [], []
@@ -191,7 +189,7 @@ def changes(a: Any, b: Any, *more: Any, cell: float | str = AUTO, pipeline: Pipe
     classes = table_of_classes if labelled else UNLABELED
     with step("binning", epochs=len(epochs), cells=grid.n_cells):
         binned = [bin_points(e, grid, classes, labelled, frame) for e in epochs]
-    schemes = _scheme_warnings(binned, classes, names, ranked_by=score) if labelled else [[]] * (len(epochs) - 1)
+    schemes = scheme_warnings(binned, classes, names, ranked_by=score) if labelled else [[]] * (len(epochs) - 1)
     score = score or (SCORE if labelled and not any(schemes) else LABEL_FREE_SCORE)
     method = {k: epochs[0].metadata[k] for k in ("descriptor", "strategy", "scale_kind", "scale_values",
                                                  "scale_units", "weights") if k in epochs[0].metadata}
@@ -246,7 +244,7 @@ def _interval(k, epochs, binned, grid, classes, min_points, cell, render, frame,
     table = cell_table(grid, pair, min_points, densities, cell)
     if not table["valid"].any():  # the points are there, their saliency is not
         most = int(np.minimum(table["defined_a"], table["defined_b"]).max())
-        fix = _fewer_points(min_points_rule, min_points)
+        fix = fewer_points(min_points_rule, min_points)
         raise LidarSigError(f"no cell of {cell:g} m holds {counted(min_points, 'point')} with defined saliency in both "
                             f"{names[k]} and {names[k + 1]} (at most {most:,}); {fix} or larger scales")
     n_valid = int(table["valid"].sum())
@@ -283,32 +281,6 @@ def _check_overlap(xy_a, xy_b, name_a, name_b):
 
         raise LidarSigError(f"{name_a} ({extent(low_a, high_a)}) and {name_b} ({extent(low_b, high_b)}) do not "
                             "overlap; give epochs of the same area")
-
-
-def _fewer_points(min_points_rule, min_points):
-    """The fix when no cell holds enough points. With --min-points auto the minimum is a fifth of
-    a full cell, but never below MIN_POINTS_FLOOR: where the floor holds, the cells are too small
-    for a sparse survey and a larger one holds more points; above it, the cells are larger than
-    what the survey fills and a smaller one needs fewer."""
-    if min_points_rule == AUTO and min_points <= MIN_POINTS_FLOOR:
-        return (f"use a larger cell size (--cell): the automatic minimum is {MIN_POINTS_FLOOR} points or more, "
-                "which small cells of a sparse survey do not hold; or give a smaller minimum (--min-points)")
-    if min_points_rule == AUTO:
-        return ("use a smaller cell size (--cell): the automatic minimum is a fifth of a full cell, which cells "
-                "larger than the survey do not hold; or give a smaller minimum (--min-points)")
-    return "use a larger cell size (--cell) or a smaller minimum (--min-points)"
-
-
-def _scheme_warnings(binned, classes, names, *, ranked_by=None):
-    """Per interval, the warnings that its two epochs' class codes barely overlap
-    (:func:`lidar_sig.method.class_maps.class_scheme_warnings`), saying what the ranking then is."""
-    consequence = "delta_KL and L1 measure the classification schemes as much as the land"
-    if ranked_by is None:
-        consequence += (f"; the cells are ranked by {METRIC_NAMES[LABEL_FREE_SCORE]}, which does not depend on the "
-                        "labels (--class-map merges codes to compare the classes)")
-    return [class_scheme_warnings(binned[k].classes.sum(axis=0), binned[k + 1].classes.sum(axis=0),
-                                  classes.class_names, names[k:k + 2], consequence=consequence)
-            for k in range(len(binned) - 1)]
 
 
 def _is_auto(value):

@@ -13,6 +13,8 @@ import math
 
 import numpy as np
 
+#: The value of ``cell`` and ``min_points`` that chooses them from the epochs' densities.
+AUTO = "auto"
 #: Side of the pixels over which an epoch's density is measured, in metres: the density is the
 #: points over the area of the occupied pixels, so that water, gaps and an irregular footprint
 #: do not thin it.
@@ -58,3 +60,17 @@ def auto_min_points(points_per_m2, cell):
     """Fewest points with defined saliency a cell of ``cell`` metres must hold in each epoch:
     max(:data:`MIN_POINTS_FLOOR`, :data:`FILL` x density x cell²), rounded."""
     return max(MIN_POINTS_FLOOR, int(round(FILL * points_per_m2 * cell ** 2)))
+
+
+def fewer_points(min_points_rule, min_points):
+    """The fix when no cell holds enough points. With --min-points auto the minimum is a fifth of
+    a full cell, but never below MIN_POINTS_FLOOR: where the floor holds, the cells are too small
+    for a sparse survey and a larger one holds more points; above it, the cells are larger than
+    what the survey fills and a smaller one needs fewer."""
+    if min_points_rule == AUTO and min_points <= MIN_POINTS_FLOOR:
+        return (f"use a larger cell size (--cell): the automatic minimum is {MIN_POINTS_FLOOR} points or more, "
+                "which small cells of a sparse survey do not hold; or give a smaller minimum (--min-points)")
+    if min_points_rule == AUTO:
+        return ("use a smaller cell size (--cell): the automatic minimum is a fifth of a full cell, which cells "
+                "larger than the survey do not hold; or give a smaller minimum (--min-points)")
+    return "use a larger cell size (--cell) or a smaller minimum (--min-points)"

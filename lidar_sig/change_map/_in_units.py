@@ -23,14 +23,15 @@ from ..method.classes import UNLABELED
 from ..method.crs import crs_name, same_crs
 from ..method.signature_raster import Signature
 from ._cells import CHANGE_KEYS, counts_table
-from ._density import LEAST_DENSITY, RECALL_BELOW, auto_cell, auto_min_points
+from ._density import LEAST_DENSITY, RECALL_BELOW, auto_cell, auto_min_points, fewer_points
 from ._grid import MAX_CELLS, Grid
 from ._units import (UNIT_BYTES_PER_POINT, VIEW_POINTS, UnitPlan, code_task, density_pixel, density_task,
                      unit_points, unit_task, view_path)
 
 #: Bytes a change map computed in one block holds per point of both epochs (the clouds, their
-#: saliency, the binned codes): above the memory budget, the map is made in work units.
-ONE_BLOCK_BYTES_PER_POINT = 180
+#: saliency, the binned codes; docs/changes.md, "Memory"): above the memory budget, the map is
+#: made in work units.
+ONE_BLOCK_BYTES_PER_POINT = 330
 #: Work units per worker at least, so that every worker has work while the last ones finish.
 UNITS_PER_WORKER = 2
 
@@ -186,9 +187,8 @@ def changes_in_units(files, names, *, pipeline, execution, work, resume, setting
 def _map(runs, names, files, pipeline, backend, work, settings, classes_table, remove):
     """The map of two complete tiled runs: densities, grid, coded points, work units, levels."""
     from ..method.crs import las_units
-    from ._compute import _fewer_points, _scheme_warnings
     from ._lod import MIN_CELLS, REPLICATES
-    from ._maps import LABEL_FREE_SCORE, SCORE, ChangeMap, metric_levels
+    from ._maps import LABEL_FREE_SCORE, SCORE, ChangeMap, metric_levels, scheme_warnings
     import laspy
 
     s = SimpleNamespace(**settings)
@@ -222,18 +222,18 @@ def _map(runs, names, files, pipeline, backend, work, settings, classes_table, r
                      f"{LABEL_FREE_SCORE}) and every epoch's points are shown as one class")
     classes = classes_table if labelled else UNLABELED
     side = _unit_side(runs, bounds, grid, cell, backend.workers, int(s.memory))
-    uplan = UnitPlan(str(work), grid, side, s.frame, classes, labelled, (runs[0].plan, runs[1].plan), int(min_points),
+    uplan = UnitPlan(str(work), grid, side, s.frame, classes, labelled, (runs[0], runs[1]), int(min_points),
                      s.render, s.seed, 0)
     tiles_of = [_code(uplan, e, runs[e], bounds[e][2], backend) for e in (0, 1)]
-    units = sorted(set(tiles_of[0]) | set(tiles_of[1]))
-    gathered = _gather(uplan, units, tiles_of, backend, len(classes))
+    unit_ids = sorted(set(tiles_of[0]) | set(tiles_of[1]))
+    gathered = _gather(uplan, unit_ids, tiles_of, backend, len(classes))
     filled = np.minimum(gathered["points"][0] - gathered["undefined"][0], gathered["points"][1] - gathered["undefined"][1])
     table = counts_table(grid, gathered["points"], gathered["undefined"], min_points, densities, cell)
     if not table["valid"].any():
         most = int(filled.max(initial=0))
         raise LidarSigError(f"no cell of {cell:g} m holds {counted(min_points, 'point')} with defined saliency in both "
                             f"{names[0]} and {names[1]} (at most {most:,}); "
-                            f"{_fewer_points(s.min_points_rule, min_points)}")
+                            f"{fewer_points(s.min_points_rule, min_points)}")
     for m, k in enumerate(CHANGE_KEYS):
         table[k] = gathered["metrics"][:, m]
     sampled = {k: (gathered["mu0"][:, m], gathered["sigma"][:, m], gathered["defined"][:, m])
@@ -242,7 +242,7 @@ def _map(runs, names, files, pipeline, backend, work, settings, classes_table, r
     epochs = [TiledEpoch(names[e], runs[e], uplan, e, tiles_of[e], {**pipeline.method(), "n_points": bounds[e][2]},
                          holder) for e in (0, 1)]
     binned = [SimpleNamespace(classes=gathered["classes"][e]) for e in (0, 1)]
-    schemes = _scheme_warnings(binned, classes, names, ranked_by=s.score)[0] if labelled else []
+    schemes = scheme_warnings(binned, classes, names, ranked_by=s.score)[0] if labelled else []
     score = s.score or (SCORE if labelled and not schemes else LABEL_FREE_SCORE)
     method = {k: v for k, v in pipeline.method().items()
               if k in ("descriptor", "strategy", "scale_kind", "scale_values", "scale_units", "weights")}
@@ -259,7 +259,7 @@ def _map(runs, names, files, pipeline, backend, work, settings, classes_table, r
     cm.rank_by(score)
     cm.cell_rule, cm.min_points_rule = s.cell_rule, s.min_points_rule
     cm.density = tuple(densities)
-    cm.timings["units"] = {"units": len(units), "side_cells": side}
+    cm.timings["units"] = {"units": len(unit_ids), "side_cells": side}
     return cm
 
 
@@ -270,7 +270,7 @@ def _density(run, bounds, units, backend):
     lo, _, n, _ = bounds
     pixel = density_pixel(units.horizontal)
     keys = []
-    items = [(run.plan, ij, tuple(lo[:2]), pixel) for ij in run.tile_stats]
+    items = [(run, ij, tuple(lo[:2]), pixel) for ij in run.tile_stats]
     for _, found, err in progress(backend.run(density_task, items), total=len(items), desc="densities", unit="tile"):
         if err is not None:
             raise err

@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..method.class_maps import class_scheme_warnings
 from ..method.crs import crs_name
 from ..base.errors import LidarSigError, as_path, whole_number
 from ..metrics import METRIC, METRIC_NAMES, METRICS
@@ -90,6 +91,18 @@ def metric_levels(table, null=None, *, confidence=CONFIDENCE, sampled=None):
     return Levels({k: level_from_sampling(oriented(table[k], k), *sampled[k], table["valid"], confidence=confidence,
                                           key=k)
                    for k in CHANGE_KEYS})
+
+
+def scheme_warnings(binned, classes, names, *, ranked_by=None):
+    """Per interval, the warnings that its two epochs' class codes barely overlap
+    (:func:`lidar_sig.method.class_maps.class_scheme_warnings`), saying what the ranking then is."""
+    consequence = "delta_KL and L1 measure the classification schemes as much as the land"
+    if ranked_by is None:
+        consequence += (f"; the cells are ranked by {METRIC_NAMES[LABEL_FREE_SCORE]}, which does not depend on the "
+                        "labels (--class-map merges codes to compare the classes)")
+    return [class_scheme_warnings(binned[k].classes.sum(axis=0), binned[k + 1].classes.sum(axis=0),
+                                  classes.class_names, names[k:k + 2], consequence=consequence)
+            for k in range(len(binned) - 1)]
 
 
 def _where(cell):
@@ -435,7 +448,8 @@ class ChangeMap:
                 "levels": {k: {"beta": v.beta, "tau": v.tau, "survey": v.survey,
                                "significant": int(v.significant.sum())} for k, v in self.levels.items()
                            if np.isfinite(v.mu0).any()},
-                "warnings": list(self.warnings), "method": self.method}
+                "warnings": list(self.warnings), "method": self.method,
+                "work_units": self.timings.get("units")}
 
     def to_dict(self, n: int = 10) -> dict[str, Any]:
         """Everything a ``--json`` user needs: the grid, the settings, each metric's survey part

@@ -31,9 +31,6 @@ import numpy as np
 
 from ..method.saliency_map import Saliency
 from ..method.signature_raster import Frame, point_codes
-from ..tiling._core import tile_name
-from ..tiling._tasks import points_paths
-from ..tiling.sources import load_cells
 from ..tiling.work import UNITS
 from ._cells import CHANGE_KEYS, Binned, null_metrics, observed_metrics
 from ._density import DENSITY_PIXEL
@@ -51,17 +48,14 @@ UNIT_BYTES_PER_POINT = 200
 VIEW_POINTS = 1_000_000
 #: One point of that sample: raw coordinates and saliency.
 VIEW = np.dtype([("x", "f8"), ("y", "f8"), ("z", "f8"), ("values", "f8", 3)])
-#: Margin of a tile's box when its core points are read (metres): the core is then decided by
-#: the tiling's own index, as the saliency run decided it, not by the box's round-off.
-READ_MARGIN = 0.01
 
 
 @dataclass(frozen=True)
 class UnitPlan:
     """Everything the tasks of a change map in work units share (small: pickled to each
     worker): the work folder, the map's grid, the side of a unit in cells, the signatures'
-    frame and class table, whether the epochs are labelled, and each epoch's tiled run plan
-    (:class:`lidar_sig.tiling._tasks.Plan`)."""
+    frame and class table, whether the epochs are labelled, and each epoch's tiled run
+    (:class:`lidar_sig.tiling.SetRun`)."""
 
     work: str
     grid: object
@@ -98,7 +92,7 @@ class UnitPlan:
 
     def key(self, epoch=None):
         """Changes whenever a coded tile (of ``epoch``) or a unit's result would."""
-        runs = [p.key() for p in self.epochs] if epoch is None else [self.epochs[epoch].key()]
+        runs = [r.plan.key() for r in self.epochs] if epoch is None else [self.epochs[epoch].plan.key()]
         return json.dumps([runs, repr(self.grid), self.side, self.frame.size, self.frame.margin, self.classes.name,
                            self.labelled, self.min_points, self.render, self.seed, self.stream], default=str)
 
@@ -122,21 +116,11 @@ def _done(path, key):
     return None
 
 
-def core_points(plan, ij):
-    """(raw coordinates (N, 3), identifiers, class codes) of tile ``ij``'s core points of an
-    epoch's tiled run ``plan``: the staged points whose tile, by the tiling's index, is ``ij``."""
-    x0, y0, x1, y1 = plan.tiling.box(*ij)
-    m = READ_MARGIN
-    rec = load_cells(plan.files, plan.cells, plan._raw((x0 - m, y0 - m, x1 + m, y1 + m)))
-    raw = np.column_stack([rec["x"], rec["y"], rec["z"]])
-    core = np.all(plan.tiling.index(plan.ctx.metric(raw)) == np.asarray(ij), axis=1)
-    return raw[core], rec["id"][core], rec["label"][core]
-
-
-def density_task(plan, ij, lo, pixel):
+def density_task(run, ij, lo, pixel):
     """(pixels,) int64 keys of the ``pixel``-sided squares from the corner ``lo`` (raw units)
-    that tile ``ij``'s core points occupy (:func:`lidar_sig.change_map._density.density`)."""
-    raw, _, _ = core_points(plan, ij)
+    that tile ``ij``'s core points of an epoch's tiled ``run`` occupy
+    (:func:`lidar_sig.change_map._density.density`)."""
+    raw = run.core_points(ij)[0]
     if not len(raw):
         return np.empty(0, np.int64)
     ij_px = np.floor((raw[:, :2] - np.asarray(lo)) / pixel).astype(np.int64)
@@ -149,11 +133,11 @@ def density_pixel(units_horizontal):
 
 
 def coded_path(work, epoch, ij):
-    return Path(work) / "coded" / f"e{epoch}" / f"{tile_name(*ij)}.npz"
+    return Path(work) / "coded" / f"e{epoch}" / f"t{ij[0]}_{ij[1]}.npz"
 
 
 def view_path(work, epoch, ij):
-    return Path(work) / "view" / f"e{epoch}" / f"{tile_name(*ij)}.npy"
+    return Path(work) / "view" / f"e{epoch}" / f"t{ij[0]}_{ij[1]}.npy"
 
 
 def code_task(uplan, epoch, ij, view_step):
@@ -165,14 +149,8 @@ def code_task(uplan, epoch, ij, view_step):
     done = _done(path, key)
     if done is not None:
         return dict(zip(done["units"].tolist(), np.diff(done["starts"]).tolist()))
-    plan = uplan.epochs[epoch]
-    raw, ids, labels = core_points(plan, ij)
-    ids_path, values_path = points_paths(plan.work, ij)
-    known = np.load(ids_path)
-    at = np.searchsorted(known, ids)
-    if len(known) != len(ids) or (len(ids) and not np.array_equal(known[np.minimum(at, len(known) - 1)], ids)):
-        raise RuntimeError(f"{tile_name(*ij)}: its staged points and its saliency differ")
-    values = np.load(values_path)["values"][at]
+    run = uplan.epochs[epoch]
+    raw, ids, labels, values = run.core_points(ij)
     sal = Saliency.from_values(values)
     codes = labels if uplan.labelled else np.zeros(len(ids), np.int64)
     cls = uplan.classes.index(codes)
@@ -180,7 +158,7 @@ def code_task(uplan, epoch, ij, view_step):
     rec = np.empty(len(ids), CODED)
     rec["cell"] = uplan.grid.cell_of(raw[:, :2])
     rec["id"], rec["pixel"], rec["egeom"], rec["cls"] = ids, pixel, egeom_bin, cls
-    rec["height"] = raw[:, 2] * plan.ctx.factors[2]
+    rec["height"] = raw[:, 2] * run.ctx.factors[2]
     unit = uplan.unit_of(rec["cell"])
     order = np.argsort(unit, kind="stable")
     rec, unit = rec[order], unit[order]

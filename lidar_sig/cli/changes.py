@@ -6,7 +6,8 @@ import click
 
 from ..base.errors import LidarSigError, counted
 from .group import cli
-from .options import Choice, Default, columns_option, metric_keys, overwrite_option, pipeline_options, render_option
+from .options import (Choice, Default, columns_option, execution_options, metric_keys, overwrite_option, pipeline_options,
+                      render_option, resume_option)
 from .summaries import say
 
 
@@ -49,16 +50,21 @@ def _confidence():
 @render_option
 @overwrite_option
 @columns_option
+@execution_options
+@resume_option
 @pipeline_options
 def changes_command(epochs, output, cells, points, cell, min_points, score, confidence, class_map, top, png, report,
-                    as_json, render, overwrite, columns, pipeline, method_given, quiet):
+                    as_json, render, overwrite, columns, execution, resume, pipeline, method_given, quiet):
     """Map where epochs differ: per-cell signature metrics in a grid of the CRS, each with its
     level of detection, so that the cells that changed significantly stand out.
 
     A B [C ...] are epochs of the same area in one CRS, in time order: point-cloud files or
     folders of tiles. Each epoch's saliency is computed once on the whole epoch; the points are
     then binned into cells aligned to multiples of the cell size, and the signatures of each
-    cell compared between consecutive epochs.
+    cell compared between consecutive epochs. Two epochs of LAS/LAZ files (a file, a folder, a
+    glob pattern or a .vpc each, tiles cut on any grid) that one block would hold above --memory,
+    or with --tile-size, --workers or --scheduler, are mapped in work units: the same map, in
+    bounded memory, resumable (--resume).
     """
     cell = _auto_or(cell, "the cell size (--cell)", _metres)
     min_points = _auto_or(min_points, "the fewest points (--min-points)", _whole)
@@ -68,7 +74,7 @@ def changes_command(epochs, output, cells, points, cell, min_points, score, conf
     done = changes_job(epochs, output=output, cells=cells, points=points, png=png, report=report, overwrite=overwrite,
                        top=top, cell=cell, pipeline=pipeline, min_points=min_points, score=score,
                        render=render or "smooth", columns=columns, confidence=confidence,
-                       class_map=list(class_map) or None)
+                       class_map=list(class_map) or None, execution=execution, resume=resume)
     result, written = done.changes, done.lines
     if as_json:
         click.echo(json.dumps(done.to_dict()))

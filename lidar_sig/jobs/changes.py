@@ -22,15 +22,22 @@ class ChangesRun(JobRun):
 
 
 def changes(epochs: Any, *, output: Any = None, cells: Any = None, points: Any = None, png: Any = None,
-            report: Any = None, overwrite: bool = False, top: int = 10, **options: Any) -> ChangesRun:
+            report: Any = None, overwrite: bool = False, top: int = 10, execution: Any = None, resume: bool = False,
+            **options: Any) -> ChangesRun:
     """The change map of ``epochs`` (two or more, in time order; :func:`lidar_sig.changes`, which
     takes ``options``: cell, min_points, score, confidence, class_map, pipeline, render,
     columns) written as the GeoTIFF ``output`` (with its QGIS style beside it), the cells'
     GeoPackage ``cells``, the later epoch's points with their cell's change ``points`` (two
-    epochs), the map ``png`` and the HTML ``report``; ``top`` cells in its JSON."""
+    epochs), the map ``png`` and the HTML ``report``; ``top`` cells in its JSON. Two epochs of
+    LAS/LAZ files above the memory budget of ``execution`` (or with tiles, workers or a
+    scheduler asked) are mapped in work units, with their work folder beside the first output
+    (or ``execution.work_dir``), kept after an interruption for ``resume`` and removed once the
+    outputs are written."""
     from ..change_map import changes as change_map
+    from ..change_map import in_units
     from ..io import output_group
     from ..io.styles import style_path
+    from ..tiling.execution import as_execution
 
     epochs = list(epochs) if isinstance(epochs, (list, tuple)) else [epochs]
     if len(epochs) < 2:
@@ -40,7 +47,16 @@ def changes(epochs: Any, *, output: Any = None, cells: Any = None, points: Any =
 
         raise LidarSigError(POINTS_OF_TWO, path=points)
     check_outputs(output, png, report, overwrite, cells, points)
-    result = change_map(*epochs, **options)
+    execution = as_execution(execution)
+    files = in_units(epochs, execution, resume)
+    if files is not None:
+        options.update(resume=resume, work=_work(execution, output, cells, points, png, report))
+        if points:
+            check_streamed_points(points, files[1], epochs[1])
+    elif resume:
+        raise LidarSigError("--resume continues a change map in work units (two epochs of LAS/LAZ files above the "
+                            "memory budget, or with --tile-size, --workers or --scheduler); leave it out")
+    result = change_map(*epochs, execution=execution, **options)
     done = ChangesRun(changes=result, top=top)
     with output_group():  # all or none
         for path in (output, cells, points, png, report):
@@ -49,7 +65,38 @@ def changes(epochs: Any, *, output: Any = None, cells: Any = None, points: Any =
                 done.written.append(str(path))
                 style = style_path(path) if str(path).lower().endswith((".tif", ".tiff")) else None
                 done.lines.append(f"wrote {path}" + (f" (style {style})" if style else ""))
+    if files is not None:
+        result.close()  # written: the work folder goes
     return done
+
+
+def _work(execution, *outputs):
+    """The work folder of a change map in work units: the execution's ``work_dir``, else beside
+    the first output (on its file system), else a new one in the temporary folder."""
+    from pathlib import Path
+
+    from ..tiling.work import fresh_work
+    from ._common import work_folder
+
+    first = next((Path(p) for p in outputs if p), None)
+    if first is None and execution.work_dir is None:
+        return fresh_work(None)
+    return work_folder(execution, first.with_name(f".{first.name}.lidar-sig-work") if first else None)
+
+
+def check_streamed_points(points, files, epoch):
+    """Refuse, before any work, a per-point change that a map in work units cannot stream: not
+    LAS/LAZ, or a later epoch of several files."""
+    from ..io.formats import format_of
+
+    fmt = format_of(points)
+    if fmt is None or not fmt.streamed:
+        raise LidarSigError("a change map in work units streams the per-point change to LAS/LAZ only: give a .las or "
+                            ".laz name", path=points)
+    if len(files) != 1:
+        raise LidarSigError(f"the later epoch {epoch} is {len(files)} files: a change map in work units writes the "
+                            "per-point change of one file; give the later epoch as one file, or leave out --points",
+                            path=points)
 
 
 def check_outputs(output, png, report, overwrite, cells=None, points=None):

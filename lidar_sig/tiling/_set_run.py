@@ -17,7 +17,7 @@ from ..base.errors import LidarSigError, counted
 from ..base.progress import step
 from ..method.saliency_map import Saliency
 from ..method.signature_raster import Signature
-from ._core import SetContext, Tiling
+from ._core import SetContext, Tiling, tile_name
 from .sources import ID_BITS
 from ._tasks import Plan, points_paths, result_path
 
@@ -118,6 +118,26 @@ class SetRun:
                 del ids  # unmapped: the pages read leave the process
             return Saliency.from_values(values, chosen if has_chosen else None)
         return chunk
+
+    def core_points(self, ij: tuple[int, int]) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(raw coordinates (N, 3) in the files' units, identifiers, class codes, (Cl, Cs, Cp))
+        of tile ``ij``'s core points, as the run staged and computed them: the staged points
+        whose tile by the tiling's own index is ``ij`` (a change map's work units code them)."""
+        from .sources import load_cells
+
+        plan = self.plan
+        x0, y0, x1, y1 = plan.tiling.box(*ij)
+        m = 0.01 * plan.tiling.size  # the core is decided by the index, not the box's round-off
+        rec = load_cells(plan.files, plan.cells, plan._raw((x0 - m, y0 - m, x1 + m, y1 + m)))
+        raw = np.column_stack([rec["x"], rec["y"], rec["z"]])
+        core = np.all(plan.tiling.index(plan.ctx.metric(raw)) == np.asarray(ij), axis=1)
+        raw, ids, labels = raw[core], rec["id"][core], rec["label"][core]
+        ids_path, values_path = points_paths(plan.work, ij)
+        known = np.load(ids_path)
+        at = np.searchsorted(known, ids)
+        if len(known) != len(ids) or (len(ids) and not np.array_equal(known[np.minimum(at, len(known) - 1)], ids)):
+            raise RuntimeError(f"{tile_name(*ij)}: its staged points and its saliency differ")
+        return raw, ids, labels, np.load(values_path)["values"][at]
 
     def saliency_of(self, source: Any) -> Saliency | None:
         """Saliency of one input file's points, in its point order (in memory); None when a

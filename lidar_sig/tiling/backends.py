@@ -117,9 +117,14 @@ class DaskCluster:
     def run(self, fn, items):
         from distributed import as_completed
 
+        items = list(items)
         futures = {}
+        # the plan every task of a run shares goes to the workers once, not once per task
+        shared = items[0][0] if items and all(item[0] is items[0][0] for item in items) else None
+        first = self.client.scatter(shared, broadcast=True, hash=False) if shared is not None else None
         for item in items:
-            futures[self.client.submit(fn, *item, pure=False)] = item
+            args = (first, *item[1:]) if shared is not None else item
+            futures[self.client.submit(fn, *args, pure=False)] = item
         for fut in as_completed(list(futures)):
             item = futures[fut]
             if fut.status == "error":
