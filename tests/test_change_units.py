@@ -145,3 +145,25 @@ def test_the_per_point_change_streams_as_the_one_block_writes_it(regridded, tmp_
     for name in ("ChangeScore", "ChangeLoD", "ChangeSignificant", "Cl", "Cs", "Cp"):
         np.testing.assert_allclose(np.asarray(got[name], float), np.asarray(want[name], float), rtol=1e-6,
                                    equal_nan=True, err_msg=name)
+
+
+def test_the_command_maps_the_cells_on_every_core_as_one_process_does(regridded):
+    # the command line forks the cells' work (a process of one thread); under the test runner
+    # (threads of its own) the same map is made in this process, cell after cell
+    import json
+    import os
+
+    from command_line import run_process
+
+    tiles, _, _ = regridded
+    done = run_process("changes", IGN_FILES[0].parent, tiles[0].parent, "--cell", "10", "--json", "--top", "100000",
+                       "--verbose")
+    assert done.returncode == 0, done.stderr[-2000:]
+    forked = json.loads(done.stdout)
+    here = changes(IGN_FILES[0].parent, tiles[0].parent, cell=10, pipeline=ls.Pipeline(progress=False))
+    assert forked["grid"]["valid"] >= 32  # cells enough for two processes
+    processes = max(1, min(len(os.sched_getaffinity(0)), forked["grid"]["valid"] // 16))
+    assert f"processes {processes}," in done.stderr or f"processes {processes})" in done.stderr
+    want = json.loads(json.dumps(here.to_dict(100000)))
+    for key in ("grid", "levels", "top"):
+        assert forked[key] == want[key], key

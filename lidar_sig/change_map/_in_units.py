@@ -282,13 +282,16 @@ def _density(run, bounds, units, backend):
 
 
 def _unit_side(runs, bounds, grid, cell, workers, memory):
-    """Cells per side of a work unit: as many as hold both epochs' points within ``memory`` at
-    their densest staging cells, and at least :data:`UNITS_PER_WORKER` units per worker."""
+    """Cells per side of a work unit: as many as hold both epochs' points within ``memory`` (above
+    the base of a process, :data:`lidar_sig.tiling.memory.BASE_BYTES`) at their densest staging
+    cells, and at least :data:`UNITS_PER_WORKER` units per worker."""
     from ..tiling.sources import densest
+
+    from ..tiling.memory import BASE_BYTES
 
     dense = sum(densest({i: r for i, r in enumerate(b[3])}, run.plan.cells, run.ctx.factors)
                 for run, b in zip(runs, bounds))
-    points = max(memory // UNIT_BYTES_PER_POINT, 1)
+    points = max((memory - BASE_BYTES) // UNIT_BYTES_PER_POINT, 1)  # above what a process holds before any point
     side = max(1, int(math.sqrt(points / max(dense * cell * cell, 1e-12))))
     spread = max(1, math.ceil(math.sqrt(grid.n_cells / (UNITS_PER_WORKER * max(workers, 1)))))
     return min(side, spread)

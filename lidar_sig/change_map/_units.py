@@ -43,7 +43,7 @@ CODED = np.dtype([("cell", "i8"), ("id", "i8"), ("pixel", "i8"), ("egeom", "i8")
                   ("height", "f8")])
 #: Bytes a work unit holds per point of its cells (both epochs): the coded records, their
 #: order, the binned arrays and the drawn resamples (docs/performance.md has the measurement).
-UNIT_BYTES_PER_POINT = 200
+UNIT_BYTES_PER_POINT = 240
 #: Points of the thinned sample that draws the report's top view of an epoch (in all).
 VIEW_POINTS = 1_000_000
 #: One point of that sample: raw coordinates and saliency.
