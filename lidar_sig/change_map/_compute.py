@@ -13,16 +13,16 @@ import numpy as np
 from ..method.class_maps import merge_classes
 from ..method.classes import UNLABELED
 from ..base.errors import LidarSigError, LidarSigWarning, amount, counted, whole_number
-from ..metrics import METRIC, METRIC_KEYS, METRIC_NAMES
+from ..metrics import METRIC, METRIC_KEYS
 from ..base.progress import step
 from ..method.signature_raster import Frame, method_differences
 from ._cells import CELL_FRAME, SEED, bin_points, cell_table
 from ._cores import cell_values
-from ._density import AUTO, LEAST_DENSITY, RECALL_BELOW, auto_cell, auto_min_points, density, fewer_points
+from ._density import AUTO, auto_cell, auto_min_points, density, fewer_points, sparse_note
 from ._epochs import Epoch, check_same_crs, read_epoch
 from ._grid import MAX_CELLS, Grid, check_cell
-from ._lod import CONFIDENCE, MIN_CELLS, REPLICATES
-from ._maps import LABEL_FREE_SCORE, SCORE, ChangeMap, metric_levels, scheme_warnings
+from ._lod import CONFIDENCE, REPLICATES, few_cells_note
+from ._maps import LABEL_FREE_SCORE, SCORE, ChangeMap, geometry_only_note, metric_levels, scheme_warnings
 from .series import ChangeSeries
 from ._in_units import changes_in_units, in_units
 
@@ -103,8 +103,63 @@ def changes(a: Any, b: Any, *more: Any, cell: float | str = AUTO, pipeline: Pipe
     ChangeMap, or ChangeSeries for three epochs or more
     """
     from ..pipeline.flow import pipeline_or_default
+    from ..tiling.execution import as_execution
 
     sources = (a, b) + more
+    s = _settings(cell, min_points, confidence, score, frame, seed)
+    pipeline = pipeline_or_default(pipeline)
+    table_of_classes = merge_classes(pipeline.classes, class_map)  # a bad map is refused before reading
+    execution = as_execution(execution)
+    files = None if any(isinstance(x, Epoch) for x in sources) else in_units(sources, execution, resume)
+    if files is None and (resume or work is not None):
+        raise LidarSigError("resume and work are for a change map in work units: two epochs of LAS/LAZ files with "
+                            "a tile size, workers or a scheduler (Execution), or above the memory budget")
+    if files is not None:
+        return _in_units(sources, files, pipeline, execution, resume, work, table_of_classes, class_map,
+                         dict(vars(s), render=render, memory=execution.memory))
+    given, clouds, names, labelled, notes = _read(sources, pipeline, columns, s.score, class_map)
+    units, kept, densities, grid = _layout(clouds, given, names, pipeline, s, notes)
+    return _maps(clouds, names, given, kept, pipeline, table_of_classes, labelled, grid, units, densities, s, render,
+                 notes)
+
+
+def _maps(clouds, names, given, kept, pipeline, table_of_classes, labelled, grid, units, densities, s, render, notes):
+    """Each epoch's saliency (once), its points binned, then the map of each interval (a
+    ChangeMap, or a ChangeSeries of three epochs or more)."""
+    epochs, seconds = [], []
+    for cloud, name, epoch, used_points in zip(clouds, names, given, kept):
+        start = time.perf_counter()
+        if epoch is None:
+            sal, stats = pipeline.saliency(cloud)
+            epoch = Epoch(name, cloud, sal, stats, kept=used_points)
+        seconds.append(time.perf_counter() - start)
+        epochs.append(epoch)
+    classes = table_of_classes if labelled else UNLABELED
+    with step("binning", epochs=len(epochs), cells=grid.n_cells):
+        binned = [bin_points(e, grid, classes, labelled, s.frame) for e in epochs]
+    schemes = scheme_warnings(binned, classes, names, ranked_by=s.score) if labelled else [[]] * (len(epochs) - 1)
+    score = s.score or (SCORE if labelled and not any(schemes) else LABEL_FREE_SCORE)
+    method = {k: epochs[0].metadata[k] for k in ("descriptor", "strategy", "scale_kind", "scale_values",
+                                                 "scale_units", "weights") if k in epochs[0].metadata}
+    maps = []
+    for k in range(len(epochs) - 1):
+        maps.append(_interval(k, epochs, binned, grid, classes, s.min_points, s.cell, render, s.frame, s.confidence,
+                              s.seed, score, method, units, names, s.min_points_rule, densities[k:k + 2]))
+        cm = maps[-1]
+        cm.cell_rule, cm.min_points_rule = s.cell_rule, s.min_points_rule
+        cm.density = (densities[k], densities[k + 1])
+        cm.timings["saliency"] = [seconds[k], seconds[k + 1]]
+        cm.warnings = notes + schemes[k] + cm.warnings
+    for text in dict.fromkeys(w for m in maps for w in m.warnings):  # each once
+        warnings.warn(text, LidarSigWarning, stacklevel=3)
+    return maps[0] if len(maps) == 1 else ChangeSeries(maps, epochs)
+
+
+def _settings(cell, min_points, confidence, score, frame, seed):
+    """The checked settings of :func:`changes` (a LidarSigError naming a bad one): the cell and
+    fewest points (None for "auto") and how each was chosen, the confidence, score, frame and seed."""
+    from types import SimpleNamespace
+
     cell_rule = AUTO if _is_auto(cell) else "given"
     cell = None if cell_rule == AUTO else check_cell(cell)
     min_points_rule = AUTO if _is_auto(min_points) else "given"
@@ -115,20 +170,13 @@ def changes(a: Any, b: Any, *more: Any, cell: float | str = AUTO, pipeline: Pipe
         raise LidarSigError(f"unknown score {score!r}; use one of {', '.join(METRIC_KEYS)}")
     if not isinstance(frame, Frame):
         raise LidarSigError(f"frame must be a lidar_sig.Frame, got {frame!r}")
-    seed = whole_number(seed, "seed")
-    pipeline = pipeline_or_default(pipeline)
-    table_of_classes = merge_classes(pipeline.classes, class_map)  # a bad map is refused before reading
-    from ..tiling.execution import as_execution
+    return SimpleNamespace(cell=cell, cell_rule=cell_rule, min_points=min_points, min_points_rule=min_points_rule,
+                           confidence=confidence, score=score, frame=frame, seed=whole_number(seed, "seed"))
 
-    execution = as_execution(execution)
-    files = None if any(isinstance(x, Epoch) for x in sources) else in_units(sources, execution, resume)
-    if files is None and (resume or work is not None):
-        raise LidarSigError("resume and work are for a change map in work units: two epochs of LAS/LAZ files with "
-                            "a tile size, workers or a scheduler (Execution), or above the memory budget")
-    if files is not None:
-        return _in_units(sources, files, pipeline, execution, resume, work, table_of_classes, class_map, dict(
-            cell=cell, min_points=min_points, cell_rule=cell_rule, min_points_rule=min_points_rule, score=score,
-            render=render, frame=frame, confidence=confidence, seed=seed, memory=execution.memory))
+
+def _read(sources, pipeline, columns, score, class_map):
+    """(given epochs or None, clouds, names, labelled, notes) of the epochs ``sources``: read,
+    in one CRS, labelled as the score and the class map need."""
     given = [x if isinstance(x, Epoch) else None for x in sources]  # saliency computed already
     for x in given:
         differ = [] if x is None else method_differences(x.metadata, pipeline.method())
@@ -142,70 +190,45 @@ def changes(a: Any, b: Any, *more: Any, cell: float | str = AUTO, pipeline: Pipe
     labelled = all(c.labels is not None for c in clouds)
     notes = []
     if not labelled and any(c.labels is not None for c in clouds):
-        bare = ", ".join(n for n, c in zip(names, clouds) if c.labels is None)
-        notes.append(f"{bare} has no class labels: the cells are compared by geometry only (ranked by "
-                     f"{METRIC_NAMES[score or LABEL_FREE_SCORE]}) and every epoch's points are shown as one class")
+        notes.append(geometry_only_note(", ".join(n for n, c in zip(names, clouds) if c.labels is None), score))
     if score in METRIC and METRIC[score].needs_labels and not labelled:
         raise LidarSigError(f"score {score!r} needs class labels in every epoch; use fv or another geometric metric")
     if class_map and not labelled:
         raise LidarSigError("a class map merges class codes, but not every epoch has class labels; leave out "
                             "--class-map")
+    return given, clouds, names, labelled, notes
+
+
+def _layout(clouds, given, names, pipeline, s, notes):
+    """(units, the points each run uses, densities, grid) of the epochs, with the cell and fewest
+    points chosen in ``s`` where "auto" and a note in ``notes`` below the least density; refused
+    before any saliency where the epochs share no land or no cell holds the fewest points."""
     units = clouds[0].units
     # the points each run uses: withheld and noise points count neither in the densities nor
     # in the grid's extent, as they are in no cell
     kept = [pipeline.kept(c) if x is None else x.kept for x, c in zip(given, clouds)]
     used = [c.xyz[:, :2] if k is None else c.xyz[k, :2] for c, k in zip(clouds, kept)]
     densities = [density(xy, units.horizontal) for xy in used]
-    sparse = min(range(len(densities)), key=densities.__getitem__)
-    if densities[sparse] < LEAST_DENSITY:
-        notes.append(f"{names[sparse]} holds {densities[sparse]:.2g} points/m²: below {LEAST_DENSITY:g} point/m² the "
-                     f"change map finds fewer than 80% of known changes ({RECALL_BELOW:.0%} at 0.5 points/m² in its "
-                     "benchmark, docs/changes.md), so a cell that is not significant may still have changed")
-    if cell is None:
-        cell = auto_cell(min(densities))
-    if min_points is None:
-        min_points = auto_min_points(min(densities), cell)
+    notes += [n for n in [sparse_note(names, densities)] if n]
+    if s.cell is None:
+        s.cell = auto_cell(min(densities))
+    if s.min_points is None:
+        s.min_points = auto_min_points(min(densities), s.cell)
     for k in range(len(clouds) - 1):  # before the grid: disjoint epochs would span a needless one
         _check_overlap(used[k], used[k + 1], names[k], names[k + 1])
-    grid = Grid.covering(np.vstack(used), cell / units.horizontal)
+    grid = Grid.covering(np.vstack(used), s.cell / units.horizontal)
     if grid.n_cells > MAX_CELLS:  # a far outlier, or a cell size meant in another unit
-        raise LidarSigError(f"the epochs span {amount(grid.cols)} x {amount(grid.rows)} cells of {cell:g} m, more than "
-                            f"{MAX_CELLS:,}; use a larger cell size (--cell) or remove far outlying points")
+        raise LidarSigError(f"the epochs span {amount(grid.cols)} x {amount(grid.rows)} cells of {s.cell:g} m, more "
+                            f"than {MAX_CELLS:,}; use a larger cell size (--cell) or remove far outlying points")
     counts = [np.bincount(grid.cell_of(xy), minlength=grid.n_cells) for xy in used]
     for k in range(len(clouds) - 1):  # said before the saliency is computed
         filled = np.minimum(counts[k], counts[k + 1])
-        if filled.max() < min_points:
+        if filled.max() < s.min_points:
             pair = "" if len(clouds) == 2 else f" {names[k]} and {names[k + 1]}"
-            fix = fewer_points(min_points_rule, min_points)
-            raise LidarSigError(f"no cell of {cell:g} m holds {counted(min_points, 'point')} in both "
+            fix = fewer_points(s.min_points_rule, s.min_points)
+            raise LidarSigError(f"no cell of {s.cell:g} m holds {counted(s.min_points, 'point')} in both "
                                 f"epochs{pair} (at most {amount(filled.max())}); {fix}")
-    epochs, seconds = [], []
-    for cloud, name, epoch, used_points in zip(clouds, names, given, kept):
-        start = time.perf_counter()
-        if epoch is None:
-            sal, stats = pipeline.saliency(cloud)
-            epoch = Epoch(name, cloud, sal, stats, kept=used_points)
-        seconds.append(time.perf_counter() - start)
-        epochs.append(epoch)
-    classes = table_of_classes if labelled else UNLABELED
-    with step("binning", epochs=len(epochs), cells=grid.n_cells):
-        binned = [bin_points(e, grid, classes, labelled, frame) for e in epochs]
-    schemes = scheme_warnings(binned, classes, names, ranked_by=score) if labelled else [[]] * (len(epochs) - 1)
-    score = score or (SCORE if labelled and not any(schemes) else LABEL_FREE_SCORE)
-    method = {k: epochs[0].metadata[k] for k in ("descriptor", "strategy", "scale_kind", "scale_values",
-                                                 "scale_units", "weights") if k in epochs[0].metadata}
-    maps = []
-    for k in range(len(epochs) - 1):
-        maps.append(_interval(k, epochs, binned, grid, classes, min_points, cell, render, frame, confidence, seed,
-                              score, method, units, names, min_points_rule, densities[k:k + 2]))
-        cm = maps[-1]
-        cm.cell_rule, cm.min_points_rule = cell_rule, min_points_rule
-        cm.density = (densities[k], densities[k + 1])
-        cm.timings["saliency"] = [seconds[k], seconds[k + 1]]
-        cm.warnings = notes + schemes[k] + cm.warnings
-    for text in dict.fromkeys(w for m in maps for w in m.warnings):  # each once
-        warnings.warn(text, LidarSigWarning, stacklevel=2)
-    return maps[0] if len(maps) == 1 else ChangeSeries(maps, epochs)
+    return units, kept, densities, grid
 
 
 def _in_units(sources, files, pipeline, execution, resume, work, table_of_classes, class_map, settings):
@@ -258,11 +281,7 @@ def _interval(k, epochs, binned, grid, classes, min_points, cell, render, frame,
     start = time.perf_counter()
     levels = metric_levels(table, null, confidence=confidence)
     timings["lod"] = time.perf_counter() - start
-    notes = []
-    if n_valid < MIN_CELLS:
-        notes.append(f"the level of detection covers sampling noise only: {n_valid} compared "
-                     f"cell{'s' if n_valid != 1 else ''}, fewer than {MIN_CELLS}, cannot tell what differs between "
-                     "the two surveys everywhere; use smaller cells (--cell) for more")
+    notes = [n for n in [few_cells_note(n_valid)] if n]
     cm = ChangeMap(table, pair[0].classes, pair[1].classes, grid, epochs[k].cloud.crs, units, cell, int(min_points),
                    score, render, classes, epochs[k], epochs[k + 1], frame, method, levels, confidence,
                    warnings=notes, timings=timings)

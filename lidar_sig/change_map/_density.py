@@ -74,3 +74,14 @@ def fewer_points(min_points_rule, min_points):
         return ("use a smaller cell size (--cell): the automatic minimum is a fifth of a full cell, which cells "
                 "larger than the survey do not hold; or give a smaller minimum (--min-points)")
     return "use a larger cell size (--cell) or a smaller minimum (--min-points)"
+
+
+def sparse_note(names, densities):
+    """The warning that the sparsest of the epochs (``names``, ``densities`` in points per m²)
+    lies below :data:`LEAST_DENSITY`, where the map finds fewer changes; None above it."""
+    k = min(range(len(densities)), key=densities.__getitem__)
+    if densities[k] >= LEAST_DENSITY:
+        return None
+    return (f"{names[k]} holds {densities[k]:.2g} points/m²: below {LEAST_DENSITY:g} point/m² the change map finds "
+            f"fewer than 80% of known changes ({RECALL_BELOW:.0%} at 0.5 points/m² in its benchmark, docs/changes.md), "
+            "so a cell that is not significant may still have changed")

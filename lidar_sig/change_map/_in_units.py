@@ -23,7 +23,8 @@ from ..method.classes import UNLABELED
 from ..method.crs import crs_name, same_crs
 from ..method.signature_raster import Signature
 from ._cells import CHANGE_KEYS, counts_table
-from ._density import LEAST_DENSITY, RECALL_BELOW, auto_cell, auto_min_points, fewer_points
+from ._lod import few_cells_note
+from ._density import auto_cell, auto_min_points, fewer_points, sparse_note
 from ._grid import MAX_CELLS, Grid
 from ._units import (UNIT_BYTES_PER_POINT, VIEW_POINTS, UnitPlan, code_task, density_pixel, density_task,
                      unit_points, unit_task, view_path)
@@ -184,14 +185,12 @@ def changes_in_units(files, names, *, pipeline, execution, work, resume, setting
             return cm
 
 
-def _map(runs, names, files, pipeline, backend, work, settings, classes_table, remove):
-    """The map of two complete tiled runs: densities, grid, coded points, work units, levels."""
+def _frame(runs, names, s, backend):
+    """(units, bounds, densities, notes, cell, min_points, grid) of two complete tiled runs: the
+    CRS checked, each epoch's staged extent and density, the defaults chosen, the map's grid."""
     from ..method.crs import las_units
-    from ._lod import MIN_CELLS, REPLICATES
-    from ._maps import LABEL_FREE_SCORE, SCORE, ChangeMap, metric_levels, scheme_warnings
     import laspy
 
-    s = SimpleNamespace(**settings)
     crs = [run.sources[0].crs for run in runs]
     if (crs[0] is None) != (crs[1] is None) or not same_crs(crs[0], crs[1]):
         raise LidarSigError(f"{names[0]} and {names[1]} are in different CRS ({crs_name(crs[0]) or 'none'} / "
@@ -200,12 +199,7 @@ def _map(runs, names, files, pipeline, backend, work, settings, classes_table, r
         _, units = las_units(reader.header, path=runs[0].sources[0].path)
     bounds = [staged_bounds(run) for run in runs]
     densities = [_density(run, b, units, backend) for run, b in zip(runs, bounds)]
-    notes = []
-    sparse = int(np.argmin(densities))
-    if densities[sparse] < LEAST_DENSITY:
-        notes.append(f"{names[sparse]} holds {densities[sparse]:.2g} points/m²: below {LEAST_DENSITY:g} point/m² the "
-                     f"change map finds fewer than 80% of known changes ({RECALL_BELOW:.0%} at 0.5 points/m² in its "
-                     "benchmark, docs/changes.md), so a cell that is not significant may still have changed")
+    notes = [n for n in [sparse_note(names, densities)] if n]
     cell = auto_cell(min(densities)) if s.cell is None else s.cell
     min_points = auto_min_points(min(densities), cell) if s.min_points is None else s.min_points
     (lo_a, hi_a, _, _), (lo_b, hi_b, _, _) = bounds
@@ -215,24 +209,36 @@ def _map(runs, names, files, pipeline, backend, work, settings, classes_table, r
     if grid.n_cells > MAX_CELLS:
         raise LidarSigError(f"the epochs span {amount(grid.cols)} x {amount(grid.rows)} cells of {cell:g} m, more than "
                             f"{MAX_CELLS:,}; use a larger cell size (--cell) or remove far outlying points")
+    return units, bounds, densities, notes, cell, int(min_points), grid
+
+
+def _map(runs, names, files, pipeline, backend, work, settings, classes_table, remove):
+    """The map of two complete tiled runs: densities, grid, coded points, work units, levels."""
+    from ._lod import REPLICATES
+    from ._maps import LABEL_FREE_SCORE, SCORE, ChangeMap, geometry_only_note, metric_levels, scheme_warnings
+
+    s = SimpleNamespace(**settings)
+    t0 = time.perf_counter()
+    units, bounds, densities, notes, cell, min_points, grid = _frame(runs, names, s, backend)
+    seconds = {"densities": time.perf_counter() - t0}
     labelled = runs[0].labelled and runs[1].labelled
     if runs[0].labelled != runs[1].labelled:
-        bare = names[0] if not runs[0].labelled else names[1]
-        notes.append(f"{bare} has no class labels: the cells are compared by geometry only (ranked by "
-                     f"{LABEL_FREE_SCORE}) and every epoch's points are shown as one class")
+        notes.append(geometry_only_note(names[0] if not runs[0].labelled else names[1], s.score))
     classes = classes_table if labelled else UNLABELED
     side = _unit_side(runs, bounds, grid, cell, backend.workers, int(s.memory))
-    uplan = UnitPlan(str(work), grid, side, s.frame, classes, labelled, (runs[0], runs[1]), int(min_points),
-                     s.render, s.seed, 0)
+    uplan = UnitPlan(str(work), grid, side, s.frame, classes, labelled, (runs[0], runs[1]), min_points, s.render,
+                     s.seed, 0)
+    t0 = time.perf_counter()
     tiles_of = [_code(uplan, e, runs[e], bounds[e][2], backend) for e in (0, 1)]
     unit_ids = sorted(set(tiles_of[0]) | set(tiles_of[1]))
+    seconds["coding"], t0 = time.perf_counter() - t0, time.perf_counter()
     gathered = _gather(uplan, unit_ids, tiles_of, backend, len(classes))
-    filled = np.minimum(gathered["points"][0] - gathered["undefined"][0], gathered["points"][1] - gathered["undefined"][1])
+    seconds["units"] = time.perf_counter() - t0
     table = counts_table(grid, gathered["points"], gathered["undefined"], min_points, densities, cell)
     if not table["valid"].any():
-        most = int(filled.max(initial=0))
+        defined = gathered["points"] - gathered["undefined"]
         raise LidarSigError(f"no cell of {cell:g} m holds {counted(min_points, 'point')} with defined saliency in both "
-                            f"{names[0]} and {names[1]} (at most {most:,}); "
+                            f"{names[0]} and {names[1]} (at most {int(defined.min(axis=0).max(initial=0)):,}); "
                             f"{fewer_points(s.min_points_rule, min_points)}")
     for m, k in enumerate(CHANGE_KEYS):
         table[k] = gathered["metrics"][:, m]
@@ -246,20 +252,16 @@ def _map(runs, names, files, pipeline, backend, work, settings, classes_table, r
     score = s.score or (SCORE if labelled and not schemes else LABEL_FREE_SCORE)
     method = {k: v for k, v in pipeline.method().items()
               if k in ("descriptor", "strategy", "scale_kind", "scale_values", "scale_units", "weights")}
-    n_valid = int(table["valid"].sum())
     t0 = time.perf_counter()
     levels = metric_levels(table, sampled=sampled, confidence=s.confidence)
-    if n_valid < MIN_CELLS:
-        notes.append(f"the level of detection covers sampling noise only: {n_valid} compared "
-                     f"cell{'s' if n_valid != 1 else ''}, fewer than {MIN_CELLS}, cannot tell what differs between "
-                     "the two surveys everywhere; use smaller cells (--cell) for more")
-    cm = ChangeMap(table, gathered["classes"][0], gathered["classes"][1], grid, crs[0], units, cell, int(min_points),
-                   score, s.render, classes, epochs[0], epochs[1], s.frame, method, levels, s.confidence,
+    notes += [n for n in [few_cells_note(int(table["valid"].sum()))] if n]
+    cm = ChangeMap(table, gathered["classes"][0], gathered["classes"][1], grid, runs[0].sources[0].crs, units, cell,
+                   min_points, score, s.render, classes, epochs[0], epochs[1], s.frame, method, levels, s.confidence,
                    warnings=notes + schemes, timings={"lod": time.perf_counter() - t0, "replicates": 2 * REPLICATES})
     cm.rank_by(score)
-    cm.cell_rule, cm.min_points_rule = s.cell_rule, s.min_points_rule
-    cm.density = tuple(densities)
+    cm.cell_rule, cm.min_points_rule, cm.density = s.cell_rule, s.min_points_rule, tuple(densities)
     cm.timings["units"] = {"units": len(unit_ids), "side_cells": side}
+    cm.timings.update({f"{k}_seconds": v for k, v in seconds.items()})
     return cm
 
 

@@ -131,6 +131,16 @@ class Levels(dict):
                          "tau: how much that varies from cell to cell")
 
 
+def few_cells_note(n_valid):
+    """The warning that ``n_valid`` compared cells, fewer than :data:`MIN_CELLS`, leave the level
+    without its survey part; None from :data:`MIN_CELLS` up."""
+    if n_valid >= MIN_CELLS:
+        return None
+    return (f"the level of detection covers sampling noise only: {n_valid} compared cell{'s' if n_valid != 1 else ''}, "
+            f"fewer than {MIN_CELLS}, cannot tell what differs between the two surveys everywhere; use smaller cells "
+            "(--cell) for more")
+
+
 def pooled_confidence(confidence, tests):
     """The confidence of each of ``tests`` tests that together keep ``confidence``
     (Bonferroni): 1 - (1 - confidence) / tests, 0.975 each for two tests at 95%."""

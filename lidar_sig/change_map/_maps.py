@@ -93,6 +93,13 @@ def metric_levels(table, null=None, *, confidence=CONFIDENCE, sampled=None):
                    for k in CHANGE_KEYS})
 
 
+def geometry_only_note(bare, score=None):
+    """The note that the epochs ``bare`` (their names) have no class labels, so that the cells
+    are compared by geometry only, ranked by ``score`` (default :data:`LABEL_FREE_SCORE`)."""
+    return (f"{bare} has no class labels: the cells are compared by geometry only (ranked by "
+            f"{METRIC_NAMES[score or LABEL_FREE_SCORE]}) and every epoch's points are shown as one class")
+
+
 def scheme_warnings(binned, classes, names, *, ranked_by=None):
     """Per interval, the warnings that its two epochs' class codes barely overlap
     (:func:`lidar_sig.method.class_maps.class_scheme_warnings`), saying what the ranking then is."""

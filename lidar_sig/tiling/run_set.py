@@ -92,19 +92,7 @@ def _run_set(pipeline, inputs, *, work, tile_size, backend, resume, progress_ena
     if good:
         factors = good[0].factors
         lo = np.min([s.lo for s in good], axis=0)
-        hi = np.max([s.hi for s in good], axis=0)
-        extent = (hi[:2] - lo[:2]) * np.asarray(factors[:2])  # metres
-        area = max(float(np.prod(extent)), 1e-12)
-        n_points = sum(s.n_points for s in good)
-        least = tile_side_for(MIN_TILE_POINTS, n_points / area)  # smaller tiles: the halos would be most of the work
-        if sized:  # from the headers: a tile's block within the budget, 2 tiles per worker at least (if not too small)
-            tile_size = min(tile_side_for(tile_points(memory), n_points / area),
-                            max(tile_side_for(n_points / (2 * backend.workers), n_points / area), least))
-        n_tiles = math.prod(max(1, math.ceil(e / tile_size)) for e in extent)
-        if not sized and n_tiles > max(4, n_points / MIN_TILE_POINTS):
-            raise LidarSigError(f"{arg('tile_size', tile_size)} is too small for these files: its tiles would hold "
-                                f"about {n_points / n_tiles:,.0f} points each, fewer than {MIN_TILE_POINTS}; give "
-                                f"at least {least:.3g} m, or leave it out for the default")
+        tile_size = _header_tile_size(good, None if sized else tile_size, memory, backend.workers)
     work = prepare_work(work, resume, keep=[*files, *outputs])
     run = SetRun(sources, execution=backend.description)
     for s in sources:
@@ -115,31 +103,8 @@ def _run_set(pipeline, inputs, *, work, tile_size, backend, resume, progress_ena
     cells = Cells(tuple(lo[:2].tolist()), float(tile_size) / factors[0] / CELLS_PER_TILE)
 
     # 1. staging
-    records = {}
-    todo = []
-    noise_codes = pipeline.noise_codes()
-    for s in good:
-        for part, (first, stop) in enumerate(s.parts(backend.workers)):
-            info = staged(work, s, part, first, stop, cells, noise_codes) if resume else None
-            if info is None:
-                todo.append((str(work), s, part, first, stop, cells, noise_codes))
-            else:
-                records[(s.id, part)] = info
-    with step("staging", enabled=False, parts=len(todo)) as st:  # --verbose: each stage's time
-        for (_, s, part, *_), info, err in progress(backend.run(stage_task, todo), total=len(todo),
-                                                   desc="reading", enabled=progress_enabled, unit="part"):
-            if err is None:
-                records[(s.id, part)] = info
-            else:
-                run.failed_sources.setdefault(s.path, _reason(err))
-        st.note(points=sum(r["n"] for r in records.values()))
-    staged_ok = [s for s in good if s.path not in run.failed_sources]
-    records = {k: v for k, v in records.items() if sources[k[0]].path not in run.failed_sources}
-    for (sid, part), info in records.items():
-        if part == 0:
-            run.sha256[info["path"]] = info["sha256"]
-        run.excluded[sid] = run.excluded.get(sid, 0) + info["n_excluded"]
-    if not staged_ok:
+    records = _stage(work, good, sources, cells, run, backend, resume, pipeline.noise_codes(), progress_enabled)
+    if not any(s.path not in run.failed_sources for s in good):
         return run
 
     # 2. the set's context, from the points staged (withheld and noise points left out)
@@ -164,30 +129,51 @@ def _run_set(pipeline, inputs, *, work, tile_size, backend, resume, progress_ena
                 pipeline.classes if labelled else UNLABELED, staged_key)
     tiles = [ij for ij in tiling.tiles() if plan.occupied(ij)]
     if pipeline.weights == "area":
-        cap = saved_area_cap(work, plan.key()) if resume else None
-        if cap is None:
-            forget_area_cap(work)  # the distances it was found from are about to be replaced
-            with step("area-weight cap", enabled=False, tiles=len(tiles)) as st:
-                for (_, ij), _, err in progress(backend.run(second_task, [(plan, ij) for ij in tiles]),
-                                                total=len(tiles), desc="area weights", enabled=progress_enabled,
-                                                unit="tile"):
-                    if err is not None:
-                        run.failed_tiles[tile_name(*ij)] = _reason(err)
-                if run.failed_tiles:
-                    return run
-                # the median over every distinct location, from the tiles' sorted files (not in memory)
-                cap = AREA_CAP * sorted_median([second_paths(work, ij)[0] for ij in tiles])
-                st.note(cap=f"{cap:.4g} m")
-            save_area_cap(work, plan.key(), cap)
-        ctx = SetContext(ctx.centre, ctx.factors, ctx.lo, ctx.hi, ctx.scales, cap, ctx.density)
-        plan = Plan(plan.work, plan.pipeline, ctx, plan.tiling, plan.cells, plan.files, plan.classes, plan.staged)
+        plan = _with_area_cap(plan, tiles, work, run, backend, resume, progress_enabled)
+        if plan is None:
+            return run
+        ctx = plan.ctx
     run.ctx, run.tiling, run.plan = ctx, tiling, plan
 
     # 3. tiles
+    _tiles(plan, tiles, run, backend, progress_enabled, start)
+
+    # 4. reduce
+    if run.complete:
+        with step("signature of the set", enabled=False):
+            run.signature = sum_signatures(run)
+    run.seconds = time.perf_counter() - start
+    return run
+
+
+def _header_tile_size(good, tile_size, memory, workers):
+    """The tile side (metres) from the files' headers: ``tile_size`` when given (refused when its
+    tiles would hold fewer than :data:`MIN_TILE_POINTS` points each), else a tile's block within
+    the budget ``memory`` and two tiles per worker at least (if not too small)."""
+    factors = good[0].factors
+    lo = np.min([s.lo for s in good], axis=0)
+    hi = np.max([s.hi for s in good], axis=0)
+    extent = (hi[:2] - lo[:2]) * np.asarray(factors[:2])  # metres
+    area = max(float(np.prod(extent)), 1e-12)
+    n_points = sum(s.n_points for s in good)
+    least = tile_side_for(MIN_TILE_POINTS, n_points / area)  # smaller tiles: the halos would be most of the work
+    if tile_size is None:
+        return min(tile_side_for(tile_points(memory), n_points / area),
+                   max(tile_side_for(n_points / (2 * workers), n_points / area), least))
+    n_tiles = math.prod(max(1, math.ceil(e / tile_size)) for e in extent)
+    if n_tiles > max(4, n_points / MIN_TILE_POINTS):
+        raise LidarSigError(f"{arg('tile_size', tile_size)} is too small for these files: its tiles would hold "
+                            f"about {n_points / n_tiles:,.0f} points each, fewer than {MIN_TILE_POINTS}; give "
+                            f"at least {least:.3g} m, or leave it out for the default")
+    return tile_size
+
+
+def _tiles(plan, tiles, run, backend, progress_enabled, start):
+    """Run the ``tiles`` of ``plan``, their statistics (or why they failed) recorded in ``run``."""
     bar = progress(backend.run(tile_task, [(plan, ij) for ij in tiles]), total=len(tiles), desc="tiles",
                    enabled=progress_enabled, unit="tile")
     points = 0
-    with step("tiles", enabled=False, tiles=len(tiles), tile_size=f"{tiling.size:.4g} m") as st:
+    with step("tiles", enabled=False, tiles=len(tiles), tile_size=f"{plan.tiling.size:.4g} m") as st:
         for (_, ij), stats, err in bar:
             if err is not None:
                 run.failed_tiles[tile_name(*ij)] = _reason(err)
@@ -197,12 +183,57 @@ def _run_set(pipeline, inputs, *, work, tile_size, backend, resume, progress_ena
             bar.set_postfix_str(f"{points / max(time.perf_counter() - start, 1e-9):,.0f} points/s")
         st.note(points=points, recomputed=sum(s["n_recomputed"] for s in run.tile_stats.values()))
 
-    # 4. reduce
-    if run.complete:
-        with step("signature of the set", enabled=False):
-            run.signature = sum_signatures(run)
-    run.seconds = time.perf_counter() - start
-    return run
+
+def _stage(work, good, sources, cells, run, backend, resume, noise_codes, progress_enabled):
+    """Stage every part of the readable files ``good`` (reusing what a resumed run finished);
+    {(source, part): record} of those staged, the files that failed recorded in ``run``."""
+    records = {}
+    todo = []
+    for s in good:
+        for part, (first, stop) in enumerate(s.parts(backend.workers)):
+            info = staged(work, s, part, first, stop, cells, noise_codes) if resume else None
+            if info is None:
+                todo.append((str(work), s, part, first, stop, cells, noise_codes))
+            else:
+                records[(s.id, part)] = info
+    with step("staging", enabled=False, parts=len(todo)) as st:  # --verbose: each stage's time
+        for (_, s, part, *_), info, err in progress(backend.run(stage_task, todo), total=len(todo),
+                                                   desc="reading", enabled=progress_enabled, unit="part"):
+            if err is None:
+                records[(s.id, part)] = info
+            else:
+                run.failed_sources.setdefault(s.path, _reason(err))
+        st.note(points=sum(r["n"] for r in records.values()))
+    records = {k: v for k, v in records.items() if sources[k[0]].path not in run.failed_sources}
+    for (sid, part), info in records.items():
+        if part == 0:
+            run.sha256[info["path"]] = info["sha256"]
+        run.excluded[sid] = run.excluded.get(sid, 0) + info["n_excluded"]
+    return records
+
+
+def _with_area_cap(plan, tiles, work, run, backend, resume, progress_enabled):
+    """``plan`` with the set's area-weight cap in its context: the median second-neighbour
+    distance over every distinct location, from a pass over the tiles (or a resumed run's);
+    None when a tile of that pass failed (recorded in ``run``)."""
+    ctx = plan.ctx
+    cap = saved_area_cap(work, plan.key()) if resume else None
+    if cap is None:
+        forget_area_cap(work)  # the distances it was found from are about to be replaced
+        with step("area-weight cap", enabled=False, tiles=len(tiles)) as st:
+            for (_, ij), _, err in progress(backend.run(second_task, [(plan, ij) for ij in tiles]),
+                                            total=len(tiles), desc="area weights", enabled=progress_enabled,
+                                            unit="tile"):
+                if err is not None:
+                    run.failed_tiles[tile_name(*ij)] = _reason(err)
+            if run.failed_tiles:
+                return None
+            # the median over every distinct location, from the tiles' sorted files (not in memory)
+            cap = AREA_CAP * sorted_median([second_paths(work, ij)[0] for ij in tiles])
+            st.note(cap=f"{cap:.4g} m")
+        save_area_cap(work, plan.key(), cap)
+    ctx = SetContext(ctx.centre, ctx.factors, ctx.lo, ctx.hi, ctx.scales, cap, ctx.density)
+    return Plan(plan.work, plan.pipeline, ctx, plan.tiling, plan.cells, plan.files, plan.classes, plan.staged)
 
 
 def run_in_tiles(pipeline, source, execution, *, n_points, work=None, outputs=()):
