@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..method.saliency_map import Saliency
+from ..method.saliency_map import geometric_entropy
 from ..method.signature_raster import Frame, point_codes
 from ..tiling.work import UNITS
 from ._cells import CHANGE_KEYS, Binned, null_metrics, observed_metrics
@@ -120,7 +120,7 @@ def density_task(run, ij, lo, pixel):
     """(pixels,) int64 keys of the ``pixel``-sided squares from the corner ``lo`` (raw units)
     that tile ``ij``'s core points of an epoch's tiled ``run`` occupy
     (:func:`lidar_sig.change_map._density.density`)."""
-    raw = run.core_points(ij)[0]
+    raw = run.core_points(ij, values=False)[0]
     if not len(raw):
         return np.empty(0, np.int64)
     ij_px = np.floor((raw[:, :2] - np.asarray(lo)) / pixel).astype(np.int64)
@@ -134,6 +134,11 @@ def density_pixel(units_horizontal):
 
 def coded_path(work, epoch, ij):
     return Path(work) / "coded" / f"e{epoch}" / f"t{ij[0]}_{ij[1]}.npz"
+
+
+def points_path(coded):
+    """The coded points of the tile whose index is ``coded`` (:func:`coded_path`)."""
+    return coded.with_name(coded.stem + ".points.npy")
 
 
 def view_path(work, epoch, ij):
@@ -151,10 +156,9 @@ def code_task(uplan, epoch, ij, view_step):
         return dict(zip(done["units"].tolist(), np.diff(done["starts"]).tolist()))
     run = uplan.epochs[epoch]
     raw, ids, labels, values = run.core_points(ij)
-    sal = Saliency.from_values(values)
     codes = labels if uplan.labelled else np.zeros(len(ids), np.int64)
     cls = uplan.classes.index(codes)
-    pixel, egeom_bin = point_codes(values, cls, uplan.frame, egeom=sal.egeom)
+    pixel, egeom_bin = point_codes(values, cls, uplan.frame, egeom=geometric_entropy(values))
     rec = np.empty(len(ids), CODED)
     rec["cell"] = uplan.grid.cell_of(raw[:, :2])
     rec["id"], rec["pixel"], rec["egeom"], rec["cls"] = ids, pixel, egeom_bin, cls
@@ -173,7 +177,12 @@ def code_task(uplan, epoch, ij, view_step):
     tmp = vpath.with_name(f".{vpath.stem}.{os.getpid()}.tmp.npy")
     np.save(tmp, view)
     os.replace(tmp, vpath)
-    _save(path, points=rec, units=units, starts=starts, key=np.array(key))  # last: the tile is coded
+    points = points_path(path)
+    points.parent.mkdir(parents=True, exist_ok=True)
+    tmp = points.with_name(f".{points.stem}.{os.getpid()}.tmp.npy")
+    np.save(tmp, rec)  # a file of its own: a unit maps the slice it needs, not the tile's points
+    os.replace(tmp, points)
+    _save(path, units=units, starts=starts, key=np.array(key))  # last: the tile is coded
     return dict(zip(units.tolist(), np.diff(starts).tolist()))
 
 
@@ -182,11 +191,14 @@ def unit_points(uplan, epoch, unit, tiles):
     ordered by cell and then identifier."""
     parts = []
     for ij in tiles:
-        with np.load(coded_path(uplan.work, epoch, ij)) as f:
+        path = coded_path(uplan.work, epoch, ij)
+        with np.load(path) as f:
             units, starts = f["units"], f["starts"]
-            k = int(np.searchsorted(units, unit))
-            if k < len(units) and units[k] == unit:
-                parts.append(f["points"][starts[k]:starts[k + 1]])
+        k = int(np.searchsorted(units, unit))
+        if k < len(units) and units[k] == unit:
+            mapped = np.load(points_path(path), mmap_mode="r")
+            parts.append(np.array(mapped[starts[k]:starts[k + 1]]))
+            del mapped  # unmapped: the pages read leave the process
     rec = np.concatenate(parts) if parts else np.empty(0, CODED)
     return rec[np.lexsort((rec["id"], rec["cell"]))]
 

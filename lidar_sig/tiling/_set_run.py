@@ -119,10 +119,11 @@ class SetRun:
             return Saliency.from_values(values, chosen if has_chosen else None)
         return chunk
 
-    def core_points(self, ij: tuple[int, int]) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    def core_points(self, ij: tuple[int, int], values: bool = True) -> tuple[Any, ...]:
         """(raw coordinates (N, 3) in the files' units, identifiers, class codes, (Cl, Cs, Cp))
         of tile ``ij``'s core points, as the run staged and computed them: the staged points
-        whose tile by the tiling's own index is ``ij`` (a change map's work units code them)."""
+        whose tile by the tiling's own index is ``ij`` (a change map's work units code them);
+        without ``values``, the first three."""
         from .sources import load_cells
 
         plan = self.plan
@@ -132,6 +133,8 @@ class SetRun:
         raw = np.column_stack([rec["x"], rec["y"], rec["z"]])
         core = np.all(plan.tiling.index(plan.ctx.metric(raw)) == np.asarray(ij), axis=1)
         raw, ids, labels = raw[core], rec["id"][core], rec["label"][core]
+        if not values:
+            return raw, ids, labels
         ids_path, values_path = points_paths(plan.work, ij)
         known = np.load(ids_path)
         at = np.searchsorted(known, ids)
