@@ -41,11 +41,11 @@ from ._grid import MAX_CELLS, Grid, check_cell
 from ._lod import CONFIDENCE, REPLICATES, Level, level_of_detection
 from ._maps import LABEL_FREE_SCORE, SCORE, ChangeMap, metric_levels, score_values
 from ._compute import AUTO, changes
-from ._in_units import TiledEpoch, in_units
+from ._in_units import TiledEpoch, check_streamed, in_units
 from .series import ChangeSeries
 
 __all__ = ["AUTO", "CELL_FIELDS", "CELL_FRAME", "CONFIDENCE", "LABEL_FREE_SCORE", "MAX_CELLS", "REPLICATES",
            "SCORE", "SEED", "ChangeMap", "ChangeSeries", "Epoch", "Grid", "Level", "TiledEpoch", "auto_cell", "auto_min_points",
-           "bin_points", "cell_signature", "changes", "check_cell", "compute_epoch", "density", "in_units", "level_of_detection",
+           "bin_points", "cell_signature", "changes", "check_cell", "check_streamed", "compute_epoch", "density", "in_units", "level_of_detection",
            "metric_levels",
            "null_metrics", "observed_metrics", "read_epoch", "score_values"]

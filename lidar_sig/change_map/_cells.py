@@ -215,14 +215,18 @@ def in_footprint(codes, points_a, points_b, min_points, shape, cell_m=None):
 def observed_metrics(table, binned, classes, *, render="smooth", frame=CELL_FRAME, progress=None):
     """Fill the table's metrics: every metric of :func:`lidar_sig.metrics.compare` between the
     two epochs' signatures of each valid cell (NaN where a metric is undefined), and delta_H
-    between their heights."""
+    between their heights (:func:`cell_observed`)."""
     cells = np.flatnonzero(table["valid"])
     for c in (progress.track(cells, unit="cell") if progress is not None else cells):
-        idx = [b.points(c) for b in binned]
-        values = _compared(*(b.signature(i, classes, frame) for b, i in zip(binned, idx)),
-                           *(b.height[i] for b, i in zip(binned, idx)), render)
-        for k, v in zip(CHANGE_KEYS, values):
+        for k, v in zip(CHANGE_KEYS, cell_observed(binned, c, classes, render, frame)):
             table[k][c] = v
+
+
+def cell_observed(binned, c, classes, render="smooth", frame=CELL_FRAME):
+    """The values of :data:`CHANGE_KEYS` between the two epochs' points of cell ``c``."""
+    idx = [b.points(c) for b in binned]
+    return _compared(*(b.signature(i, classes, frame) for b, i in zip(binned, idx)),
+                     *(b.height[i] for b, i in zip(binned, idx)), render)
 
 
 def _compared(sig_a, sig_b, z_a, z_b, render):
@@ -235,25 +239,36 @@ def _compared(sig_a, sig_b, z_a, z_b, render):
 def null_metrics(table, binned, classes, *, replicates=REPLICATES, render="smooth", frame=CELL_FRAME, seed=SEED,
                  stream=0, progress=None, flat=None):
     """(cells, 2 x replicates, :data:`CHANGE_KEYS`) values of every metric between resamples of one
-    epoch's points, NaN outside the valid cells: for each epoch and replicate, the cell's
-    points of that epoch drawn with replacement at A's count and at B's count (undefined
-    points included, as the class totals count them) and compared. What unchanged land gives,
-    sampled as this cell is: the sampling part of the level of detection. Each cell draws from
-    the random stream (``seed``, ``stream``, cell), the cell its flat index on the map's grid
-    (``flat[c]`` for row c of a work unit's table, :mod:`~lidar_sig.change_map._units`)."""
-    n_metrics = len(CHANGE_KEYS)
-    out = np.full((len(table), 2 * replicates, n_metrics), np.nan)
+    epoch's points, NaN outside the valid cells (:func:`cell_replicates`); the random stream
+    of row c is that of flat cell ``flat[c]`` of the map's grid (a work unit's rows,
+    :mod:`~lidar_sig.change_map._units`), else of cell c."""
+    out = np.full((len(table), 2 * replicates, len(CHANGE_KEYS)), np.nan)
     cells = np.flatnonzero(table["valid"])
     for c in (progress.track(cells, unit="cell") if progress is not None else cells):
-        rng = np.random.default_rng([seed, stream, int(c if flat is None else flat[c])])
         sizes = (int(table["points_a"][c]), int(table["points_b"][c]))
-        j = 0
-        for b in binned:
-            idx = b.points(c)
-            for _ in range(replicates):
-                draws = [idx[rng.integers(0, len(idx), m)] for m in sizes]
-                pair = [b.signature(d, classes, frame) for d in draws]
-                if all(s.n_points for s in pair):  # a resample of defined points only, all but surely
-                    out[c, j] = _compared(*pair, *(b.height[d] for d in draws), render)
-                j += 1
+        out[c] = cell_replicates(binned, c, sizes, classes, replicates=replicates, render=render, frame=frame,
+                                 seed=seed, stream=stream, flat=int(c if flat is None else flat[c]))
+    return out
+
+
+def cell_replicates(binned, c, sizes, classes, *, replicates=REPLICATES, render="smooth", frame=CELL_FRAME,
+                    seed=SEED, stream=0, flat=None):
+    """(2 x replicates, :data:`CHANGE_KEYS`) values between resamples of one epoch's points of
+    cell ``c``: for each epoch and replicate, the cell's points of that epoch drawn with
+    replacement at the two epochs' counts ``sizes`` (undefined points included, as the class
+    totals count them) and compared (NaN where a resample holds no defined point). What
+    unchanged land gives, sampled as this cell is: the sampling part of the level of
+    detection. The draws come from the random stream (``seed``, ``stream``, ``flat``), ``flat``
+    the cell's flat index on the map's grid (default ``c``), whatever the process or unit."""
+    rng = np.random.default_rng([seed, stream, int(c if flat is None else flat)])
+    out = np.full((2 * replicates, len(CHANGE_KEYS)), np.nan)
+    j = 0
+    for b in binned:
+        idx = b.points(c)
+        for _ in range(replicates):
+            draws = [idx[rng.integers(0, len(idx), m)] for m in sizes]
+            pair = [b.signature(d, classes, frame) for d in draws]
+            if all(s.n_points for s in pair):  # a resample of defined points only, all but surely
+                out[j] = _compared(*pair, *(b.height[d] for d in draws), render)
+            j += 1
     return out

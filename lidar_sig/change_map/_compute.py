@@ -18,9 +18,9 @@ from ..base.progress import step
 from ..method.signature_raster import Frame, method_differences
 from ._cells import CELL_FRAME, SEED, bin_points, cell_table
 from ._cores import cell_values
-from ._density import AUTO, auto_cell, auto_min_points, density, fewer_points, sparse_note
+from ._density import AUTO, auto_cell, auto_min_points, density, fewer_points, no_defined_cell, sparse_note
 from ._epochs import Epoch, check_same_crs, read_epoch
-from ._grid import MAX_CELLS, Grid, check_cell
+from ._grid import Grid, check_cell, check_cells, check_overlap
 from ._lod import CONFIDENCE, REPLICATES, few_cells_note
 from ._maps import LABEL_FREE_SCORE, SCORE, ChangeMap, geometry_only_note, metric_levels, scheme_warnings
 from .series import ChangeSeries
@@ -110,13 +110,17 @@ def changes(a: Any, b: Any, *more: Any, cell: float | str = AUTO, pipeline: Pipe
     pipeline = pipeline_or_default(pipeline)
     table_of_classes = merge_classes(pipeline.classes, class_map)  # a bad map is refused before reading
     execution = as_execution(execution)
-    files = None if any(isinstance(x, Epoch) for x in sources) else in_units(sources, execution, resume)
+    s.workers = execution.workers  # the cells' processes of a map of one block (None: every core)
+    files = None if any(isinstance(x, Epoch) for x in sources) else in_units(sources, execution, pipeline, resume)
     if files is None and (resume or work is not None):
         raise LidarSigError("resume and work are for a change map in work units: two epochs of LAS/LAZ files with "
                             "a tile size, workers or a scheduler (Execution), or above the memory budget")
     if files is not None:
         return _in_units(sources, files, pipeline, execution, resume, work, table_of_classes, class_map,
                          dict(vars(s), render=render, memory=execution.memory))
+    if execution.tiles_asked:
+        warnings.warn("the epochs are mapped in one block: work units take two epochs of LAS/LAZ files (the tile "
+                      "size and scheduler are not used; the workers compute the cells)", LidarSigWarning, stacklevel=2)
     given, clouds, names, labelled, notes = _read(sources, pipeline, columns, s.score, class_map)
     units, kept, densities, grid = _layout(clouds, given, names, pipeline, s, notes)
     return _maps(clouds, names, given, kept, pipeline, table_of_classes, labelled, grid, units, densities, s, render,
@@ -143,8 +147,8 @@ def _maps(clouds, names, given, kept, pipeline, table_of_classes, labelled, grid
                                                  "scale_units", "weights") if k in epochs[0].metadata}
     maps = []
     for k in range(len(epochs) - 1):
-        maps.append(_interval(k, epochs, binned, grid, classes, s.min_points, s.cell, render, s.frame, s.confidence,
-                              s.seed, score, method, units, names, s.min_points_rule, densities[k:k + 2]))
+        maps.append(_interval(k, epochs, binned, grid, classes, s, render, score, method, units, names,
+                              densities[k:k + 2]))
         cm = maps[-1]
         cm.cell_rule, cm.min_points_rule = s.cell_rule, s.min_points_rule
         cm.density = (densities[k], densities[k + 1])
@@ -215,11 +219,9 @@ def _layout(clouds, given, names, pipeline, s, notes):
     if s.min_points is None:
         s.min_points = auto_min_points(min(densities), s.cell)
     for k in range(len(clouds) - 1):  # before the grid: disjoint epochs would span a needless one
-        _check_overlap(used[k], used[k + 1], names[k], names[k + 1])
+        check_overlap(used[k], used[k + 1], names[k], names[k + 1])
     grid = Grid.covering(np.vstack(used), s.cell / units.horizontal)
-    if grid.n_cells > MAX_CELLS:  # a far outlier, or a cell size meant in another unit
-        raise LidarSigError(f"the epochs span {amount(grid.cols)} x {amount(grid.rows)} cells of {s.cell:g} m, more "
-                            f"than {MAX_CELLS:,}; use a larger cell size (--cell) or remove far outlying points")
+    check_cells(grid, s.cell)
     counts = [np.bincount(grid.cell_of(xy), minlength=grid.n_cells) for xy in used]
     for k in range(len(clouds) - 1):  # said before the saliency is computed
         filled = np.minimum(counts[k], counts[k + 1])
@@ -239,21 +241,21 @@ def _in_units(sources, files, pipeline, execution, resume, work, table_of_classe
 
     names = [str(x) if not isinstance(x, (list, tuple)) else
              (str(x[0]) if len(x) == 1 else f"{x[0]} (+{len(x) - 1} tiles)") for x in sources]
-    remove = remove_work if work is not None else discard_work
-    work = Path(work) if work is not None else fresh_work(execution.work_dir)
+    own = work is None  # a folder of the map's own, in the temporary folder
+    remove = discard_work if own else remove_work
+    work = fresh_work(execution.work_dir) if own else Path(work)
     try:
         cm = changes_in_units(files, names, pipeline=pipeline, execution=execution, work=work, resume=resume,
-                              settings=settings, classes_table=table_of_classes, remove=remove)
+                              settings=settings, classes_table=table_of_classes, remove=remove, own=own)
     except BaseException:
-        if remove is discard_work:
+        if own:
             remove(work)
         raise
+    # said once the epochs' labels are known; a given work folder stays for a run without them
     if class_map and cm.class_table is UNLABELED:
-        cm.close()
         raise LidarSigError("a class map merges class codes, but not every epoch has class labels; leave out "
                             "--class-map")
     if settings["score"] in METRIC and METRIC[settings["score"]].needs_labels and cm.class_table is UNLABELED:
-        cm.close()
         raise LidarSigError(f"score {settings['score']!r} needs class labels in every epoch; use fv or another "
                             "geometric metric")
     for text in dict.fromkeys(cm.warnings):
@@ -261,22 +263,22 @@ def _in_units(sources, files, pipeline, execution, resume, work, table_of_classe
     return cm
 
 
-def _interval(k, epochs, binned, grid, classes, min_points, cell, render, frame, confidence, seed, score, method,
-              units, names, min_points_rule, densities):
+def _interval(k, epochs, binned, grid, classes, s, render, score, method, units, names, densities):
     """The ChangeMap of epochs k and k + 1: table, metrics, levels of detection, ranking."""
+    min_points, cell, frame, confidence, seed = s.min_points, s.cell, s.frame, s.confidence, s.seed
+    min_points_rule = s.min_points_rule
     pair = binned[k:k + 2]
     table = cell_table(grid, pair, min_points, densities, cell)
     if not table["valid"].any():  # the points are there, their saliency is not
         most = int(np.minimum(table["defined_a"], table["defined_b"]).max())
-        fix = fewer_points(min_points_rule, min_points)
-        raise LidarSigError(f"no cell of {cell:g} m holds {counted(min_points, 'point')} with defined saliency in both "
-                            f"{names[k]} and {names[k + 1]} (at most {most:,}); {fix} or larger scales")
+        raise no_defined_cell(cell, min_points, names[k], names[k + 1], most, min_points_rule)
     n_valid = int(table["valid"].sum())
     timings = {}
     start = time.perf_counter()
     with step("cell metrics and resamples", cells=n_valid, cell=f"{cell:g} m", frame=f"{frame.size} px",
-              replicates=2 * REPLICATES) as s:
-        null = cell_values(table, pair, classes, render=render, frame=frame, seed=seed, stream=k, progress=s)
+              replicates=2 * REPLICATES) as st:
+        null = cell_values(table, pair, classes, render=render, frame=frame, seed=seed, stream=k, progress=st,
+                           workers=s.workers)
     timings["cells"] = time.perf_counter() - start
     start = time.perf_counter()
     levels = metric_levels(table, null, confidence=confidence)
@@ -287,19 +289,6 @@ def _interval(k, epochs, binned, grid, classes, min_points, cell, render, frame,
                    warnings=notes, timings=timings)
     cm.rank_by(score)
     return cm
-
-
-def _check_overlap(xy_a, xy_b, name_a, name_b):
-    """A LidarSigError when the extents of two epochs' (N, 2) points are disjoint: they share no
-    land to compare."""
-    low_a, high_a = xy_a.min(axis=0), xy_a.max(axis=0)
-    low_b, high_b = xy_b.min(axis=0), xy_b.max(axis=0)
-    if np.any(high_a < low_b) or np.any(high_b < low_a):
-        def extent(low, high):
-            return f"x {low[0]:.1f} to {high[0]:.1f}, y {low[1]:.1f} to {high[1]:.1f}"
-
-        raise LidarSigError(f"{name_a} ({extent(low_a, high_a)}) and {name_b} ({extent(low_b, high_b)}) do not "
-                            "overlap; give epochs of the same area")
 
 
 def _is_auto(value):

@@ -9,12 +9,15 @@ from __future__ import annotations
 
 import contextlib
 import multiprocessing
+import signal
+import sys
 import threading
 import warnings
 
 import numpy as np
 
-from ._cells import CHANGE_KEYS, null_metrics, observed_metrics
+from ._cells import CHANGE_KEYS, cell_observed, cell_replicates, null_metrics, observed_metrics
+from ._lod import REPLICATES
 
 #: Fewest compared cells worth a process each: below, the forks cost more than they save.
 CELLS_PER_PROCESS = 16
@@ -27,7 +30,7 @@ _JOB = {}
 def cell_values(table, binned, classes, *, render, frame, seed, stream, workers=None, progress=None):
     """Fill the table's metrics (:func:`~lidar_sig.change_map._cells.observed_metrics`) and
     return the replicates (:func:`~lidar_sig.change_map._cells.null_metrics`) of its valid cells,
-    on ``workers`` processes (default: the cores this process may use), forked where this
+    on ``workers`` processes (None: the cores this process may use), forked where this
     process may fork (:func:`may_fork`) and the cells are enough (:data:`CELLS_PER_PROCESS`
     each); else here."""
     from ..tiling.backends import cores
@@ -43,7 +46,7 @@ def cell_values(table, binned, classes, *, render, frame, seed, stream, workers=
     import cv2
     from concurrent.futures import ProcessPoolExecutor
 
-    null = None
+    null = np.full((len(table), 2 * REPLICATES, len(CHANGE_KEYS)), np.nan)
     parts = np.array_split(cells, workers * PARTS_PER_PROCESS)
     if progress is not None:
         progress.note(processes=workers)
@@ -51,14 +54,13 @@ def cell_values(table, binned, classes, *, render, frame, seed, stream, workers=
     threads = cv2.getNumThreads()
     cv2.setNumThreads(1)  # OpenCV's thread pool does not survive a fork: the children run without it
     try:
-        with _forking(), ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork")) as pool:
+        with _forking(), ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork"),
+                                             initializer=_child) as pool:
             done = pool.map(_part, parts)
             for part, observed, replicates in (progress.track(done, total=len(parts), unit="part")
                                                if progress is not None else done):
                 for m, k in enumerate(CHANGE_KEYS):
                     table[k][part] = observed[:, m]
-                if null is None:
-                    null = np.full((len(table),) + replicates.shape[1:], np.nan)
                 null[part] = replicates
     finally:
         _JOB.clear()
@@ -67,23 +69,29 @@ def cell_values(table, binned, classes, *, render, frame, seed, stream, workers=
 
 
 def may_fork():
-    """True where this process may fork its work: the system forks, and no thread but this one
-    runs Python (a fork copies only the calling thread; a lock another thread held would stay
-    locked in the child: in a notebook, under a test runner, beside a Dask client the work stays
-    in this process). The compiled kernels' thread pool may run: the children do not use it."""
-    return "fork" in multiprocessing.get_all_start_methods() and threading.active_count() == 1
+    """True where this process may fork its work: Linux (elsewhere the libraries' thread pools do
+    not survive a fork), not itself a worker of a process pool, and no thread but this one runs
+    Python (a fork copies only the calling thread; a lock another thread held would stay locked
+    in the child: in a notebook, under a test runner, beside a Dask client the work stays in
+    this process). The compiled kernels' thread pool may run: the children do not use it."""
+    return (sys.platform.startswith("linux") and not multiprocessing.current_process().daemon
+            and threading.active_count() == 1)
+
+
+def _child():
+    """A child leaves Ctrl-C and termination to the map's process, which ends the pool."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
 
 
 def _part(cells):
     """(cells, their metrics (n, K), their replicates (n, 2R, K)) in a forked process."""
     job = _JOB
-    table = job["table"].copy()
-    chosen = np.zeros(len(table), bool)
-    chosen[cells] = True
-    table["valid"] &= chosen
-    observed_metrics(table, job["binned"], job["classes"], **job["options"])
-    null = null_metrics(table, job["binned"], job["classes"], seed=job["seed"], stream=job["stream"], **job["options"])
-    return cells, np.column_stack([table[k][cells] for k in CHANGE_KEYS]), null[cells]
+    table, binned, classes, options = job["table"], job["binned"], job["classes"], job["options"]
+    observed = np.array([cell_observed(binned, c, classes, **options) for c in cells])
+    replicates = np.array([cell_replicates(binned, c, (int(table["points_a"][c]), int(table["points_b"][c])), classes,
+                                           seed=job["seed"], stream=job["stream"], **options) for c in cells])
+    return cells, observed, replicates
 
 
 @contextlib.contextmanager

@@ -85,3 +85,13 @@ def sparse_note(names, densities):
     return (f"{names[k]} holds {densities[k]:.2g} points/m²: below {LEAST_DENSITY:g} point/m² the change map finds "
             f"fewer than 80% of known changes ({RECALL_BELOW:.0%} at 0.5 points/m² in its benchmark, docs/changes.md), "
             "so a cell that is not significant may still have changed")
+
+
+def no_defined_cell(cell, min_points, name_a, name_b, most, min_points_rule):
+    """The LidarSigError of a map where no cell of ``cell`` metres holds ``min_points`` points
+    with defined saliency in both epochs (``most`` the most any holds)."""
+    from ..base.errors import LidarSigError, counted
+
+    return LidarSigError(f"no cell of {cell:g} m holds {counted(min_points, 'point')} with defined saliency in both "
+                         f"{name_a} and {name_b} (at most {most:,}); {fewer_points(min_points_rule, min_points)} or "
+                         "larger scales")

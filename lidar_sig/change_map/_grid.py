@@ -71,6 +71,31 @@ class Grid:
         return x_min, y_min, x_min + self.size, y_min + self.size
 
 
+def check_cells(grid, cell):
+    """Refuse a grid of more than :data:`MAX_CELLS` cells of ``cell`` metres (a far outlier, or a
+    cell size meant in another unit)."""
+    from ..base.errors import LidarSigError, amount
+
+    if grid.n_cells > MAX_CELLS:
+        raise LidarSigError(f"the epochs span {amount(grid.cols)} x {amount(grid.rows)} cells of {cell:g} m, more than "
+                            f"{MAX_CELLS:,}; use a larger cell size (--cell) or remove far outlying points")
+
+
+def check_overlap(xy_a, xy_b, name_a, name_b):
+    """A LidarSigError when the extents of two epochs' (N, 2) points (or their corners) are
+    disjoint: they share no land to compare."""
+    from ..base.errors import LidarSigError
+
+    low_a, high_a = np.min(xy_a, axis=0), np.max(xy_a, axis=0)
+    low_b, high_b = np.min(xy_b, axis=0), np.max(xy_b, axis=0)
+    if np.any(high_a < low_b) or np.any(high_b < low_a):
+        def extent(low, high):
+            return f"x {low[0]:.1f} to {high[0]:.1f}, y {low[1]:.1f} to {high[1]:.1f}"
+
+        raise LidarSigError(f"{name_a} ({extent(low_a, high_a)}) and {name_b} ({extent(low_b, high_b)}) do not "
+                            "overlap; give epochs of the same area")
+
+
 def check_cell(cell):
     """The cell side as a float of metres, or LidarSigError naming the value."""
     return positive_metres(cell, "the cell size")

@@ -8,8 +8,8 @@ same :class:`~lidar_sig.change_map.ChangeMap` as one block gives. Its epochs are
 the report's top view and the per-point change, streamed."""
 from __future__ import annotations
 
-import json
 import math
+import warnings
 import time
 import weakref
 from pathlib import Path
@@ -17,15 +17,14 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from ..base.errors import LidarSigError, amount, counted
+from ..base.errors import LidarSigError, LidarSigWarning, counted
 from ..base.progress import progress, step
 from ..method.classes import UNLABELED
-from ..method.crs import crs_name, same_crs
 from ..method.signature_raster import Signature
 from ._cells import CHANGE_KEYS, counts_table
 from ._lod import few_cells_note
-from ._density import auto_cell, auto_min_points, fewer_points, sparse_note
-from ._grid import MAX_CELLS, Grid
+from ._density import auto_cell, auto_min_points, no_defined_cell, sparse_note
+from ._grid import Grid, check_cells, check_overlap
 from ._units import (UNIT_BYTES_PER_POINT, VIEW_POINTS, UnitPlan, code_task, density_pixel, density_task,
                      unit_points, unit_task, view_path)
 
@@ -56,11 +55,12 @@ def epoch_files(source):
         return None
 
 
-def in_units(sources, execution, resume=False):
+def in_units(sources, execution, pipeline, resume=False):
     """The LAS/LAZ files of each of two epochs when their change map runs in work units: a
-    tile size, workers, a scheduler or ``resume`` asked for it, or one block of both epochs
-    would need more than the memory budget; else None."""
-    from ..tiling.memory import header_points
+    tile size, workers, a scheduler or ``resume`` asked for it (as they ask a set's saliency to
+    run in tiles), or one block of both epochs would need more than the memory budget (then
+    with a descriptor that runs in tiles; another runs as one block, with a note); else None."""
+    from ..tiling.memory import header_points, one_block_note
 
     if len(sources) != 2:
         return None
@@ -73,7 +73,13 @@ def in_units(sources, execution, resume=False):
         n = sum(header_points(p) or 0 for f in files for p in f)
     except Exception:  # a damaged header: one block reads it and says why
         return None
-    return files if n * ONE_BLOCK_BYTES_PER_POINT > int(execution.memory) else None
+    if n * ONE_BLOCK_BYTES_PER_POINT <= int(execution.memory):
+        return None
+    if not pipeline.descriptor.tileable:
+        warnings.warn(one_block_note(f"{sources[0]} and {sources[1]}", n, int(execution.memory),
+                                     pipeline.descriptor.name), LidarSigWarning, stacklevel=3)
+        return None
+    return files
 
 
 class TiledEpoch:
@@ -118,10 +124,7 @@ class TiledEpoch:
         from ..io.las import write_las_chunks
 
         self._holder.check()
-        if len(self.run.sources) != 1:
-            raise LidarSigError(f"{self.name} is {counted(len(self.run.sources), 'file')}: the per-point change of a "
-                                "map in work units is written for one file; give the later epoch as one file, or leave "
-                                "out the points", path=path)
+        check_streamed(path, len(self.run.sources), self.name)
         source = self.run.sources[0]
         pipe = self.run.plan.pipeline
         write_las_chunks(path, source.path, self.run.point_values(source), scale_kind=pipe.scales.kind,
@@ -130,42 +133,53 @@ class TiledEpoch:
 
 class WorkHolder:
     """The work folder of a change map made in work units, kept while its map is used: removed
-    by :meth:`close` (or when the map is collected), after which the map's per-cell values stay
-    and what reads its points refuses."""
+    by :meth:`close`, after which the map's per-cell values stay and what reads its points
+    refuses. A folder made for the map alone (``own``, in the temporary folder) also goes when
+    the map is collected; one that was given stays until :meth:`close` (a job closes it once its
+    outputs are written, and keeps it after an interruption for a resumed run)."""
 
-    def __init__(self, work, remove):
+    def __init__(self, work, remove, own=False):
         self.work = Path(work)
-        self._finalizer = weakref.finalize(self, remove, self.work)
+        self._remove, self._open = remove, True
+        self._finalizer = weakref.finalize(self, remove, self.work) if own else None
 
     def check(self):
-        if not self._finalizer.alive:
+        if not self._open:
             raise LidarSigError("the change map's work folder was removed (close()); its per-cell values remain, "
                                 "its points do not: compute the map again to read them", path=self.work)
 
     def close(self):
-        self._finalizer()
+        if self._open:
+            self._open = False
+            if self._finalizer is not None:
+                self._finalizer()
+            else:
+                self._remove(self.work)
 
 
 def staged_bounds(run):
     """(lo (3,), hi (3,), points) of the points an epoch's tiled run staged and kept, exactly, in
     the files' coordinates (from its staged parts' records)."""
-    from ..tiling.work import STAGED
-
-    records = [json.loads(p.read_text()) for p in sorted((Path(run.plan.work) / STAGED).glob("s*p*.json"))]
+    records = list(run.records.values())  # those of this run (a resumed folder may hold others)
     lo = np.min([r["lo"] for r in records], axis=0)
     hi = np.max([r["hi"] for r in records], axis=0)
     return lo, hi, sum(r["n"] - r["n_excluded"] for r in records), records
 
 
-def changes_in_units(files, names, *, pipeline, execution, work, resume, settings, classes_table, remove):
+def changes_in_units(files, names, *, pipeline, execution, work, resume, settings, classes_table, remove, own=False):
     """The :class:`~lidar_sig.change_map.ChangeMap` of two epochs' LAS/LAZ ``files`` in work
     units, with scratch files in ``work`` (``remove(work)`` removes it with the map's
-    :class:`WorkHolder`); ``settings`` are those of :func:`~lidar_sig.change_map.changes`."""
+    :class:`WorkHolder`; ``own``: a folder made for this map alone); ``settings`` are those of
+    :func:`~lidar_sig.change_map.changes`, with ``keep``, the outputs the folder must not hold."""
     from ..tiling.run_set import run_set
+    from ..tiling.sources import scan
     from ..tiling.work import prepare_work, work_scope
+    from ._epochs import check_same_crs
 
+    crs = [next((s.crs for s in scan(f) if s.error is None), None) for f in files]  # before any work
+    check_same_crs([SimpleNamespace(crs=c) for c in crs], names)
     with work_scope(work):
-        work = prepare_work(work, resume, keep=[p for f in files for p in f])
+        work = prepare_work(work, resume, keep=[p for f in files for p in f] + list(settings.get("keep", ())))
         with execution.backend() as backend:
             start = time.perf_counter()
             runs, seconds = [], []
@@ -179,7 +193,7 @@ def changes_in_units(files, names, *, pipeline, execution, work, resume, setting
                     raise LidarSigError(f"the epoch {names[e]} could not be computed: " + "; ".join(shown))
                 runs.append(run)
                 seconds.append(time.perf_counter() - t0)
-            cm = _map(runs, names, files, pipeline, backend, work, settings, classes_table, remove)
+            cm = _map(runs, names, files, pipeline, backend, work, settings, classes_table, WorkHolder(work, remove, own))
             cm.timings["saliency"] = seconds
             cm.timings["all"] = time.perf_counter() - start
             return cm
@@ -191,10 +205,6 @@ def _frame(runs, names, s, backend):
     from ..method.crs import las_units
     import laspy
 
-    crs = [run.sources[0].crs for run in runs]
-    if (crs[0] is None) != (crs[1] is None) or not same_crs(crs[0], crs[1]):
-        raise LidarSigError(f"{names[0]} and {names[1]} are in different CRS ({crs_name(crs[0]) or 'none'} / "
-                            f"{crs_name(crs[1]) or 'none'}); reproject one epoch into the other's CRS first")
     with laspy.open(runs[0].sources[0].path) as reader:
         _, units = las_units(reader.header, path=runs[0].sources[0].path)
     bounds = [staged_bounds(run) for run in runs]
@@ -202,17 +212,14 @@ def _frame(runs, names, s, backend):
     notes = [n for n in [sparse_note(names, densities)] if n]
     cell = auto_cell(min(densities)) if s.cell is None else s.cell
     min_points = auto_min_points(min(densities), cell) if s.min_points is None else s.min_points
-    (lo_a, hi_a, _, _), (lo_b, hi_b, _, _) = bounds
-    if np.any(hi_a[:2] < lo_b[:2]) or np.any(hi_b[:2] < lo_a[:2]):
-        raise LidarSigError(f"{names[0]} and {names[1]} do not overlap; give epochs of the same area")
-    grid = Grid.covering(np.array([lo_a[:2], hi_a[:2], lo_b[:2], hi_b[:2]]), cell / units.horizontal)
-    if grid.n_cells > MAX_CELLS:
-        raise LidarSigError(f"the epochs span {amount(grid.cols)} x {amount(grid.rows)} cells of {cell:g} m, more than "
-                            f"{MAX_CELLS:,}; use a larger cell size (--cell) or remove far outlying points")
+    corners = [np.array([b[0][:2], b[1][:2]]) for b in bounds]
+    check_overlap(*corners, *names)
+    grid = Grid.covering(np.vstack(corners), cell / units.horizontal)
+    check_cells(grid, cell)
     return units, bounds, densities, notes, cell, int(min_points), grid
 
 
-def _map(runs, names, files, pipeline, backend, work, settings, classes_table, remove):
+def _map(runs, names, files, pipeline, backend, work, settings, classes_table, holder):
     """The map of two complete tiled runs: densities, grid, coded points, work units, levels."""
     from ._lod import REPLICATES
     from ._maps import LABEL_FREE_SCORE, SCORE, ChangeMap, geometry_only_note, metric_levels, scheme_warnings
@@ -236,15 +243,12 @@ def _map(runs, names, files, pipeline, backend, work, settings, classes_table, r
     seconds["units"] = time.perf_counter() - t0
     table = counts_table(grid, gathered["points"], gathered["undefined"], min_points, densities, cell)
     if not table["valid"].any():
-        defined = gathered["points"] - gathered["undefined"]
-        raise LidarSigError(f"no cell of {cell:g} m holds {counted(min_points, 'point')} with defined saliency in both "
-                            f"{names[0]} and {names[1]} (at most {int(defined.min(axis=0).max(initial=0)):,}); "
-                            f"{fewer_points(s.min_points_rule, min_points)}")
+        most = int((gathered["points"] - gathered["undefined"]).min(axis=0).max(initial=0))
+        raise no_defined_cell(cell, min_points, names[0], names[1], most, s.min_points_rule)
     for m, k in enumerate(CHANGE_KEYS):
         table[k] = gathered["metrics"][:, m]
     sampled = {k: (gathered["mu0"][:, m], gathered["sigma"][:, m], gathered["defined"][:, m])
                for m, k in enumerate(CHANGE_KEYS)}
-    holder = WorkHolder(work, remove)
     epochs = [TiledEpoch(names[e], runs[e], uplan, e, tiles_of[e], {**pipeline.method(), "n_points": bounds[e][2]},
                          holder) for e in (0, 1)]
     binned = [SimpleNamespace(classes=gathered["classes"][e]) for e in (0, 1)]
@@ -273,9 +277,10 @@ def _density(run, bounds, units, backend):
     pixel = density_pixel(units.horizontal)
     keys = []
     items = [(run, ij, tuple(lo[:2]), pixel) for ij in run.tile_stats]
-    for _, found, err in progress(backend.run(density_task, items), total=len(items), desc="densities", unit="tile"):
+    for (_, ij, _, _), found, err in progress(backend.run(density_task, items), total=len(items), desc="densities",
+                                             unit="tile"):
         if err is not None:
-            raise err
+            raise _failed(err, ij, run.plan.work)
         keys.append(found)
     occupied = len(np.unique(np.concatenate(keys))) if keys else 0
     from ._density import DENSITY_PIXEL
@@ -307,7 +312,7 @@ def _code(uplan, e, run, n_points, backend):
     for (_, _, ij, _), counts, err in progress(backend.run(code_task, items), total=len(items),
                                                desc=f"coding epoch {'AB'[e]}", unit="tile"):
         if err is not None:
-            raise err
+            raise _failed(err, ij, uplan.work)
         for u in counts:
             tiles_of.setdefault(int(u), []).append(ij)
     return tiles_of
@@ -321,12 +326,38 @@ def _gather(uplan, units, tiles_of, backend, n_classes):
            "mu0": np.full((n, k), np.nan), "sigma": np.full((n, k), np.nan), "defined": np.zeros((n, k), bool)}
     items = [(uplan, u, (tiles_of[0].get(u, []), tiles_of[1].get(u, []))) for u in units]
     with step("work units", units=len(items), side=f"{uplan.side} cells"):
-        for _, res, err in progress(backend.run(unit_task, items), total=len(items), desc="cells", unit="unit"):
+        for (_, u, _), res, err in progress(backend.run(unit_task, items), total=len(items), desc="cells",
+                                            unit="unit"):
             if err is not None:
-                raise err
+                raise _failed(err, f"work unit {u}", uplan.work)
             cells = res["cells"]
             for name in ("points", "undefined", "classes"):
                 out[name][:, cells] = res[name]
             for name in ("metrics", "mu0", "sigma", "defined"):
                 out[name][cells] = res[name]
     return out
+
+
+def _failed(err, what, work):
+    """The LidarSigError of a task that failed: its own, or one naming the tile or unit, the
+    reason and the work folder (kept for a resumed run)."""
+    if isinstance(err, LidarSigError):
+        return err
+    where = f"tile {what[0]}, {what[1]}" if isinstance(what, tuple) else what
+    return LidarSigError(f"{where} of the change map failed ({type(err).__name__}: {err}); free space or check the "
+                         f"work folder, then run the same command with --resume", path=work)
+
+
+def check_streamed(path, n_files, name):
+    """Refuse a per-point change that a map in work units cannot stream: not LAS/LAZ, or a later
+    epoch ``name`` of several files (the per-point change of one file is written)."""
+    from ..io.formats import format_of
+
+    fmt = format_of(path)
+    if fmt is None or not fmt.streamed:
+        raise LidarSigError("a change map in work units streams the per-point change to LAS/LAZ only: give a .las or "
+                            ".laz name, or raise --memory to map the epochs in one block", path=path)
+    if n_files != 1:
+        raise LidarSigError(f"the later epoch {name} is {n_files} files: a change map in work units writes the "
+                            "per-point change of one file; give the later epoch as one file, leave out --points, or "
+                            "raise --memory to map the epochs in one block", path=path)

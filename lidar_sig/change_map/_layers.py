@@ -155,14 +155,14 @@ def when_style(series, band):
     return raster_qml(band, stops, ramp="exact")
 
 
-def point_change(cm, xy=None):
-    """{name: (values, description)} of the later epoch's points (B), or of the points at
-    ``xy`` ((N, 2) CRS coordinates): their cell's score, level of detection and significance
+def point_change(cm, xy):
+    """{name: (values, description)} of the points at ``xy`` ((N, 2) CRS coordinates, the later
+    epoch's, B): their cell's score, level of detection and significance
     (:func:`lidar_sig.io.fields.change_fields`); a point outside the compared cells gets NaN and
     0. Withheld and noise points get their cell's change too."""
     from ..io.fields import change_fields
 
-    cells = cm.grid.cell_of(cm.b.cloud.xyz[:, :2] if xy is None else xy)
+    cells = cm.grid.cell_of(xy)
     inside = cells >= 0
     t = cm.table
     score, lod = np.full(len(cells), np.nan), np.full(len(cells), np.nan)

@@ -93,15 +93,18 @@ class UnitPlan:
     def key(self, epoch=None):
         """Changes whenever a coded tile (of ``epoch``) or a unit's result would."""
         runs = [r.plan.key() for r in self.epochs] if epoch is None else [self.epochs[epoch].plan.key()]
-        return json.dumps([runs, repr(self.grid), self.side, self.frame.size, self.frame.margin, self.classes.name,
+        return json.dumps([runs, repr(self.grid), self.side, self.frame.size, self.frame.margin, repr(self.classes),
                            self.labelled, self.min_points, self.render, self.seed, self.stream], default=str)
 
 
-def _save(path, **arrays):
-    """``arrays`` as the .npz ``path``, whole or not at all."""
+def _save(path, array=None, **arrays):
+    """``array`` as the .npy ``path``, or ``arrays`` as the .npz ``path``: whole or not at all."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp.npz")
-    np.savez(tmp, **arrays)
+    tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp{path.suffix}")
+    if array is not None:
+        np.save(tmp, array)
+    else:
+        np.savez(tmp, **arrays)
     os.replace(tmp, path)
 
 
@@ -172,16 +175,8 @@ def code_task(uplan, epoch, ij, view_step):
     view = np.empty(len(raw[thin]), VIEW)
     view["x"], view["y"], view["z"] = raw[thin].T
     view["values"] = values[thin]
-    vpath = view_path(uplan.work, epoch, ij)
-    vpath.parent.mkdir(parents=True, exist_ok=True)
-    tmp = vpath.with_name(f".{vpath.stem}.{os.getpid()}.tmp.npy")
-    np.save(tmp, view)
-    os.replace(tmp, vpath)
-    points = points_path(path)
-    points.parent.mkdir(parents=True, exist_ok=True)
-    tmp = points.with_name(f".{points.stem}.{os.getpid()}.tmp.npy")
-    np.save(tmp, rec)  # a file of its own: a unit maps the slice it needs, not the tile's points
-    os.replace(tmp, points)
+    _save(view_path(uplan.work, epoch, ij), view)
+    _save(points_path(path), rec)  # a file of its own: a unit maps the slice it needs, not the tile's points
     _save(path, units=units, starts=starts, key=np.array(key))  # last: the tile is coded
     return dict(zip(units.tolist(), np.diff(starts).tolist()))
 

@@ -35,6 +35,8 @@ def changes(epochs: Any, *, output: Any = None, cells: Any = None, points: Any =
     outputs are written."""
     from ..change_map import changes as change_map
     from ..change_map import in_units
+    from ..change_map import check_streamed
+    from ..pipeline.flow import pipeline_or_default
     from ..io import output_group
     from ..io.styles import style_path
     from ..tiling.execution import as_execution
@@ -48,15 +50,13 @@ def changes(epochs: Any, *, output: Any = None, cells: Any = None, points: Any =
         raise LidarSigError(POINTS_OF_TWO, path=points)
     check_outputs(output, png, report, overwrite, cells, points)
     execution = as_execution(execution)
-    files = in_units(epochs, execution, resume)
+    files = in_units(epochs, execution, pipeline_or_default(options.get("pipeline")), resume)
     if files is not None:
-        options.update(resume=resume, work=_work(execution, output, cells, points, png, report))
+        outputs = [p for p in (output, output and style_path(output), cells, points, png, report) if p]
+        options.update(work=_work(execution, outputs))
         if points:
-            check_streamed_points(points, files[1], epochs[1])
-    elif resume:
-        raise LidarSigError("--resume continues a change map in work units (two epochs of LAS/LAZ files above the "
-                            "memory budget, or with --tile-size, --workers or --scheduler); leave it out")
-    result = change_map(*epochs, execution=execution, **options)
+            check_streamed(points, len(files[1]), epochs[1])
+    result = change_map(*epochs, execution=execution, resume=resume, **options)
     done = ChangesRun(changes=result, top=top)
     with output_group():  # all or none
         for path in (output, cells, points, png, report):
@@ -70,33 +70,23 @@ def changes(epochs: Any, *, output: Any = None, cells: Any = None, points: Any =
     return done
 
 
-def _work(execution, *outputs):
+def _work(execution, outputs):
     """The work folder of a change map in work units: the execution's ``work_dir``, else beside
-    the first output (on its file system), else a new one in the temporary folder."""
+    the first output (on its file system), else in the working folder (where a resumed run
+    finds it again); refused when it would hold an output, as it goes once they are written."""
     from pathlib import Path
 
-    from ..tiling.work import fresh_work
+    from ..base.errors import arg
     from ._common import work_folder
 
-    first = next((Path(p) for p in outputs if p), None)
-    if first is None and execution.work_dir is None:
-        return fresh_work(None)
-    return work_folder(execution, first.with_name(f".{first.name}.lidar-sig-work") if first else None)
-
-
-def check_streamed_points(points, files, epoch):
-    """Refuse, before any work, a per-point change that a map in work units cannot stream: not
-    LAS/LAZ, or a later epoch of several files."""
-    from ..io.formats import format_of
-
-    fmt = format_of(points)
-    if fmt is None or not fmt.streamed:
-        raise LidarSigError("a change map in work units streams the per-point change to LAS/LAZ only: give a .las or "
-                            ".laz name", path=points)
-    if len(files) != 1:
-        raise LidarSigError(f"the later epoch {epoch} is {len(files)} files: a change map in work units writes the "
-                            "per-point change of one file; give the later epoch as one file, or leave out --points",
-                            path=points)
+    first = Path(outputs[0]) if outputs else None
+    work = work_folder(execution, first.with_name(f".{first.name}.lidar-sig-work") if first
+                       else Path(".lidar-sig-changes-work"))
+    for p in outputs:
+        if work.resolve() in Path(p).resolve().parents:
+            raise LidarSigError(f"would hold {p}, but the work folder is removed after the run; give "
+                                f"{arg('work_dir')} a folder of its own", path=work)
+    return work
 
 
 def check_outputs(output, png, report, overwrite, cells=None, points=None):
@@ -119,3 +109,4 @@ def check_outputs(output, png, report, overwrite, cells=None, points=None):
         check_format(png, IMAGE, said="the map")
     if report:
         check_report_path(report, overwrite=overwrite)
+

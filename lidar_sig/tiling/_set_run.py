@@ -37,6 +37,7 @@ class SetRun:
     sha256: dict = field(default_factory=dict)
     excluded: dict = field(default_factory=dict)  # source id -> withheld or noise points left out
     labelled: bool = False  # some point has a class code
+    records: dict = field(default_factory=dict)  # (source, part) -> its staged part's record
     seconds: float = 0.0
     execution: str = ""
 

@@ -103,7 +103,8 @@ def _run_set(pipeline, inputs, *, work, tile_size, backend, resume, progress_ena
     cells = Cells(tuple(lo[:2].tolist()), float(tile_size) / factors[0] / CELLS_PER_TILE)
 
     # 1. staging
-    records = _stage(work, good, sources, cells, run, backend, resume, pipeline.noise_codes(), progress_enabled)
+    records = run.records = _stage(work, good, sources, cells, run, backend, resume, pipeline.noise_codes(),
+                                   progress_enabled)
     if not any(s.path not in run.failed_sources for s in good):
         return run
 
