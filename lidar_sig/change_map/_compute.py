@@ -275,13 +275,15 @@ def _interval(k, epochs, binned, grid, classes, s, render, score, method, units,
     n_valid = int(table["valid"].sum())
     timings = {}
     start = time.perf_counter()
-    with step("cell metrics and resamples", cells=n_valid, cell=f"{cell:g} m", frame=f"{frame.size} px",
+    # the cells' metrics and the resamples of their level of detection, in one pass over the cells
+    with step("cell metrics", cells=n_valid, cell=f"{cell:g} m", frame=f"{frame.size} px",
               replicates=2 * REPLICATES) as st:
         null = cell_values(table, pair, classes, render=render, frame=frame, seed=seed, stream=k, progress=st,
                            workers=s.workers)
     timings["cells"] = time.perf_counter() - start
     start = time.perf_counter()
-    levels = metric_levels(table, null, confidence=confidence)
+    with step("level of detection", cells=n_valid):
+        levels = metric_levels(table, null, confidence=confidence)
     timings["lod"] = time.perf_counter() - start
     notes = [n for n in [few_cells_note(n_valid)] if n]
     cm = ChangeMap(table, pair[0].classes, pair[1].classes, grid, epochs[k].cloud.crs, units, cell, int(min_points),

@@ -16,7 +16,7 @@ import warnings
 
 import numpy as np
 
-from ._cells import CHANGE_KEYS, cell_observed, cell_replicates, null_metrics, observed_metrics
+from ._cells import CHANGE_KEYS, cell_observed, cell_replicates
 from ._lod import REPLICATES
 
 #: Fewest compared cells worth a process each: below, the forks cost more than they save.
@@ -28,8 +28,9 @@ _JOB = {}
 
 
 def cell_values(table, binned, classes, *, render, frame, seed, stream, workers=None, progress=None):
-    """Fill the table's metrics (:func:`~lidar_sig.change_map._cells.observed_metrics`) and
-    return the replicates (:func:`~lidar_sig.change_map._cells.null_metrics`) of its valid cells,
+    """Fill the table's metrics (:func:`~lidar_sig.change_map._cells.cell_observed`) and return
+    the replicates (:func:`~lidar_sig.change_map._cells.cell_replicates`) of its valid cells, in
+    one pass over them,
     on ``workers`` processes (None: the cores this process may use), forked where this
     process may fork (:func:`may_fork`) and the cells are enough (:data:`CELLS_PER_PROCESS`
     each); else here."""
@@ -41,8 +42,12 @@ def cell_values(table, binned, classes, *, render, frame, seed, stream, workers=
     if workers < 2 or not may_fork():
         if progress is not None:
             progress.note(processes=1)
-        observed_metrics(table, binned, classes, progress=progress, **options)
-        return null_metrics(table, binned, classes, seed=seed, stream=stream, progress=progress, **options)
+        null = np.full((len(table), 2 * REPLICATES, len(CHANGE_KEYS)), np.nan)
+        for c in (progress.track(cells, unit="cell") if progress is not None else cells):
+            observed, null[c] = _values(c, table, binned, classes, seed, stream, options)
+            for m, k in enumerate(CHANGE_KEYS):
+                table[k][c] = observed[m]
+        return null
     import cv2
     from concurrent.futures import ProcessPoolExecutor
 
@@ -87,11 +92,16 @@ def _child():
 def _part(cells):
     """(cells, their metrics (n, K), their replicates (n, 2R, K)) in a forked process."""
     job = _JOB
-    table, binned, classes, options = job["table"], job["binned"], job["classes"], job["options"]
-    observed = np.array([cell_observed(binned, c, classes, **options) for c in cells])
-    replicates = np.array([cell_replicates(binned, c, (int(table["points_a"][c]), int(table["points_b"][c])), classes,
-                                           seed=job["seed"], stream=job["stream"], **options) for c in cells])
-    return cells, observed, replicates
+    values = [_values(c, job["table"], job["binned"], job["classes"], job["seed"], job["stream"], job["options"])
+              for c in cells]
+    return cells, np.array([v[0] for v in values]), np.array([v[1] for v in values])
+
+
+def _values(c, table, binned, classes, seed, stream, options):
+    """(metrics (K,), replicates (2R, K)) of cell ``c``."""
+    sizes = (int(table["points_a"][c]), int(table["points_b"][c]))
+    return (cell_observed(binned, c, classes, **options),
+            cell_replicates(binned, c, sizes, classes, seed=seed, stream=stream, **options))
 
 
 @contextlib.contextmanager
