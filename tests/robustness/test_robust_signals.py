@@ -82,7 +82,7 @@ def wait_for_temp(folder, proc, limit=120):
 def said(err):
     """The lines of ``err`` other than the step lines of --verbose, Python's import log and blank
     lines (the import log, written by the interpreter as the signal lands, left one once, in a
-    full run of the suite on a fresh clone, 2026-11-29; 48 runs of the test alone had none)."""
+    full run of the suite on a fresh clone, 2026-11-29; 64 runs of the test alone had none)."""
     return [line for line in err.strip().splitlines()
             if line.strip() and not STEP.match(line) and not line.startswith("import time:")]
 
