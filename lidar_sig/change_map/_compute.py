@@ -247,8 +247,10 @@ def _in_units(sources, files, pipeline, execution, resume, work, table_of_classe
     try:
         cm = changes_in_units(files, names, pipeline=pipeline, execution=execution, work=work, resume=resume,
                               settings=settings, classes_table=table_of_classes, remove=remove, own=own)
-    except BaseException:
-        if own:
+    except BaseException as exc:
+        # a folder of the map's own goes, unless the error says it is kept for a resumed run
+        # (with resume=True and work= that folder)
+        if own and not (isinstance(exc, LidarSigError) and str(work) in str(exc)):
             remove(work)
         raise
     # said once the epochs' labels are known; a given work folder stays for a run without them
