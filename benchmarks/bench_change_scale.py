@@ -22,16 +22,14 @@ from __future__ import annotations
 
 import argparse
 import json
-import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_tiles import BLOCK, DENSITY, make_laz  # noqa: E402
+from bench_tiles import BLOCK, DENSITY, make_laz, measure  # noqa: E402
 
 CELL = 25.0
 #: The edits' squares: offset and side inside their 25 m cell (metres), and every how many blocks.
@@ -83,33 +81,6 @@ def found(report, squares):
     return len(cells & changed), len(cells)
 
 
-def measure(args, folder):
-    """Run ``python -m lidar_sig args`` with its output in files (a JSON of every cell fills a
-    pipe); (wall seconds, peak RSS MiB of the main process, of the largest other process of its
-    tree, stdout)."""
-    import psutil
-
-    out, err = folder / "stdout.txt", folder / "stderr.txt"
-    start = time.monotonic()
-    with open(out, "w") as fo, open(err, "w") as fe:
-        proc = subprocess.Popen([sys.executable, "-m", "lidar_sig", *map(str, args)], stdout=fo, stderr=fe)
-        main, peak_main, peak_worker = psutil.Process(proc.pid), 0, 0
-        while proc.poll() is None:
-            try:
-                peak_main = max(peak_main, main.memory_info().rss)
-                for child in main.children(recursive=True):
-                    try:
-                        peak_worker = max(peak_worker, child.memory_info().rss)
-                    except psutil.Error:
-                        pass
-            except psutil.Error:
-                pass
-            time.sleep(0.1)
-    if proc.returncode != 0:
-        raise RuntimeError(f"lidar-sig {args} failed ({proc.returncode}):\n{err.read_text()[-2000:]}")
-    return time.monotonic() - start, peak_main / 2**20, peak_worker / 2**20, out.read_text()
-
-
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", default="1000000,20000000", help="points per epoch, comma-separated")
@@ -133,7 +104,7 @@ def main():
         out.mkdir(exist_ok=True)
         cmd = ["changes", a, b, "-o", out / "map.tif", "--cells", out / "cells.gpkg", "--points", out / "b.laz",
                "--json", "--top", "100000", "--overwrite"] + (["--memory", args.memory] if args.memory else [])
-        wall, main_mib, worker_mib, stdout = measure(cmd, out)
+        wall, main_mib, worker_mib, stdout = measure(cmd)
         report = json.loads(stdout)
         us = wall / (2 * n) * 1e6
         base = base or us

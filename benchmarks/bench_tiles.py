@@ -76,26 +76,30 @@ def make_laz(path, n, density=DENSITY):
 
 def measure(args, command=None):
     """Run ``python -m lidar_sig args`` (or ``command``); (wall seconds, peak RSS MiB of the main
-    process, of the largest other process of its tree, stdout)."""
+    process, of the largest other process of its tree, stdout). Its output goes to files, not
+    pipes: a long stdout (a JSON of every cell) would fill a pipe and stop the process."""
     import psutil
 
     start = time.monotonic()
-    proc = subprocess.Popen(command or [sys.executable, "-m", "lidar_sig", *map(str, args)], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
-    main = psutil.Process(proc.pid)
-    peak_main, peak_worker = 0, 0
-    while proc.poll() is None:
-        try:
-            peak_main = max(peak_main, main.memory_info().rss)
-            for child in main.children(recursive=True):
-                try:
-                    peak_worker = max(peak_worker, child.memory_info().rss)
-                except psutil.Error:
-                    pass
-        except psutil.Error:
-            pass
-        time.sleep(0.1)
-    out, err = proc.communicate()
+    with tempfile.TemporaryFile("w+") as fo, tempfile.TemporaryFile("w+") as fe:
+        proc = subprocess.Popen(command or [sys.executable, "-m", "lidar_sig", *map(str, args)], stdout=fo,
+                                stderr=fe, text=True)
+        main = psutil.Process(proc.pid)
+        peak_main, peak_worker = 0, 0
+        while proc.poll() is None:
+            try:
+                peak_main = max(peak_main, main.memory_info().rss)
+                for child in main.children(recursive=True):
+                    try:
+                        peak_worker = max(peak_worker, child.memory_info().rss)
+                    except psutil.Error:
+                        pass
+            except psutil.Error:
+                pass
+            time.sleep(0.1)
+        fo.seek(0)
+        fe.seek(0)
+        out, err = fo.read(), fe.read()
     if proc.returncode != 0:
         raise RuntimeError(f"lidar-sig {args} failed ({proc.returncode}):\n{err[-2000:]}")
     return time.monotonic() - start, peak_main / 2**20, peak_worker / 2**20, out

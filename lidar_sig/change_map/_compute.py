@@ -19,7 +19,7 @@ from ..method.signature_raster import Frame, method_differences
 from ._cells import CELL_FRAME, SEED, bin_points, cell_table
 from ._cores import cell_values
 from ._density import AUTO, auto_cell, auto_min_points, density, fewer_points, no_defined_cell, sparse_note
-from ._epochs import Epoch, check_same_crs, read_epoch
+from ._epochs import Epoch, check_same_crs, epoch_name, read_epoch
 from ._grid import Grid, check_cell, check_cells, check_overlap
 from ._lod import CONFIDENCE, REPLICATES, few_cells_note
 from ._maps import LABEL_FREE_SCORE, SCORE, ChangeMap, geometry_only_note, metric_levels, scheme_warnings
@@ -239,8 +239,8 @@ def _in_units(sources, files, pipeline, execution, resume, work, table_of_classe
 
     from ..tiling.work import discard_work, fresh_work, remove_work
 
-    names = [str(x) if not isinstance(x, (list, tuple)) else
-             (str(x[0]) if len(x) == 1 else f"{x[0]} (+{len(x) - 1} tiles)") for x in sources]
+    names = [epoch_name(x, [x] if isinstance(x, (str, Path)) and Path(x).is_file() else f)
+             for x, f in zip(sources, files)]
     own = work is None  # a folder of the map's own, in the temporary folder
     remove = discard_work if own else remove_work
     work = fresh_work(execution.work_dir) if own else Path(work)

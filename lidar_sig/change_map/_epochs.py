@@ -116,9 +116,17 @@ def read_epoch(source, *, columns=None):
     withheld = None
     if any(c.withheld is not None for c in clouds):
         withheld = np.concatenate([c.withheld if c.withheld is not None else np.zeros(len(c), bool) for c in clouds])
-    name = str(source) if not isinstance(source, (list, tuple)) else f"{first.path} (+{len(clouds) - 1} tiles)"
+    name = epoch_name(source, paths)
     return PointCloud(np.vstack([c.xyz for c in clouds]), labels, path=name, crs=first.crs, units=first.units,
                       withheld=withheld)
+
+
+def epoch_name(source, paths):
+    """The name of an epoch read from ``source`` as its files ``paths``: the file itself when
+    there is one, the folder, pattern or .vpc as given, a list by its first file and count."""
+    if len(paths) == 1:
+        return str(paths[0])
+    return str(source) if not isinstance(source, (list, tuple)) else f"{paths[0]} (+{len(paths) - 1} tiles)"
 
 
 def check_same_crs(clouds, names):

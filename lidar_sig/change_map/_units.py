@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -31,7 +30,7 @@ import numpy as np
 
 from ..method.saliency_map import geometric_entropy
 from ..method.signature_raster import Frame, point_codes
-from ..tiling.work import UNITS
+from ..tiling.work import UNITS, save_whole
 from ._cells import CHANGE_KEYS, Binned, null_metrics, observed_metrics
 from ._density import DENSITY_PIXEL
 
@@ -95,17 +94,6 @@ class UnitPlan:
         runs = [r.plan.key() for r in self.epochs] if epoch is None else [self.epochs[epoch].plan.key()]
         return json.dumps([runs, repr(self.grid), self.side, self.frame.size, self.frame.margin, repr(self.classes),
                            self.labelled, self.min_points, self.render, self.seed, self.stream], default=str)
-
-
-def _save(path, array=None, **arrays):
-    """``array`` as the .npy ``path``, or ``arrays`` as the .npz ``path``: whole or not at all."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp{path.suffix}")
-    if array is not None:
-        np.save(tmp, array)
-    else:
-        np.savez(tmp, **arrays)
-    os.replace(tmp, path)
 
 
 def _done(path, key):
@@ -175,9 +163,9 @@ def code_task(uplan, epoch, ij, view_step):
     view = np.empty(len(raw[thin]), VIEW)
     view["x"], view["y"], view["z"] = raw[thin].T
     view["values"] = values[thin]
-    _save(view_path(uplan.work, epoch, ij), view)
-    _save(points_path(path), rec)  # a file of its own: a unit maps the slice it needs, not the tile's points
-    _save(path, units=units, starts=starts, key=np.array(key))  # last: the tile is coded
+    save_whole(view_path(uplan.work, epoch, ij), view)
+    save_whole(points_path(path), rec)  # a file of its own: a unit maps the slice it needs, not the tile's points
+    save_whole(path, units=units, starts=starts, key=np.array(key))  # last: the tile is coded
     return dict(zip(units.tolist(), np.diff(starts).tolist()))
 
 
@@ -242,7 +230,7 @@ def unit_task(uplan, unit, tiles):
            "mu0": np.column_stack([sampled[k][0] for k in CHANGE_KEYS]),
            "sigma": np.column_stack([sampled[k][1] for k in CHANGE_KEYS]),
            "defined": np.column_stack([sampled[k][2] for k in CHANGE_KEYS])}
-    _save(path, **out)
+    save_whole(path, **out)
     return out
 
 

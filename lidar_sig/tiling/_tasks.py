@@ -5,7 +5,6 @@ finished tiles); and the :class:`Plan` every tile task shares."""
 from __future__ import annotations
 
 import json
-import os
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -15,7 +14,7 @@ import numpy as np
 from ..method.signature_raster import Signature
 from ._core import SetContext, Tiling, tile_name, tile_saliency, tile_second_distances
 from .sources import Cells, load_cells, source_of, stage_part
-from .work import FINISHED
+from .work import FINISHED, save_whole
 
 
 #: Per-point results: (Cl, Cs, Cp) and the chosen scale index (-1: none or undefined).
@@ -106,14 +105,6 @@ def second_paths(work, ij):
     return folder / f"{name}.npy", folder / f"{name}.ids.npy", folder / f"{name}.d.npy"
 
 
-def _save(path, array):
-    """``array`` as ``path`` (.npy), whole or not at all."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp.npy")
-    np.save(tmp, array)
-    os.replace(tmp, path)
-
-
 def stage_task(work, source, part, start, stop, cells, noise_codes):
     """Stage one part of one file (a task), leaving out withheld and noise points
     (``noise_codes``, None for none)."""
@@ -128,9 +119,9 @@ def second_task(plan, ij):
     ids, point_d, location_d = tile_second_distances(plan.load_points, plan.tiling, ij, plan.ctx)
     order = np.argsort(ids, kind="stable")
     locations_path, ids_path, d_path = second_paths(plan.work, ij)
-    _save(ids_path, ids[order])
-    _save(d_path, point_d[order])
-    _save(locations_path, np.sort(location_d))
+    save_whole(ids_path, ids[order])
+    save_whole(d_path, point_d[order])
+    save_whole(locations_path, np.sort(location_d))
     return len(location_d)
 
 
@@ -171,11 +162,9 @@ def tile_task(plan, ij):
     rec["values"] = r.values[order]
     rec["chosen"] = r.chosen[order] if r.chosen is not None else -1
     ids_path, values_path = points_paths(plan.work, ij)
-    _save(ids_path, r.ids[order])
-    _save(values_path, rec)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp.npz")
-    np.savez(tmp, counts_at=nz, counts=flat[nz], egeom_counts=sig.egeom_counts, class_totals=sig.class_totals,
-             has_chosen=np.array(r.chosen is not None), key=np.array(key), stats=np.array(json.dumps(stats)))
-    os.replace(tmp, path)  # a tile's result exists whole or not at all
+    save_whole(ids_path, r.ids[order])
+    save_whole(values_path, rec)
+    save_whole(path, counts_at=nz, counts=flat[nz], egeom_counts=sig.egeom_counts, class_totals=sig.class_totals,
+               has_chosen=np.array(r.chosen is not None), key=np.array(key),
+               stats=np.array(json.dumps(stats)))  # last: a tile's result exists whole or not at all
     return stats

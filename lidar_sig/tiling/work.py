@@ -234,3 +234,19 @@ def forget_area_cap(work):
     """Remove a kept area-weight cap: the tiles' distances it goes with are being replaced (a
     resumed run must not take the cap of one pass with the distances of another)."""
     (Path(work) / AREA_CAP_FILE).unlink(missing_ok=True)
+
+
+def save_whole(path, array=None, **arrays):
+    """``array`` as the .npy file ``path``, or ``arrays`` as the .npz file ``path``, whole or not
+    at all (written beside it under a name of this process, then renamed): what a resumed run
+    finds in a work folder is complete."""
+    import numpy as np
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp{path.suffix}")
+    if array is not None:
+        np.save(tmp, array)
+    else:
+        np.savez(tmp, **arrays)
+    os.replace(tmp, path)
