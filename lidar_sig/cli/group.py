@@ -57,7 +57,9 @@ class _Group(click.Group):
             ctx.exit(2)
         except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM as Interrupted
             signum = exc.signum if isinstance(exc, Interrupted) else signal.SIGINT
-            kept = f"; its work is kept in {', '.join(written.work)} for --resume" if written.work else ""
+            # a signal before recording began leaves the plain list: no work folder yet
+            work = getattr(written, "work", [])
+            kept = f"; its work is kept in {', '.join(work)} for --resume" if work else ""
             click.echo(printable(f"lidar-sig: interrupted ({signal.Signals(signum).name}); {_outputs_left(written)}"
                                  f"{kept}"), err=True)
             ctx.exit(128 + signum)

@@ -217,6 +217,21 @@ def test_sigterm_while_click_parses_is_said_as_sigterm(monkeypatch, capsys):
     assert len(lines) == 1 and "interrupted (SIGTERM)" in lines[0], lines
 
 
+def test_a_signal_before_the_outputs_are_recorded_is_one_line(monkeypatch, capsys):
+    # a Ctrl-C between the command's start and its record of outputs met the plain list the
+    # record replaces: "AttributeError: 'list' object has no attribute 'work'" (seen once in CI)
+    import lidar_sig.cli.group
+    from lidar_sig.cli import main
+
+    def signalled(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(lidar_sig.cli.group, "recording_outputs", signalled)
+    assert main(["plugins"]) == 128 + signal.SIGINT
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and "interrupted (SIGINT); outputs not written" in lines[0], lines
+
+
 def _after_the_package_starts(count):
     """A test of import-log lines (``-X importtime``): true from the ``count``-th import to end
     since lidar_sig/__init__.py began loading lazy_loader, its first import of a library (the
