@@ -16,6 +16,7 @@ from ..base.errors import LidarSigError, LidarSigWarning, amount, counted, whole
 from ..metrics import METRIC, METRIC_KEYS
 from ..base.progress import step
 from ..method.signature_raster import Frame, method_differences
+from ..numerics.bounds import bounds
 from ._cells import CELL_FRAME, SEED, bin_points, cell_table
 from ._cores import cell_values
 from ._density import AUTO, auto_cell, auto_min_points, density, fewer_points, no_defined_cell, sparse_note
@@ -220,7 +221,8 @@ def _layout(clouds, given, names, pipeline, s, notes):
         s.min_points = auto_min_points(min(densities), s.cell)
     for k in range(len(clouds) - 1):  # before the grid: disjoint epochs would span a needless one
         check_overlap(used[k], used[k + 1], names[k], names[k + 1])
-    grid = Grid.covering(np.vstack(used), s.cell / units.horizontal)
+    corners = np.vstack([np.vstack(bounds(xy)) for xy in used])  # not every point stacked
+    grid = Grid.covering(corners, s.cell / units.horizontal)
     check_cells(grid, s.cell)
     counts = [np.bincount(grid.cell_of(xy), minlength=grid.n_cells) for xy in used]
     for k in range(len(clouds) - 1):  # said before the saliency is computed

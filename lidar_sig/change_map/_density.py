@@ -13,6 +13,8 @@ import math
 
 import numpy as np
 
+from ..numerics.bounds import column_min
+
 #: The value of ``cell`` and ``min_points`` that chooses them from the epochs' densities.
 AUTO = "auto"
 #: Side of the pixels over which an epoch's density is measured, in metres: the density is the
@@ -44,8 +46,12 @@ def density(xy, metres_per_unit=1.0):
     if len(xy) == 0:
         return 0.0
     pixel = DENSITY_PIXEL / metres_per_unit
-    ij = np.floor((xy - xy.min(axis=0)) / pixel).astype(np.int64)
-    occupied = len(np.unique(ij[:, 0] * (int(ij[:, 1].max()) + 1) + ij[:, 1]))
+    ij = np.floor((xy - column_min(xy)) / pixel).astype(np.int64)
+    flat = ij[:, 0] * (int(ij[:, 1].max()) + 1) + ij[:, 1]
+    span = int(flat.max()) + 1
+    # a count per pixel where the pixels are no more than the points (a sort of every point's
+    # pixel took 0.1 s of a change map of two 1 km² tiles), else the distinct pixels
+    occupied = np.count_nonzero(np.bincount(flat, minlength=span)) if span <= len(flat) else len(np.unique(flat))
     return len(xy) / (occupied * DENSITY_PIXEL ** 2)
 
 

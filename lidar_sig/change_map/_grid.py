@@ -8,6 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..base.errors import positive_metres
+from ..numerics.bounds import bounds
 
 #: Most cells a change map holds (its table takes about 200 bytes a cell).
 MAX_CELLS = 4_000_000
@@ -31,7 +32,7 @@ class Grid:
     def covering(cls, xy, size):
         """The smallest grid aligned to multiples of ``size`` that holds every point of ``xy``
         (an (N, 2) array, or several stacked)."""
-        lo, hi = xy.min(axis=0), xy.max(axis=0)
+        lo, hi = bounds(xy)
         corner = []
         for v in lo:
             c = math.floor(v / size) * size
@@ -86,8 +87,7 @@ def check_overlap(xy_a, xy_b, name_a, name_b):
     disjoint: they share no land to compare."""
     from ..base.errors import LidarSigError
 
-    low_a, high_a = np.min(xy_a, axis=0), np.max(xy_a, axis=0)
-    low_b, high_b = np.min(xy_b, axis=0), np.max(xy_b, axis=0)
+    (low_a, high_a), (low_b, high_b) = bounds(xy_a), bounds(xy_b)
     if np.any(high_a < low_b) or np.any(high_b < low_a):
         def extent(low, high):
             return f"x {low[0]:.1f} to {high[0]:.1f}, y {low[1]:.1f} to {high[1]:.1f}"

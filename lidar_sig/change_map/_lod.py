@@ -22,6 +22,7 @@ Pure array functions: no signatures, no files.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from statistics import NormalDist
 
@@ -152,9 +153,10 @@ def p_values(z, tests=1):
     chance that unchanged land lies this far above its level's centre in any of them,
     min(1, tests x (1 - Phi(z))); NaN where z is. A cell is significant at a confidence
     exactly where its p-value is below 1 - confidence (docs/changes.md, "Significance")."""
-    from scipy.special import ndtr
-
-    return np.minimum(1.0, tests * ndtr(-np.asarray(z, dtype=np.float64)))
+    # 1 - Phi(z) = erfc(z / sqrt 2) / 2, by the standard library: scipy.special took 50 ms to
+    # load, a tenth of what a change map of two 1 km² tiles spends outside its steps
+    tail = np.asarray(np.frompyfunc(math.erfc, 1, 1)(np.asarray(z, dtype=np.float64) / math.sqrt(2.0)), np.float64) / 2
+    return np.minimum(1.0, tests * tail)
 
 
 def q_values(p):

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..base.errors import counted
+from ..numerics.bounds import column_min
 
 #: ColorBrewer YlOrRd, light (no change) to dark red (most change), for the score.
 SEQUENTIAL = np.array([(255, 255, 204), (255, 237, 160), (254, 217, 118), (254, 178, 76), (253, 141, 60),
@@ -124,7 +125,7 @@ def _backdrop(grid, xyz, saliency, display):
     lay = layout(grid, display)
     factor = lay.map_w / (grid.cols * grid.size)  # display px per CRS unit
     canvas = np.full((lay.map_h, lay.map_w), 255, np.uint8)
-    lo = xyz[:, :2].min(axis=0)
+    lo = column_min(xyz[:, :2])
     hi_y = xyz[:, 1].max()
     scaled = cv2.resize(grey, (max(1, round(view.shape[1] * px * factor)), max(1, round(view.shape[0] * px * factor))),
                         interpolation=cv2.INTER_AREA)

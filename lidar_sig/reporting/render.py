@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..method.signature_raster import RENDERINGS, smooth_counts, to_uint8
+from ..numerics.bounds import bounds
 
 #: Names of the triangle's vertices V_l, V_s, V_p as the pictures label them.
 VERTEX_LABELS = ("line", "surface", "point")
@@ -152,7 +153,7 @@ def top_view(xyz, saliency, *, max_side=900, points_per_cell=2.5):
     side in the coordinates' unit.
     """
     xyz = np.asarray(xyz, dtype=np.float64)
-    lo, hi = xyz[:, :2].min(axis=0), xyz[:, :2].max(axis=0)
+    lo, hi = bounds(xyz[:, :2])
     extent = np.maximum(hi - lo, 1e-9)
     cell = max(np.sqrt(extent[0] * extent[1] * points_per_cell / len(xyz)), extent.max() / max_side)
     cols = np.minimum(((xyz[:, 0] - lo[0]) / cell).astype(np.int64), int(extent[0] / cell))

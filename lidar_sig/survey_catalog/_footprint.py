@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..numerics.bounds import bounds
+
 
 def convex_hull(xy):
     """(K, 2) vertices of the convex hull of plan-view points ``xy`` (N, 2), counter-clockwise,
@@ -16,7 +18,7 @@ def convex_hull(xy):
     from scipy.spatial import ConvexHull, QhullError
 
     xy = np.asarray(xy, dtype=np.float64)
-    lo, hi = xy.min(axis=0), xy.max(axis=0)
+    lo, hi = bounds(xy)
     try:
         hull = ConvexHull(xy)
         return xy[hull.vertices]  # counter-clockwise for 2-D input

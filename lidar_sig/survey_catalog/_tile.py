@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ..base.errors import LidarSigError
+from ..numerics.bounds import column_max, column_min
 from ._features import signature_features
 from ._footprint import convex_hull, hull_of_hulls, polygon_area
 
@@ -115,7 +116,7 @@ def _signature_and_footprint(path, pipeline, work):
         cloud.labels = np.zeros(len(cloud), np.int64)
     signature = pipeline.run(cloud).signature
     xy = cloud.xyz[:, :2]
-    bounds = (*xy.min(axis=0), *xy.max(axis=0))
+    bounds = (*column_min(xy), *column_max(xy))
     return signature, cloud.crs, cloud.units.factors, bounds, convex_hull(xy), False
 
 

@@ -348,7 +348,7 @@ def _regroup(xyz, positions, width):
     out = []
     for g in range(group.max() + 1):
         mine = group.ravel() == g
-        lo, hi = xyz[mine, :2].min(axis=0), xyz[mine, :2].max(axis=0)
+        lo, hi = bounds(xyz[mine, :2])
         out.append(((*lo.tolist(), *hi.tolist()), width, positions[mine]))
     return out
 
