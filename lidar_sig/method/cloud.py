@@ -85,8 +85,8 @@ class PointCloud:
         if xyz.shape[0] == 0:
             raise LidarSigError(f"the {'file' if self.path else 'cloud'} holds no points; give one with points",
                                 path=self.path)
-        bad = ~np.isfinite(xyz).all(axis=1)
-        if bad.any():
+        if not np.isfinite(np.concatenate(bounds(xyz))).all():  # a column's min or max is NaN or infinite if a value is
+            bad = ~np.isfinite(xyz).all(axis=1)
             raise LidarSigError(
                 f"{_have(int(bad.sum()))} NaN or infinite coordinates (first at index "
                 f"{int(np.argmax(bad))}); remove them before running", path=self.path)

@@ -26,6 +26,7 @@ import numpy as np
 
 from .classes import ClassTable
 from ..base.errors import LidarSigError, arg
+from ..numerics.bounds import nan_rows
 from .saliency_map import LN3, geometric_entropy
 from .scales import recorded_kind
 
@@ -113,7 +114,7 @@ def point_codes(sal, class_index, frame, *, egeom=None, egeom_bins=EGEOM_BINS):
     histogram over [0, ln 3] (bins of equal width, the last closed, as ``np.histogram``); both
     (N,) int64, -1 where the saliency is undefined (the bin also outside [0, ln 3])."""
     sal = np.asarray(sal, dtype=np.float64)
-    ok = ~np.isnan(sal).any(axis=1)
+    ok = ~nan_rows(sal)
     rows, cols = frame.pixels(sal[ok])
     pixel = np.full(len(sal), -1, np.int64)
     pixel[ok] = (np.asarray(class_index)[ok] * frame.size + rows) * frame.size + cols

@@ -16,6 +16,7 @@ from ..method.cloud import PointCloud, kept_points
 from ..base.compile import COMMON, announce_compilation, load_kernels, warm_up
 from ..base.errors import FACE, LidarSigError, LidarSigWarning, a_kind, arg, counted
 from ..io.open3d import from_open3d, is_open3d
+from ..numerics.bounds import nan_rows
 from ..numerics.neighbors import WEIGHTS, NeighborIndex, Weights, unique_points
 from ..plugins import get_descriptor, get_strategy
 from ..base.progress import step
@@ -282,7 +283,7 @@ class Pipeline:
             values = values[inverse]
             chosen = chosen[inverse] if chosen is not None else None
         n = len(cloud)
-        n_undefined = int(np.isnan(values).any(axis=1).sum())
+        n_undefined = int(nan_rows(values).sum())
         if n_undefined == n:
             # k counts points; normalized radii are also said in metres
             metres = f" (= {_fmt(scales)} m)" if self.scales.normalized else ""

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..method.signature_raster import RENDERINGS, smooth_counts, to_uint8
-from ..numerics.bounds import bounds
+from ..numerics.bounds import bounds, nan_rows
 
 #: Names of the triangle's vertices V_l, V_s, V_p as the pictures label them.
 VERTEX_LABELS = ("line", "surface", "point")
@@ -166,7 +166,7 @@ def top_view(xyz, saliency, *, max_side=900, points_per_cell=2.5):
     top = order[last]
     values = np.asarray(saliency, dtype=np.float64)[top]
     colour = to_uint8(np.nan_to_num(values, nan=0.0))
-    colour[np.isnan(values).any(axis=1)] = UNDEFINED_GREY
+    colour[nan_rows(values)] = UNDEFINED_GREY
     rgb = np.full((h * w, 3), 255, np.uint8)
     rgb[flat[top]] = colour
     rgb = rgb.reshape(h, w, 3)
