@@ -201,9 +201,10 @@ class Signature:
         n_classes = len(classes)
         defined = pixel >= 0
         counts = np.bincount(pixel[defined], minlength=n_classes * frame.size ** 2)
-        counts = counts.reshape(n_classes, frame.size, frame.size).astype(np.int64)
-        hist = np.bincount(egeom_bin[egeom_bin >= 0], minlength=egeom_bins).astype(np.int64)
-        totals = np.bincount(np.asarray(class_index), minlength=n_classes).astype(np.int64)
+        # bincount counts in int64 already where numpy's index type is 64-bit: no copy then
+        counts = counts.reshape(n_classes, frame.size, frame.size).astype(np.int64, copy=False)
+        hist = np.bincount(egeom_bin[egeom_bin >= 0], minlength=egeom_bins).astype(np.int64, copy=False)
+        totals = np.bincount(np.asarray(class_index), minlength=n_classes).astype(np.int64, copy=False)
         return cls(counts, frame, classes, hist, int((~defined).sum()), dict(metadata or {}), totals)
 
     def __repr__(self):
