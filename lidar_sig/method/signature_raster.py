@@ -279,13 +279,13 @@ class Signature:
             raise LidarSigError(f"unknown rendering {mode!r}; use one of {', '.join(RENDERINGS)}")
         present = np.flatnonzero(self.counts.reshape(len(self.counts), -1).any(axis=1))  # empty classes add 0
         counts = self.counts[present]
+        n_points = int(counts.sum())  # n_points, over the present classes only
         if mode == "smooth":
             counts = smooth_counts(counts, self.frame)
         total = counts.sum(axis=0) if len(present) else np.zeros(self.counts.shape[1:])
-        share = total / max(self.n_points, 1)
+        share = total / max(n_points, 1)
         rgb = np.tensordot(counts, self.classes.class_colors[present], axes=([0], [0]))
-        with np.errstate(invalid="ignore", divide="ignore"):
-            mean = np.where(total[..., None] > 0, rgb / total[..., None], 1.0)
+        mean = np.divide(rgb, total[..., None], out=np.ones_like(rgb), where=total[..., None] > 0)
         if mode == "points":
             sg = (total > 0).astype(np.float64)
         else:
@@ -368,17 +368,25 @@ def smooth_counts(counts, frame, bandwidth=SMOOTH_BANDWIDTH):
     that dominated the small signatures of a change map's cells."""
     import cv2
 
+    kernel = _smoothing_kernel(frame, bandwidth)
+    out = np.zeros(counts.shape)
+    for k in np.flatnonzero(counts.reshape(len(counts), -1).any(axis=1)):
+        out[k] = cv2.sepFilter2D(counts[k].astype(np.float64), cv2.CV_64F, kernel, kernel,
+                                 borderType=cv2.BORDER_CONSTANT)
+    return out
+
+
+@functools.lru_cache(maxsize=8)
+def _smoothing_kernel(frame, bandwidth):
+    """The 1-D Gaussian of :func:`smooth_counts`, made once per frame (read-only)."""
     v = frame.vertices
     sigma = bandwidth * (v[1, 0] - v[2, 0])
     radius = int(4.0 * sigma + 0.5)  # scipy's rule
     x = np.arange(-radius, radius + 1)
     kernel = np.exp(-0.5 * (x / sigma) ** 2)
     kernel /= kernel.sum()
-    out = np.zeros(counts.shape)
-    for k in np.flatnonzero(counts.reshape(len(counts), -1).any(axis=1)):
-        out[k] = cv2.sepFilter2D(counts[k].astype(np.float64), cv2.CV_64F, kernel, kernel,
-                                 borderType=cv2.BORDER_CONSTANT)
-    return out
+    kernel.setflags(write=False)
+    return kernel
 
 
 def to_uint8(image):
