@@ -92,7 +92,8 @@ def recording_feedback(cancel_at=None, percent=0):
 
 def changes_parameters(args):
     return {"EPOCH_A": args["a"], "EPOCH_B": args["b"], "OUTPUT": args["map"], "CELLS": args["cells"],
-            "POINTS": args.get("points"), "REPORT": args.get("report"), "CELL": args.get("cell", 0)}
+            "POINTS": args.get("points"), "REPORT": args.get("report"), "CELL": args.get("cell", 0),
+            "OPTIONS": args.get("options", "")}
 
 
 @contextmanager

@@ -313,6 +313,26 @@ def unchanged(epochs, tmp_path_factory):
     return path
 
 
+def test_a_change_map_in_work_units_shows_their_progress_in_qgis_and_the_one_block_answer(qgis, epochs, tmp_path):
+    # More options asking for tiles map the epochs in work units (docs/changes.md, "At survey
+    # scale"), as a survey above the memory budget is: QGIS shows the tiles' and the units'
+    # progress, loads the map and the cells, and counts what the map of one block counts
+    a, b, _ = epochs
+    found = qgis("changes", a=a, b=b, map=tmp_path / "map.tif", cells=tmp_path / "cells.gpkg", cell=10,
+                 options="--tile-size 60 --workers 2")
+    assert {"tiles", "work units"} <= set(found["stages"]), found["stages"]
+    assert found["progress"] and max(found["progress"]) == 100
+    done = run("changes", a, b, "--cell", "10", "--json", "--top", "0", "-q")
+    assert done.returncode == 0, done.stderr
+    assert json.loads(done.stdout)["work_units"] is None  # the command alone: one block
+    one_block = json.loads(done.stdout)["grid"]
+    assert found["results"]["COMPARED"] == one_block["valid"]
+    assert found["results"]["SIGNIFICANT"] == one_block["significant"] >= 3
+    assert found["results"]["CHANGED"] == one_block["changed"]
+    loaded = {Path(layer["source"].split("|")[0]).name: layer for layer in found["loaded"]}
+    assert loaded["map.tif"]["valid"] and loaded["cells.gpkg"]["valid"]
+
+
 def test_every_algorithm_with_temporary_outputs_returns_files_that_exist(qgis, epochs, unchanged, tmp_path):
     a, b, _ = epochs
     catalogue = tmp_path / "samples.h5"
