@@ -2,6 +2,7 @@
 work units within a memory budget, on local processes or a Dask cluster, give the map of one
 block; an interrupted run resumes to the same map; the per-point change streams."""
 import sys
+from pathlib import Path
 
 import laspy
 import numpy as np
@@ -124,6 +125,37 @@ def test_an_interrupted_run_resumes_to_the_same_map(regridded, tmp_path, monkeyp
         assert set(done) <= set(kept)  # the finished units were reused, not computed again
     finally:
         cm.close()
+
+
+def test_a_failed_unit_keeps_the_map_s_own_work_folder_and_says_how_to_resume(regridded, monkeypatch):
+    # in Python without work=, a unit that failed (a full disk, say) named the folder "kept for
+    # a resumed run", then removed it with the rest of the map's own temporary work
+    from lidar_sig.change_map import _units
+
+    tiles, _, whole = regridded
+    real = _units.unit_task
+    calls = []
+
+    def fails_second(uplan, unit, tiles_of):
+        calls.append(unit)
+        if len(calls) == 2:
+            raise OSError(28, "No space left on device")
+        return real(uplan, unit, tiles_of)
+
+    monkeypatch.setattr("lidar_sig.change_map._in_units.unit_task", fails_second)
+    options = dict(pipeline=ls.Pipeline(progress=False), execution=Execution(memory="400MiB", workers=1,
+                                                                              tile_size=60.0))
+    with pytest.raises(ls.LidarSigError, match=r"No space left on device.*resume=True, work=") as caught:
+        changes(list(IGN_FILES), tiles, **options)
+    work = Path(caught.value.path)
+    assert work is not None and work.is_dir() and len(list((work / "units").glob("u*.npz"))) == 1
+    monkeypatch.setattr("lidar_sig.change_map._in_units.unit_task", real)
+    cm = changes(list(IGN_FILES), tiles, resume=True, work=work, **options)
+    try:
+        assert_same_map(cm, whole)
+    finally:
+        cm.close()
+    assert not work.exists()
 
 
 def test_the_per_point_change_streams_as_the_one_block_writes_it(regridded, tmp_path):

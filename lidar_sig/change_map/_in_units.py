@@ -17,7 +17,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from ..base.errors import LidarSigError, LidarSigWarning, counted
+from ..base.errors import FACE, LidarSigError, LidarSigWarning, counted
 from ..base.progress import progress, step
 from ..method.classes import UNLABELED
 from ..method.signature_raster import Signature
@@ -344,8 +344,10 @@ def _failed(err, what, work):
     if isinstance(err, LidarSigError):
         return err
     where = f"tile {what[0]}, {what[1]}" if isinstance(what, tuple) else what
+    again = ("run the same command with --resume" if FACE.get() == "cli" else
+             f"call again with resume=True, work={str(work)!r}")
     return LidarSigError(f"{where} of the change map failed ({type(err).__name__}: {err}); free space or check the "
-                         f"work folder, then run the same command with --resume", path=work)
+                         f"work folder, then {again}", path=work)
 
 
 def check_streamed(path, n_files, name):
