@@ -58,6 +58,7 @@ def assert_same_map(got, want):
         assert got.levels[k].tau == pytest.approx(level.tau, rel=1e-9, abs=1e-12), k
     assert np.array_equal(got.ranked(), want.ranked())
     assert got.n_changed == want.n_changed and got.coverage() == want.coverage()
+    assert got.warnings == want.warnings  # the same notes, in the same order
 
 
 def test_tiles_cut_on_another_grid_in_work_units_give_the_one_block_map(regridded, tmp_path):

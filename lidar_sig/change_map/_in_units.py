@@ -220,7 +220,8 @@ def _frame(runs, names, s, backend):
 
 
 def _map(runs, names, files, pipeline, backend, work, settings, classes_table, holder):
-    """The map of two complete tiled runs: densities, grid, coded points, work units, levels."""
+    """The map of two complete tiled runs: densities, grid, coded points, work units, levels; its
+    notes in the order a map of one block gives them."""
     from ._lod import REPLICATES
     from ._maps import LABEL_FREE_SCORE, SCORE, ChangeMap, geometry_only_note, metric_levels, scheme_warnings
 
@@ -230,7 +231,7 @@ def _map(runs, names, files, pipeline, backend, work, settings, classes_table, h
     seconds = {"densities": time.perf_counter() - t0}
     labelled = runs[0].labelled and runs[1].labelled
     if runs[0].labelled != runs[1].labelled:
-        notes.append(geometry_only_note(names[0] if not runs[0].labelled else names[1], s.score))
+        notes.insert(0, geometry_only_note(names[0] if not runs[0].labelled else names[1], s.score))
     classes = classes_table if labelled else UNLABELED
     side = _unit_side(runs, bounds, grid, cell, backend.workers, int(s.memory))
     uplan = UnitPlan(str(work), grid, side, s.frame, classes, labelled, (runs[0], runs[1]), min_points, s.render,
@@ -258,10 +259,10 @@ def _map(runs, names, files, pipeline, backend, work, settings, classes_table, h
               if k in ("descriptor", "strategy", "scale_kind", "scale_values", "scale_units", "weights")}
     t0 = time.perf_counter()
     levels = metric_levels(table, sampled=sampled, confidence=s.confidence)
-    notes += [n for n in [few_cells_note(int(table["valid"].sum()))] if n]
+    few = [n for n in [few_cells_note(int(table["valid"].sum()))] if n]
     cm = ChangeMap(table, gathered["classes"][0], gathered["classes"][1], grid, runs[0].sources[0].crs, units, cell,
                    min_points, score, s.render, classes, epochs[0], epochs[1], s.frame, method, levels, s.confidence,
-                   warnings=notes + schemes, timings={"lod": time.perf_counter() - t0, "replicates": 2 * REPLICATES})
+                   warnings=notes + schemes + few, timings={"lod": time.perf_counter() - t0, "replicates": 2 * REPLICATES})
     cm.rank_by(score)
     cm.cell_rule, cm.min_points_rule, cm.density = s.cell_rule, s.min_points_rule, tuple(densities)
     cm.timings["units"] = {"units": len(unit_ids), "side_cells": side}
