@@ -83,6 +83,13 @@ class Binned:
                                     frame=frame)
 
 
+def stable_order(keys, n_keys):
+    """The stable argsort of int ``keys`` in [0, ``n_keys``): numpy sorts 16-bit keys by radix,
+    seven times faster than 64-bit ones, in the same order."""
+    keys = np.asarray(keys)
+    return np.argsort(keys.astype(np.int16) if n_keys <= np.iinfo(np.int16).max else keys, kind="stable")
+
+
 def epoch_cells(epoch, grid):
     """(N,) flat cell index of each point of ``epoch`` on ``grid``; points the run left out
     (withheld and noise, ``epoch.kept``) are in no cell: their index is ``grid.n_cells``."""
@@ -98,9 +105,7 @@ def bin_points(epoch, grid, classes, labelled, frame=CELL_FRAME):
     cells = epoch_cells(epoch, grid)
     codes = epoch.cloud.labels if labelled else np.zeros(len(epoch.cloud), np.int64)
     index = classes.index(codes)
-    # the same stable order; numpy sorts 16-bit keys by radix, seven times faster than 64-bit ones
-    keys = cells.astype(np.int16) if n_cells < np.iinfo(np.int16).max else cells
-    order = np.argsort(keys, kind="stable")
+    order = stable_order(cells, n_cells + 1)
     starts = np.searchsorted(cells[order], np.arange(n_cells + 1))
     counts = np.bincount(cells * n_classes + index, minlength=(n_cells + 1) * n_classes)[:n_cells * n_classes]
     undefined = np.bincount(cells[~epoch.saliency.defined], minlength=n_cells + 1)[:n_cells]

@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from ..numerics.bounds import column_min
+from ..numerics.bounds import bounds, column_min
 
 #: The value of ``cell`` and ``min_points`` that chooses them from the epochs' densities.
 AUTO = "auto"
@@ -46,13 +46,22 @@ def density(xy, metres_per_unit=1.0):
     if len(xy) == 0:
         return 0.0
     pixel = DENSITY_PIXEL / metres_per_unit
-    ij = np.floor((xy - column_min(xy)) / pixel).astype(np.int64)
-    flat = ij[:, 0] * (int(ij[:, 1].max()) + 1) + ij[:, 1]
-    span = int(flat.max()) + 1
-    # a count per pixel where the pixels are no more than the points (a sort of every point's
-    # pixel took 0.1 s of a change map of two 1 km² tiles), else the distinct pixels
-    occupied = np.count_nonzero(np.bincount(flat, minlength=span)) if span <= len(flat) else len(np.unique(flat))
+    occupied = len(occupied_pixels(np.floor((xy - column_min(xy)) / pixel).astype(np.int64)))
     return len(xy) / (occupied * DENSITY_PIXEL ** 2)
+
+
+def occupied_pixels(ij):
+    """The distinct pixels (i, j) of ``ij`` (N, 2) int64, as sorted keys i x 2^31 + j (0 <= j <
+    2^31): a count per pixel of their box where it holds no more pixels than there are points
+    (a sort of every point's pixel took 0.1 s of a change map of two 1 km² tiles), else a sort."""
+    if not len(ij):
+        return np.empty(0, np.int64)
+    (i0, j0), (i1, j1) = bounds(ij)
+    span = int(j1 - j0) + 1
+    if (int(i1 - i0) + 1) * span > len(ij):
+        return np.unique(ij[:, 0] * (1 << 31) + ij[:, 1])
+    flat = np.flatnonzero(np.bincount((ij[:, 0] - i0) * span + (ij[:, 1] - j0)))
+    return (flat // span + i0) * (1 << 31) + flat % span + j0
 
 
 def auto_cell(points_per_m2):

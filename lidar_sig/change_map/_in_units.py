@@ -208,7 +208,8 @@ def _frame(runs, names, s, backend):
     with laspy.open(runs[0].sources[0].path) as reader:
         _, units = las_units(reader.header, path=runs[0].sources[0].path)
     bounds = [staged_bounds(run) for run in runs]
-    densities = [_density(run, b, units, backend) for run, b in zip(runs, bounds)]
+    with step("densities", tiles=sum(len(run.tile_stats) for run in runs)):
+        densities = [_density(run, b, units, backend) for run, b in zip(runs, bounds)]
     notes = [n for n in [sparse_note(names, densities)] if n]
     cell = auto_cell(min(densities)) if s.cell is None else s.cell
     min_points = auto_min_points(min(densities), cell) if s.min_points is None else s.min_points
@@ -310,12 +311,13 @@ def _code(uplan, e, run, n_points, backend):
     step_ = max(1, math.ceil(n_points / VIEW_POINTS))
     tiles_of = {}
     items = [(uplan, e, ij, step_) for ij in run.tile_stats]
-    for (_, _, ij, _), counts, err in progress(backend.run(code_task, items), total=len(items),
-                                               desc=f"coding epoch {'AB'[e]}", unit="tile"):
-        if err is not None:
-            raise _failed(err, ij, uplan.work)
-        for u in counts:
-            tiles_of.setdefault(int(u), []).append(ij)
+    with step(f"coding epoch {'AB'[e]}", tiles=len(items), points=n_points):
+        for (_, _, ij, _), counts, err in progress(backend.run(code_task, items), total=len(items),
+                                                   desc=f"coding epoch {'AB'[e]}", unit="tile"):
+            if err is not None:
+                raise _failed(err, ij, uplan.work)
+            for u in counts:
+                tiles_of.setdefault(int(u), []).append(ij)
     return tiles_of
 
 

@@ -31,8 +31,8 @@ import numpy as np
 from ..method.saliency_map import geometric_entropy
 from ..method.signature_raster import Frame, point_codes
 from ..tiling.work import UNITS, save_whole
-from ._cells import CHANGE_KEYS, Binned, null_metrics, observed_metrics
-from ._density import DENSITY_PIXEL
+from ._cells import CHANGE_KEYS, Binned, null_metrics, observed_metrics, stable_order
+from ._density import DENSITY_PIXEL, occupied_pixels
 
 #: One coded point of a work unit: its flat cell on the map's grid, its identifier in its
 #: epoch's set (file number and point number: the one-block run's order), its codes in a
@@ -109,13 +109,13 @@ def _done(path, key):
 
 def density_task(run, ij, lo, pixel):
     """(pixels,) int64 keys of the ``pixel``-sided squares from the corner ``lo`` (raw units)
-    that tile ``ij``'s core points of an epoch's tiled ``run`` occupy
-    (:func:`lidar_sig.change_map._density.density`)."""
-    raw = run.core_points(ij, values=False)[0]
-    if not len(raw):
-        return np.empty(0, np.int64)
-    ij_px = np.floor((raw[:, :2] - np.asarray(lo)) / pixel).astype(np.int64)
-    return np.unique(ij_px[:, 0] * (1 << 31) + ij_px[:, 1])
+    that the staged points of tile ``ij``'s box of an epoch's tiled ``run`` occupy: over every
+    tile, those of all its points (:func:`lidar_sig.change_map._density.density`)."""
+    # the points of the tile's box, a few of its neighbours' among them: the union over the
+    # tiles is the same, and the core is not worth sorting out here
+    rec = run.box_points(ij)
+    ij_px = np.column_stack([np.floor((rec["x"] - lo[0]) / pixel), np.floor((rec["y"] - lo[1]) / pixel)])
+    return occupied_pixels(ij_px.astype(np.int64))
 
 
 def density_pixel(units_horizontal):
@@ -155,9 +155,10 @@ def code_task(uplan, epoch, ij, view_step):
     rec["id"], rec["pixel"], rec["egeom"], rec["cls"] = ids, pixel, egeom_bin, cls
     rec["height"] = raw[:, 2] * run.ctx.factors[2]
     unit = uplan.unit_of(rec["cell"])
-    order = np.argsort(unit, kind="stable")
+    order = stable_order(unit, uplan.shape[0] * uplan.shape[1])
     rec, unit = rec[order], unit[order]
-    units, starts = np.unique(unit, return_index=True)
+    starts = np.flatnonzero(np.r_[True, unit[1:] != unit[:-1]]) if len(unit) else np.empty(0, np.int64)
+    units = unit[starts]
     starts = np.r_[starts, len(rec)]
     thin = slice(None, None, max(1, int(view_step)))
     view = np.empty(len(raw[thin]), VIEW)

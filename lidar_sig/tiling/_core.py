@@ -85,6 +85,11 @@ class SetContext:
         """(N, 3) coordinates in the files' units -> centred metres (as for one cloud)."""
         return (np.asarray(xyz, dtype=np.float64) - np.asarray(self.centre)) * np.asarray(self.factors)
 
+    def plan_view(self, x, y):
+        """(x, y) in the files' units -> centred metres, as :meth:`metric` gives them."""
+        return ((np.asarray(x, dtype=np.float64) - self.centre[0]) * self.factors[0],
+                (np.asarray(y, dtype=np.float64) - self.centre[1]) * self.factors[1])
+
     def key(self):
         """Text that changes whenever a tile's results would: for resuming safely."""
         return repr((self.centre, self.factors, self.lo, self.hi, self.scales, self.area_cap))
@@ -109,8 +114,18 @@ class Tiling:
 
     def index(self, xy):
         """(N, 2) int tile index (i, j) of plan-view points ``xy`` (metres, centred)."""
-        ij = np.floor((np.asarray(xy)[:, :2] - np.asarray(self.lo)) / self.size).astype(np.int64)
-        return np.clip(ij, 0, np.asarray(self.shape) - 1)
+        xy = np.asarray(xy)
+        return np.column_stack([self._along(xy[:, 0], 0), self._along(xy[:, 1], 1)])
+
+    def core(self, x, y, ij):
+        """(N,) bool: the plan-view points (``x``, ``y``) (metres, centred) whose tile is ``ij``
+        (:meth:`index`, column by column: ``np.all(index == ij, axis=1)`` took five times as long)."""
+        return (self._along(x, 0) == ij[0]) & (self._along(y, 1) == ij[1])
+
+    def _along(self, v, axis):
+        """The tiles' index along ``axis`` (0: x, 1: y) of coordinates ``v`` (metres, centred)."""
+        k = np.floor((np.asarray(v) - self.lo[axis]) / self.size).astype(np.int64)
+        return np.clip(k, 0, self.shape[axis] - 1)
 
     def box(self, i, j):
         """(x0, y0, x1, y1) of tile (i, j), metres; the last row and column reach the extent."""
@@ -289,7 +304,7 @@ def tile_saliency(pipeline, load, tiling, ij, ctx, *, halo=None, second_of=None)
     box = tiling.box(*ij)
     width = first_halo(pipeline, ctx, weights_known=second_of is not None) if halo is None else float(halo)
     xyz, ids = load(Halo(box, width, ctx.lo, ctx.hi).bounds)
-    core = np.all(tiling.index(xyz) == np.asarray(ij), axis=1)
+    core = tiling.core(xyz[:, 0], xyz[:, 1], ij)
     out_ids = ids[core]
     values = np.full((len(out_ids), 3), np.nan)
     chosen = None
@@ -367,7 +382,7 @@ def tile_second_distances(load, tiling, ij, ctx, *, halo=None):
     # ten times the mean spacing: a second neighbour farther than that is rare (isolated points)
     width = 10.0 * math.sqrt(1.0 / (math.pi * ctx.density)) if halo is None else float(halo)
     xyz, ids = load(Halo(box, width, ctx.lo, ctx.hi).bounds)
-    core = np.flatnonzero(np.all(tiling.index(xyz) == np.asarray(ij), axis=1))
+    core = np.flatnonzero(tiling.core(xyz[:, 0], xyz[:, 1], ij))
     if not len(core):
         return ids[core], np.empty(0), np.empty(0)
     support, inverse = unique_points(xyz)

@@ -120,20 +120,26 @@ class SetRun:
             return Saliency.from_values(values, chosen if has_chosen else None)
         return chunk
 
-    def core_points(self, ij: tuple[int, int], values: bool = True) -> tuple[Any, ...]:
-        """(raw coordinates (N, 3) in the files' units, identifiers, class codes, (Cl, Cs, Cp))
-        of tile ``ij``'s core points, as the run staged and computed them: the staged points
-        whose tile by the tiling's own index is ``ij`` (a change map's work units code them);
-        without ``values``, the first three."""
+    def box_points(self, ij: tuple[int, int]) -> Any:
+        """The staged points (structured records: x, y, z in the files' units, label, id) within
+        tile ``ij``'s box and a margin of a hundredth of its side: its core points and some of
+        its neighbours' (every staged point lies in some tile's box)."""
         from .sources import load_cells
 
         plan = self.plan
         x0, y0, x1, y1 = plan.tiling.box(*ij)
         m = 0.01 * plan.tiling.size  # the core is decided by the index, not the box's round-off
-        rec = load_cells(plan.files, plan.cells, plan._raw((x0 - m, y0 - m, x1 + m, y1 + m)))
-        raw = np.column_stack([rec["x"], rec["y"], rec["z"]])
-        core = np.all(plan.tiling.index(plan.ctx.metric(raw)) == np.asarray(ij), axis=1)
-        raw, ids, labels = raw[core], rec["id"][core], rec["label"][core]
+        return load_cells(plan.files, plan.cells, plan._raw((x0 - m, y0 - m, x1 + m, y1 + m)))
+
+    def core_points(self, ij: tuple[int, int], values: bool = True) -> tuple[Any, ...]:
+        """(raw coordinates (N, 3) in the files' units, identifiers, class codes, (Cl, Cs, Cp))
+        of tile ``ij``'s core points, as the run staged and computed them: the staged points
+        whose tile by the tiling's own index is ``ij`` (a change map's work units code them);
+        without ``values``, the first three."""
+        plan = self.plan
+        rec = self.box_points(ij)
+        rec = rec[plan.tiling.core(*plan.ctx.plan_view(rec["x"], rec["y"]), ij)]
+        raw, ids, labels = np.column_stack([rec["x"], rec["y"], rec["z"]]), rec["id"], rec["label"]
         if not values:
             return raw, ids, labels
         ids_path, values_path = points_paths(plan.work, ij)

@@ -148,7 +148,7 @@ def tile_task(plan, ij):
     r = tile_saliency(plan.pipeline, load, plan.tiling, ij, plan.ctx, second_of=second_of)
     codes = np.empty(0, np.int64)
     if first:  # core points in the order of the first block, as tile_saliency lists them
-        core = np.all(plan.tiling.index(first["xyz"]) == np.asarray(ij), axis=1)
+        core = plan.tiling.core(first["xyz"][:, 0], first["xyz"][:, 1], ij)
         codes = first["labels"][core]
     sig = Signature.from_saliency(r.values, plan.classes.index(codes), classes=plan.classes,
                                   frame=plan.pipeline.frame)
