@@ -128,29 +128,34 @@ def test_an_interrupted_run_resumes_to_the_same_map(regridded, tmp_path, monkeyp
         cm.close()
 
 
-def test_a_failed_unit_keeps_the_map_s_own_work_folder_and_says_how_to_resume(regridded, monkeypatch):
+@pytest.mark.parametrize("task", ["density_task", "code_task", "unit_task"])
+def test_a_failed_task_keeps_the_map_s_own_work_folder_and_says_how_to_resume(regridded, monkeypatch, task):
     # in Python without work=, a unit that failed (a full disk, say) named the folder "kept for
-    # a resumed run", then removed it with the rest of the map's own temporary work
-    from lidar_sig.change_map import _units
+    # a resumed run", then removed it with the rest of the map's own temporary work; a failed
+    # density named an epoch's subfolder, from which a resumed run would start again
+    from lidar_sig.change_map import _in_units
 
     tiles, _, whole = regridded
-    real = _units.unit_task
+    real = getattr(_in_units, task)
     calls = []
 
-    def fails_second(uplan, unit, tiles_of):
-        calls.append(unit)
+    def fails_second(*args):
+        calls.append(args)
         if len(calls) == 2:
             raise OSError(28, "No space left on device")
-        return real(uplan, unit, tiles_of)
+        return real(*args)
 
-    monkeypatch.setattr("lidar_sig.change_map._in_units.unit_task", fails_second)
+    monkeypatch.setattr(_in_units, task, fails_second)
     options = dict(pipeline=ls.Pipeline(progress=False), execution=Execution(memory="400MiB", workers=1,
                                                                               tile_size=60.0))
     with pytest.raises(ls.LidarSigError, match=r"No space left on device.*resume=True, work=") as caught:
         changes(list(IGN_FILES), tiles, **options)
+    assert caught.value.path is not None
     work = Path(caught.value.path)
-    assert work is not None and work.is_dir() and len(list((work / "units").glob("u*.npz"))) == 1
-    monkeypatch.setattr("lidar_sig.change_map._in_units.unit_task", real)
+    assert work.is_dir() and (work / "epoch_a").is_dir()  # the map's folder, not an epoch's
+    if task == "unit_task":
+        assert len(list((work / "units").glob("u*.npz"))) == 1  # the unit finished before is kept
+    monkeypatch.setattr(_in_units, task, real)
     cm = changes(list(IGN_FILES), tiles, resume=True, work=work, **options)
     try:
         assert_same_map(cm, whole)

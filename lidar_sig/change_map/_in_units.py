@@ -199,7 +199,7 @@ def changes_in_units(files, names, *, pipeline, execution, work, resume, setting
             return cm
 
 
-def _frame(runs, names, s, backend):
+def _frame(runs, names, s, backend, work):
     """(units, bounds, densities, notes, cell, min_points, grid) of two complete tiled runs: the
     CRS checked, each epoch's staged extent and density, the defaults chosen, the map's grid."""
     from ..method.crs import las_units
@@ -208,8 +208,7 @@ def _frame(runs, names, s, backend):
     with laspy.open(runs[0].sources[0].path) as reader:
         _, units = las_units(reader.header, path=runs[0].sources[0].path)
     bounds = [staged_bounds(run) for run in runs]
-    with step("densities", tiles=sum(len(run.tile_stats) for run in runs)):
-        densities = [_density(run, b, units, backend) for run, b in zip(runs, bounds)]
+    densities = _densities(runs, bounds, units, backend, work)
     notes = [n for n in [sparse_note(names, densities)] if n]
     cell = auto_cell(min(densities)) if s.cell is None else s.cell
     min_points = auto_min_points(min(densities), cell) if s.min_points is None else s.min_points
@@ -228,7 +227,7 @@ def _map(runs, names, files, pipeline, backend, work, settings, classes_table, h
 
     s = SimpleNamespace(**settings)
     t0 = time.perf_counter()
-    units, bounds, densities, notes, cell, min_points, grid = _frame(runs, names, s, backend)
+    units, bounds, densities, notes, cell, min_points, grid = _frame(runs, names, s, backend, work)
     seconds = {"densities": time.perf_counter() - t0}
     labelled = runs[0].labelled and runs[1].labelled
     if runs[0].labelled != runs[1].labelled:
@@ -271,23 +270,22 @@ def _map(runs, names, files, pipeline, backend, work, settings, classes_table, h
     return cm
 
 
-def _density(run, bounds, units, backend):
-    """Points per m² of an epoch's kept points over the 10 m pixels they occupy, as
+def _densities(runs, bounds, units, backend, work):
+    """Points per m² of each epoch's kept points over the 10 m pixels they occupy, as
     :func:`~lidar_sig.change_map._density.density` gives for one block (the pixels from the
-    lowest kept point)."""
-    lo, _, n, _ = bounds
-    pixel = density_pixel(units.horizontal)
-    keys = []
-    items = [(run, ij, tuple(lo[:2]), pixel) for ij in run.tile_stats]
-    for (_, ij, _, _), found, err in progress(backend.run(density_task, items), total=len(items), desc="densities",
-                                             unit="tile"):
-        if err is not None:
-            raise _failed(err, ij, run.plan.work)
-        keys.append(found)
-    occupied = len(np.unique(np.concatenate(keys))) if keys else 0
+    epoch's lowest kept point); a failed tile names the map's ``work`` folder."""
     from ._density import DENSITY_PIXEL
 
-    return n / (max(occupied, 1) * DENSITY_PIXEL ** 2)
+    pixel = density_pixel(units.horizontal)
+    items = [(run, ij, tuple(b[0][:2]), pixel) for run, b in zip(runs, bounds) for ij in run.tile_stats]
+    keys = [[] for _ in runs]
+    with step("densities", tiles=len(items)) as st:
+        for (run, ij, _, _), found, err in st.track(backend.run(density_task, items), total=len(items), unit="tile"):
+            if err is not None:
+                raise _failed(err, ij, work)
+            keys[next(e for e, r in enumerate(runs) if r is run)].append(found)
+    occupied = [len(np.unique(np.concatenate(k))) if k else 0 for k in keys]
+    return [b[2] / (max(o, 1) * DENSITY_PIXEL ** 2) for b, o in zip(bounds, occupied)]
 
 
 def _unit_side(runs, bounds, grid, cell, workers, memory):
@@ -311,9 +309,8 @@ def _code(uplan, e, run, n_points, backend):
     step_ = max(1, math.ceil(n_points / VIEW_POINTS))
     tiles_of = {}
     items = [(uplan, e, ij, step_) for ij in run.tile_stats]
-    with step(f"coding epoch {'AB'[e]}", tiles=len(items), points=n_points):
-        for (_, _, ij, _), counts, err in progress(backend.run(code_task, items), total=len(items),
-                                                   desc=f"coding epoch {'AB'[e]}", unit="tile"):
+    with step(f"coding epoch {'AB'[e]}", tiles=len(items), points=n_points) as st:
+        for (_, _, ij, _), counts, err in st.track(backend.run(code_task, items), total=len(items), unit="tile"):
             if err is not None:
                 raise _failed(err, ij, uplan.work)
             for u in counts:

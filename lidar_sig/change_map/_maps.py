@@ -261,7 +261,8 @@ class ChangeMap:
             t["significant"] = t["valid"] & ((t["score"] > t["lod"]) | (t[HEIGHT] > t["height_lod"]))
             ratio = np.fmax(t["score"] / t["lod"], t[HEIGHT] / t["height_lod"])
         t["lod_ratio"] = np.where(t["valid"], np.where(t["significant"], np.fmax(ratio, ABOVE_ONE), ratio), np.nan)
-        t["p"] = np.where(t["valid"], p_values(t["z"], len(self.tests)), np.nan)
+        t["p"] = np.nan
+        t["p"][t["valid"]] = p_values(t["z"][t["valid"]], len(self.tests))  # one call per compared cell
         t["q"] = q_values(t["p"])
         t["changed"] = t["significant"] | (np.isin(t["coverage"], COVERAGE_CHANGES) & t["in_footprint"])
 

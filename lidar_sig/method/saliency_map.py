@@ -6,6 +6,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..numerics.bounds import nan_rows
+
 LN3 = float(np.log(3.0))
 #: Codes of the deterministic geometric class, as written to LAS (GeomClass).
 GEOM_CLASSES = {0: "undefined", 1: "line", 2: "surface", 3: "point"}
@@ -71,7 +73,7 @@ class Saliency:
 
     def __repr__(self):
         n = len(self.values)
-        undefined = int(np.isnan(self.values).any(axis=1).sum()) if n else 0
+        undefined = int(nan_rows(self.values).sum()) if n else 0
         mean = np.nanmean(self.values, axis=0) if n > undefined else np.full(3, np.nan)
         return (f"<Saliency {n:,} points, {undefined:,} undefined; mean Cl {mean[0]:.3f}, Cs {mean[1]:.3f}, "
                 f"Cp {mean[2]:.3f}" + (", with the optimal scale" if self.optimal_scale is not None else "") + ">")

@@ -124,7 +124,7 @@ class Tiling:
 
     def _along(self, v, axis):
         """The tiles' index along ``axis`` (0: x, 1: y) of coordinates ``v`` (metres, centred)."""
-        k = np.floor((np.asarray(v) - self.lo[axis]) / self.size).astype(np.int64)
+        k = np.floor((np.asarray(v) - np.float64(self.lo[axis])) / self.size).astype(np.int64)  # float64 as index's
         return np.clip(k, 0, self.shape[axis] - 1)
 
     def box(self, i, j):

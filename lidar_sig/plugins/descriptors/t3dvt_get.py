@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ...numerics.bounds import nan_rows
 from .t3dvt import T3DVT
 
 if TYPE_CHECKING:
@@ -75,7 +76,7 @@ class T3DVTGET(T3DVT):
             cl[pick < 0] = np.nan
         # cp_GET > cl_GET (False where GET is undefined), and only where the voting saliency is
         # defined: a point with too few neighbours in its spheres stays undefined (docs/method.md, "Saliency map")
-        corner = ((1.0 - cl) > cl) & ~np.isnan(saliency).any(axis=1)
+        corner = ((1.0 - cl) > cl) & ~nan_rows(saliency)
         out = saliency.copy()
         out[corner] = np.column_stack([cl[corner], np.zeros(int(corner.sum())), 1.0 - cl[corner]])
         return out
