@@ -39,10 +39,10 @@ def cell_values(table, binned, classes, *, render, frame, seed, stream, workers=
     cells = np.flatnonzero(table["valid"])
     workers = min(workers or cores(), len(cells) // CELLS_PER_PROCESS)
     options = dict(render=render, frame=frame)
+    null = np.full((len(table), 2 * REPLICATES, len(CHANGE_KEYS)), np.nan)
     if workers < 2 or not may_fork():
         if progress is not None:
             progress.note(processes=1)
-        null = np.full((len(table), 2 * REPLICATES, len(CHANGE_KEYS)), np.nan)
         for c in (progress.track(cells, unit="cell") if progress is not None else cells):
             observed, null[c] = _values(c, table, binned, classes, seed, stream, options)
             for m, k in enumerate(CHANGE_KEYS):
@@ -51,7 +51,6 @@ def cell_values(table, binned, classes, *, render, frame, seed, stream, workers=
     import cv2
     from concurrent.futures import ProcessPoolExecutor
 
-    null = np.full((len(table), 2 * REPLICATES, len(CHANGE_KEYS)), np.nan)
     parts = np.array_split(cells, workers * PARTS_PER_PROCESS)
     if progress is not None:
         progress.note(processes=workers)
