@@ -143,3 +143,19 @@ def test_the_campaign_differences_of_the_power_benchmark_do_what_its_docs_say():
         assert tilt <= TILT_RANGE[1] * 1.01, tilt
     # another class scheme: vegetation put in class 1
     assert set(np.unique(other_scheme(labels, "ign"))) == set(np.unique(labels)) - {3, 4, 5} | {1}
+
+
+def test_m3c2_s_matched_rule_is_the_smallest_share_that_flags_at_most_5_percent_of_unchanged_cells():
+    # issue 38: the campaigns table's M3C2 at a cell rule matched to the pairs' unchanged cells
+    sys.path.insert(0, str(BENCH))
+    from change_power import M3C2_MIN_CORE, m3c2_flag, matched_share
+
+    null = [{"core": 20, "m3c2_share": i / 100} for i in range(100)]  # shares 0.00 to 0.99
+    share = matched_share(null)
+    assert share == pytest.approx(0.95)  # 0.95 to 0.99 flagged: 5 of 100; 0.90 flags 10
+    assert sum(m3c2_flag(r, share) for r in null) == 5
+    assert sum(m3c2_flag(r, share - 0.05) for r in null) > 5
+    # cells with too few core points are never flagged, whatever their share
+    assert not m3c2_flag({"core": M3C2_MIN_CORE - 1, "m3c2_share": 1.0}, 0.05)
+    # every core point changed in every cell: no rule flags 5% or fewer
+    assert matched_share([{"core": 20, "m3c2_share": 1.0}] * 10) is None
