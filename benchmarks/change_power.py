@@ -295,7 +295,9 @@ def m3c2_flag(rec, share=M3C2_SHARE):
 def matched_share(null, limit=0.05):
     """The smallest multiple of 5% of core points changed that, as M3C2's cell rule, flags at most
     ``limit`` of the unchanged cells ``null`` (records holding :data:`M3C2_MIN_CORE` core
-    points); None if even 100% flags more."""
+    points); None if even 100% flags more, or there is no such cell."""
+    if not null:
+        return None
     for share in (k / 20 for k in range(1, 21)):  # k / 20, not k * 0.05: 19 * 0.05 is above 0.95
         if sum(m3c2_flag(r, share) for r in null) <= limit * len(null):
             return share
@@ -331,7 +333,7 @@ def print_campaigns(cells, densities, kinds):
             row = [kind, f"{d:g}", count(lambda r: r["compared"] and r["flagged"], edited),
                    share(lambda r: r["flagged"], compared), count(m3c2_flag, edited), share(m3c2_flag, cored)]
             if matched is None:
-                row += ["none flags 5% or fewer", "-", "-"]
+                row += ["none flags 5% or fewer" if cored else "no unchanged cells", "-", "-"]
             else:
                 flag = lambda r: m3c2_flag(r, matched)  # noqa: E731
                 row += [f"{matched:.0%}", count(flag, edited), share(flag, cored)]

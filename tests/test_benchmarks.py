@@ -159,3 +159,4 @@ def test_m3c2_s_matched_rule_is_the_smallest_share_that_flags_at_most_5_percent_
     assert not m3c2_flag({"core": M3C2_MIN_CORE - 1, "m3c2_share": 1.0}, 0.05)
     # every core point changed in every cell: no rule flags 5% or fewer
     assert matched_share([{"core": 20, "m3c2_share": 1.0}] * 10) is None
+    assert matched_share([]) is None  # no unchanged cell: no rule is matched to anything
