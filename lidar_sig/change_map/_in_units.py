@@ -278,13 +278,13 @@ def _densities(runs, bounds, units, backend, work):
 
     pixel = density_pixel(units.horizontal)
     items = [(run, ij, tuple(b[0][:2]), pixel) for run, b in zip(runs, bounds) for ij in run.tile_stats]
-    keys = [[] for _ in runs]
+    keys = {id(run): [] for run in runs}  # each epoch's pixels, whatever order the tiles end in
     with step("densities", tiles=len(items)) as st:
         for (run, ij, _, _), found, err in st.track(backend.run(density_task, items), total=len(items), unit="tile"):
             if err is not None:
                 raise _failed(err, ij, work)
-            keys[next(e for e, r in enumerate(runs) if r is run)].append(found)
-    occupied = [len(np.unique(np.concatenate(k))) if k else 0 for k in keys]
+            keys[id(run)].append(found)
+    occupied = [len(np.unique(np.concatenate(keys[id(run)]))) if keys[id(run)] else 0 for run in runs]
     return [b[2] / (max(o, 1) * DENSITY_PIXEL ** 2) for b, o in zip(bounds, occupied)]
 
 
