@@ -137,6 +137,8 @@ def main():
                         help="resampled: halves, copy and edited copies of one flight; campaigns: strip pairs and "
                              "modelled campaign differences, each null and edited (benchmarks/campaigns.py)")
     args = parser.parse_args()
+    if args.dump and not Path(args.dump).resolve().parent.is_dir():  # said now, not after the run
+        parser.error(f"--dump {args.dump}: its folder does not exist; create it or give another path")
     if args.quick:
         args.densities, args.pairs = [0.5, 2.0, 10.0], 1
     import lidar_sig as ls
