@@ -29,6 +29,9 @@ core points for M3C2); then the same per survey. With the campaign kinds, one ta
 (:func:`print_campaigns`): each campaign difference per density, the change map beside M3C2
 with the benchmark's cell rule and beside M3C2 with a rule matched to the kind's unchanged
 cells (at most 5% of them flagged); the unchanged strip pairs are :data:`STRIP_DRAWS` draws.
+And a last one (:func:`print_equal_flags`): the edits each tool finds at the rule that flags at
+most 5%, 10% and 25% of each kind's unchanged cells, the change map's confidence and M3C2's
+share each matched to those cells.
 
     python benchmarks/change_power.py [--quick] [--pairs 4] [--densities 0.1 0.25 0.5 1 2 5 10]
         [--surveys ign ahn3] [--dump cells.json]
@@ -70,6 +73,11 @@ NULLS = ("halves", "copy")
 #: overlap holds only 18 (IGN) or 31 (AHN3) compared cells, so one draw says little of the
 #: share of unchanged cells flagged (one draw gave 4 of 49 at 0.25 points/m², six 13 of 291).
 STRIP_DRAWS = 6
+#: Shares of unchanged cells at which the tools are set side by side (:func:`print_equal_flags`).
+FLAG_LIMITS = (0.05, 0.10, 0.25)
+#: The change map's confidences tried there, highest first: the steps of 5% that
+#: ``lidar-sig changes --confidence`` accepts, and 97.5% and 99% above them.
+CONFIDENCES = (0.99, 0.975) + tuple(k / 20 for k in range(19, 9, -1))
 
 
 def thinned(block, xyz, labels, keep, rng=None, name="epoch", moved=False):
@@ -201,6 +209,7 @@ def main():
                            "row": int(t["row"][c]), "col": int(t["col"][c]),
                            "compared": bool(t["valid"][c]), "points": [int(t["points_a"][c]), int(t["points_b"][c])],
                            "flagged": bool(t["significant"][c]), "alone": bool(cm.levels[cm.score].significant[c]),
+                           "p": float(t["p"][c]),
                            "core": int(n_core[c]), "m3c2_share": float(share[c])}
                     if t["valid"][c]:
                         rec["levels"] = {k: [float(t[k][c]), float(lv.mu0[c]), float(lv.sigma[c])]
@@ -222,6 +231,7 @@ def main():
             print_tables([r for r in cells if r["pair"] in (kind, f"{kind} edited")], args.densities, EDITS,
                          args.surveys, nulls=(kind,), title=f"{kind}: ")
         print_campaigns(cells, args.densities, KINDS)
+        print_equal_flags(cells, args.densities, KINDS)
     print(f"\n{time.perf_counter() - start:.0f} s in all", file=sys.stderr)
 
 
@@ -306,6 +316,16 @@ def matched_share(null, limit=0.05):
     return None
 
 
+def kind_cells(cells, densities, kinds):
+    """(kind, density, edited cells, cells of the unchanged pairs) of every campaign ``kinds``
+    and ``densities`` with edited cells among the records ``cells``."""
+    for kind in kinds:
+        for d in densities:
+            edited = [r for r in cells if r["pair"] == f"{kind} edited" and r["density"] == d and r["edit"]]
+            if edited:
+                yield kind, d, edited, [r for r in cells if r["pair"] == kind and r["density"] == d]
+
+
 def print_campaigns(cells, densities, kinds):
     """The table of docs/changes.md, "Between campaigns": per campaign difference and density,
     edits found and unchanged cells flagged by the change map, by M3C2 with the benchmark's
@@ -323,23 +343,57 @@ def print_campaigns(cells, densities, kinds):
     def share(flag, of):
         return f"{sum(map(flag, of)) / max(len(of), 1):.1%} ({count(flag, of)})"
 
-    for kind in kinds:
-        for d in densities:
-            edited = [r for r in cells if r["pair"] == f"{kind} edited" and r["density"] == d and r["edit"]]
-            null = [r for r in cells if r["pair"] == kind and r["density"] == d]
-            if not edited:
-                continue
-            compared = [r for r in null if r["compared"]]
-            cored = [r for r in null if r["core"] >= M3C2_MIN_CORE]
-            matched = matched_share(cored)
-            row = [kind, f"{d:g}", count(lambda r: r["compared"] and r["flagged"], edited),
-                   share(lambda r: r["flagged"], compared), count(m3c2_flag, edited), share(m3c2_flag, cored)]
-            if matched is None:
-                row += ["none flags 5% or fewer" if cored else "no unchanged cells", "-", "-"]
-            else:
-                flag = lambda r: m3c2_flag(r, matched)  # noqa: E731
-                row += [f"{matched:.0%}", count(flag, edited), share(flag, cored)]
-            print("| " + " | ".join(row) + " |")
+    for kind, d, edited, null in kind_cells(cells, densities, kinds):
+        compared = [r for r in null if r["compared"]]
+        cored = [r for r in null if r["core"] >= M3C2_MIN_CORE]
+        matched = matched_share(cored)
+        row = [kind, f"{d:g}", count(lambda r: r["compared"] and r["flagged"], edited),
+               share(lambda r: r["flagged"], compared), count(m3c2_flag, edited), share(m3c2_flag, cored)]
+        if matched is None:
+            row += ["none flags 5% or fewer" if cored else "no unchanged cells", "-", "-"]
+        else:
+            flag = lambda r: m3c2_flag(r, matched)  # noqa: E731
+            row += [f"{matched:.0%}", count(flag, edited), share(flag, cored)]
+        print("| " + " | ".join(row) + " |")
+
+
+def map_flag(rec, confidence):
+    """Whether the change map flags the cell of ``rec`` at ``confidence``: compared and its
+    p-value (over its two tests) below 1 - confidence, exactly its significance at that
+    confidence (docs/changes.md, "Significance")."""
+    return rec["compared"] and rec["p"] < 1.0 - confidence
+
+
+def matched_confidence(null, limit=0.05):
+    """The lowest confidence of :data:`CONFIDENCES` at which the change map flags at most
+    ``limit`` of the compared unchanged cells ``null``; None if even the highest flags more, or
+    there is no such cell."""
+    compared = [r for r in null if r["compared"]]
+    for confidence in sorted(CONFIDENCES):
+        if compared and sum(map_flag(r, confidence) for r in compared) <= limit * len(compared):
+            return confidence
+    return None
+
+
+def print_equal_flags(cells, densities, kinds, limits=FLAG_LIMITS):
+    """The table of docs/changes.md, "At equal false flags": per campaign difference and
+    density, the edits each tool finds at the rule that flags at most each of ``limits`` of
+    that kind's unchanged cells (the change map's confidence, :func:`matched_confidence`;
+    M3C2's share of core points, :func:`matched_share`), both chosen on the very cells they are
+    judged on. Set beside each other, the tools are compared where they are equally wrong."""
+    head = " | ".join(f"at most {limit:.0%} flagged: change map | M3C2" for limit in limits)
+    print(f"\n| campaign difference | points/m² | {head} |")
+    print("|---|---|" + "---|---|" * len(limits))
+    for kind, d, edited, null in kind_cells(cells, densities, kinds):
+        row = [kind, f"{d:g}"]
+        for limit in limits:
+            confidence = matched_confidence(null, limit)
+            share = matched_share([r for r in null if r["core"] >= M3C2_MIN_CORE], limit)
+            row.append("-" if confidence is None else
+                       f"{sum(map_flag(r, confidence) for r in edited)} / {len(edited)} at {confidence:.1%}")
+            row.append("-" if share is None else
+                       f"{sum(m3c2_flag(r, share) for r in edited)} / {len(edited)} at {share:.0%}")
+        print("| " + " | ".join(row) + " |")
 
 
 def print_tables(cells, densities, edits, surveys, nulls=NULLS, title=""):

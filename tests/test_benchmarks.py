@@ -160,3 +160,28 @@ def test_m3c2_s_matched_rule_is_the_smallest_share_that_flags_at_most_5_percent_
     # every core point changed in every cell: no rule flags 5% or fewer
     assert matched_share([{"core": 20, "m3c2_share": 1.0}] * 10) is None
     assert matched_share([]) is None  # no unchanged cell: no rule is matched to anything
+
+
+def test_at_equal_false_flags_the_change_map_s_confidence_is_the_lowest_that_flags_at_most_the_limit():
+    # issue 38: the campaigns' last table sets the tools side by side where they are equally wrong
+    sys.path.insert(0, str(BENCH))
+    from change_power import CONFIDENCES, map_flag, matched_confidence
+
+    # 100 compared unchanged cells with p-values 0.006, 0.016, ..., 0.996 (none on a boundary)
+    null = [{"compared": True, "p": (i + 0.6) / 100} for i in range(100)]
+    assert matched_confidence(null, 0.05) == pytest.approx(0.95)  # p < 0.05: 5 cells
+    assert matched_confidence(null, 0.10) == pytest.approx(0.90)
+    assert matched_confidence(null, 0.25) == pytest.approx(0.75)
+    assert matched_confidence(null, 0.02) == pytest.approx(0.975)  # 2 cells; 95% flags 5
+    # the confidence returned flags at most the limit, the next lower one more
+    lower = sorted(CONFIDENCES)
+    for limit in (0.05, 0.10, 0.25):
+        c = matched_confidence(null, limit)
+        assert sum(map_flag(r, c) for r in null) <= limit * 100
+        assert sum(map_flag(r, lower[lower.index(c) - 1]) for r in null) > limit * 100
+    # cells not compared are neither counted nor flagged
+    assert not map_flag({"compared": False, "p": 0.0}, 0.99)
+    assert matched_confidence(null + [{"compared": False, "p": 0.0}] * 50, 0.05) == pytest.approx(0.95)
+    # every cell at p 0: not even 99% flags 5% or fewer; no compared cell: nothing matched
+    assert matched_confidence([{"compared": True, "p": 0.0}] * 10) is None
+    assert matched_confidence([{"compared": False, "p": 0.5}]) is None
