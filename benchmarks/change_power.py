@@ -209,7 +209,7 @@ def main():
                            "row": int(t["row"][c]), "col": int(t["col"][c]),
                            "compared": bool(t["valid"][c]), "points": [int(t["points_a"][c]), int(t["points_b"][c])],
                            "flagged": bool(t["significant"][c]), "alone": bool(cm.levels[cm.score].significant[c]),
-                           "p": float(t["p"][c]),
+                           "p": float(t["p"][c]) if t["valid"][c] else None,  # NaN is not JSON
                            "core": int(n_core[c]), "m3c2_share": float(share[c])}
                     if t["valid"][c]:
                         rec["levels"] = {k: [float(t[k][c]), float(lv.mu0[c]), float(lv.sigma[c])]
