@@ -304,16 +304,19 @@ def m3c2_flag(rec, share=M3C2_SHARE):
     return rec["core"] >= M3C2_MIN_CORE and rec["m3c2_share"] >= share
 
 
+def loosest_rule(rules, flag, null, limit):
+    """The first of ``rules`` (loosest first) under which ``flag(record, rule)`` flags at most
+    ``limit`` of the records ``null``; None if none does, or there is no record."""
+    return next((rule for rule in rules if null and sum(flag(r, rule) for r in null) <= limit * len(null)), None)
+
+
 def matched_share(null, limit=0.05):
     """The smallest multiple of 5% of core points changed that, as M3C2's cell rule, flags at most
-    ``limit`` of the unchanged cells ``null`` (records holding :data:`M3C2_MIN_CORE` core
-    points); None if even 100% flags more, or there is no such cell."""
-    if not null:
-        return None
-    for share in (k / 20 for k in range(1, 21)):  # k / 20, not k * 0.05: 19 * 0.05 is above 0.95
-        if sum(m3c2_flag(r, share) for r in null) <= limit * len(null):
-            return share
-    return None
+    ``limit`` of the unchanged cells ``null`` that hold :data:`M3C2_MIN_CORE` core points; None if
+    even 100% flags more, or there is no such cell."""
+    cored = [r for r in null if r["core"] >= M3C2_MIN_CORE]
+    # k / 20, not k * 0.05: 19 * 0.05 is above 0.95
+    return loosest_rule([k / 20 for k in range(1, 21)], m3c2_flag, cored, limit)
 
 
 def kind_cells(cells, densities, kinds):
@@ -368,11 +371,7 @@ def matched_confidence(null, limit=0.05):
     """The lowest confidence of :data:`CONFIDENCES` at which the change map flags at most
     ``limit`` of the compared unchanged cells ``null``; None if even the highest flags more, or
     there is no such cell."""
-    compared = [r for r in null if r["compared"]]
-    for confidence in sorted(CONFIDENCES):
-        if compared and sum(map_flag(r, confidence) for r in compared) <= limit * len(compared):
-            return confidence
-    return None
+    return loosest_rule(sorted(CONFIDENCES), map_flag, [r for r in null if r["compared"]], limit)
 
 
 def print_equal_flags(cells, densities, kinds, limits=FLAG_LIMITS):
@@ -388,7 +387,7 @@ def print_equal_flags(cells, densities, kinds, limits=FLAG_LIMITS):
         row = [kind, f"{d:g}"]
         for limit in limits:
             confidence = matched_confidence(null, limit)
-            share = matched_share([r for r in null if r["core"] >= M3C2_MIN_CORE], limit)
+            share = matched_share(null, limit)
             row.append("-" if confidence is None else
                        f"{sum(map_flag(r, confidence) for r in edited)} / {len(edited)} at {confidence:.1%}")
             row.append("-" if share is None else

@@ -158,8 +158,8 @@ class WorkHolder:
 
 
 def staged_bounds(run):
-    """(lo (3,), hi (3,), points) of the points an epoch's tiled run staged and kept, exactly, in
-    the files' coordinates (from its staged parts' records)."""
+    """(lo (3,), hi (3,), points, records) of the points an epoch's tiled run staged and kept,
+    exactly, in the files' coordinates, and its staged parts' records they come from."""
     records = list(run.records.values())  # those of this run (a resumed folder may hold others)
     lo = np.min([r["lo"] for r in records], axis=0)
     hi = np.max([r["hi"] for r in records], axis=0)
@@ -277,7 +277,7 @@ def _densities(runs, bounds, units, backend, work):
     from ._density import DENSITY_PIXEL
 
     pixel = density_pixel(units.horizontal)
-    items = [(run, ij, tuple(b[0][:2]), pixel) for run, b in zip(runs, bounds) for ij in run.tile_stats]
+    items = [(run, ij, tuple(lo[:2]), pixel) for run, (lo, _, _, _) in zip(runs, bounds) for ij in run.tile_stats]
     keys = {id(run): [] for run in runs}  # each epoch's pixels, whatever order the tiles end in
     with step("densities", tiles=len(items)) as st:
         for (run, ij, _, _), found, err in st.track(backend.run(density_task, items), total=len(items), unit="tile"):
@@ -285,7 +285,7 @@ def _densities(runs, bounds, units, backend, work):
                 raise _failed(err, ij, work)
             keys[id(run)].append(found)
     occupied = [len(np.unique(np.concatenate(keys[id(run)]))) if keys[id(run)] else 0 for run in runs]
-    return [b[2] / (max(o, 1) * DENSITY_PIXEL ** 2) for b, o in zip(bounds, occupied)]
+    return [n / (max(o, 1) * DENSITY_PIXEL ** 2) for (_, _, n, _), o in zip(bounds, occupied)]
 
 
 def _unit_side(runs, bounds, grid, cell, workers, memory):

@@ -124,7 +124,9 @@ class Tiling:
 
     def _along(self, v, axis):
         """The tiles' index along ``axis`` (0: x, 1: y) of coordinates ``v`` (metres, centred)."""
-        k = np.floor((np.asarray(v) - np.float64(self.lo[axis])) / self.size).astype(np.int64)  # float64 as index's
+        # float64 whatever the dtypes of v and lo: in float32, survey coordinates (10^5 to 10^6 m)
+        # round to centimetres or more, and a point near a tile's edge changes tile
+        k = np.floor((np.asarray(v) - np.float64(self.lo[axis])) / self.size).astype(np.int64)
         return np.clip(k, 0, self.shape[axis] - 1)
 
     def box(self, i, j):
