@@ -219,8 +219,10 @@ def main():
                       f"{cm.min_points}), {cm.n_significant} significant; {time.perf_counter() - t0:.1f} s",
                       file=sys.stderr)
     pool.shutdown()
-    if args.dump:
-        Path(args.dump).write_text(json.dumps(cells))
+    if args.dump:  # whole or not at all: a run interrupted while writing leaves no half file
+        part = Path(args.dump).with_name(Path(args.dump).name + ".part")
+        part.write_text(json.dumps(cells))
+        os.replace(part, args.dump)
     if "resampled" in args.kinds:
         print_tables([r for r in cells if r["pair"] in NULLS or r["pair"].startswith("edited")], args.densities,
                      EDITS, args.surveys)
