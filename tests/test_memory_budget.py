@@ -36,10 +36,42 @@ def saliency_of(path):
 
 @pytest.mark.parametrize("text, expected", [
     ("1GiB", GIB), ("800MiB", 800 * MIB), ("1.5GiB", 3 * GIB // 2), ("2G", 2 * GIB), ("2GB", 2 * GIB),
-    ("1", GIB), ("0.5", GIB // 2), ("900m", 900 * MIB), (" 4 GiB ", 4 * GIB), ("1t", 2**40),
+    ("1073741824", GIB), ("1073741824B", GIB), ("900m", 900 * MIB), (" 4 GiB ", 4 * GIB), ("2.5g", 5 * GIB // 2),
 ])
-def test_memory_sizes_are_read_in_binary_units_a_bare_number_in_gib(text, expected):
+def test_memory_sizes_are_read_in_binary_units_a_bare_number_in_bytes(text, expected):
     assert budget_bytes(text) == expected
+
+
+@pytest.mark.parametrize("value", ["500B", "1B", "2", "1", 500, np.int64(500)])
+def test_a_budget_in_bytes_is_bytes_and_refused_as_too_small_naming_the_least(value):
+    with pytest.raises(LidarSigError, match=r"give at least \d+MiB") as err:
+        budget_bytes(value)
+    assert "bytes" in str(err.value) or "1 byte" in str(err.value)
+
+
+def test_numpy_integers_are_taken_as_memory_and_workers_alike():
+    assert ls.Execution(memory=np.int64(GIB)).memory == GIB == ls.Execution(memory="1073741824").memory
+    assert ls.Execution(workers=np.int64(1)).workers == 1
+
+
+def test_a_budget_above_the_machine_s_memory_is_taken_with_a_note():
+    from lidar_sig.tiling.memory import machine_bytes
+
+    machine = machine_bytes()
+    if machine is None:
+        pytest.skip("this system does not tell its physical memory")
+    above = 2 ** math.ceil(math.log2(machine) + 1)
+    with pytest.warns(ls.LidarSigWarning, match="more than this machine's memory"):
+        assert ls.Execution(memory=above).memory == above
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        ls.Execution(memory="1GiB")
+
+
+def test_a_scheduler_address_is_taken_without_its_surrounding_spaces():
+    assert ls.Execution(scheduler=" tcp://127.0.0.1:1 ").scheduler == "tcp://127.0.0.1:1"
 
 
 @pytest.mark.parametrize("text", ["", "abc", "-1", "0", "1.5.2", "1XB", "nan", "inf", "1,5G", "G"])
