@@ -9,11 +9,13 @@ the report's top view and the per-point change, streamed."""
 from __future__ import annotations
 
 import math
+import os
 import warnings
 import time
 import weakref
 from pathlib import Path
 from types import SimpleNamespace
+from typing import Any
 
 import numpy as np
 
@@ -39,7 +41,6 @@ UNITS_PER_WORKER = 2
 def epoch_files(source):
     """The LAS/LAZ files of an epoch given as a file, folder, list, glob pattern or ``.vpc``
     (in the order in which one block joins them), or None when it is anything else."""
-    import os
 
     from ..tiling.sources import expand
 
@@ -55,7 +56,7 @@ def epoch_files(source):
         return None
 
 
-def in_units(sources, execution, pipeline, resume=False):
+def in_units(sources: list[Any], execution: Any, pipeline: Any, resume: bool = False) -> list[list[Path]] | None:
     """The LAS/LAZ files of each of two epochs when their change map runs in work units: a
     tile size, workers, a scheduler or ``resume`` asked for it (as they ask a set's saliency to
     run in tiles), or one block of both epochs would need more than the memory budget (then
@@ -350,7 +351,7 @@ def _failed(err, what, work):
                          f"work folder, then {again}", path=work)
 
 
-def check_streamed(path, n_files, name):
+def check_streamed(path: str | os.PathLike[str], n_files: int, name: object) -> None:
     """Refuse a per-point change that a map in work units cannot stream: not LAS/LAZ, or a later
     epoch ``name`` of several files (the per-point change of one file is written)."""
     from ..io.formats import format_of
