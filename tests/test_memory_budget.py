@@ -274,3 +274,19 @@ def test_the_median_of_sorted_files_is_numpys(tmp_path, sizes):
         np.save(paths[-1], a)
     # the same value, not a close one: the set's cap must be the single block's
     assert sorted_median(paths) == float(np.median(np.concatenate(arrays)))
+
+
+def test_a_change_map_in_one_block_counts_the_base_of_its_process():
+    # issue 46: the one-block rule of `changes` left out the memory a process holds before any
+    # point, so that a pair within the budget by its points alone ran as one block above it
+    from lidar_sig.change_map._in_units import ONE_BLOCK_BYTES_PER_POINT, in_units
+    from lidar_sig.tiling.memory import BASE_BYTES, header_points
+
+    epochs = [str(EPOCH1), str(SAMPLES / "epoch2.laz")]
+    n = sum(header_points(p) for p in epochs)
+    pipe = ls.Pipeline(progress=False)
+    points_alone = n * ONE_BLOCK_BYTES_PER_POINT
+    below = ls.Execution(memory=max(BASE_BYTES + points_alone - 1, budget_bytes("366MiB")))
+    assert points_alone < below.memory < BASE_BYTES + points_alone
+    assert in_units(epochs, below, pipe) is not None  # in work units, within the budget
+    assert in_units(epochs, ls.Execution(memory=BASE_BYTES + points_alone), pipe) is None  # one block fits

@@ -31,8 +31,9 @@ from ._units import (UNIT_BYTES_PER_POINT, VIEW_POINTS, UnitPlan, code_task, den
                      unit_points, unit_task, view_path)
 
 #: Bytes a change map computed in one block holds per point of both epochs (the clouds, their
-#: saliency, the binned codes; docs/changes.md, "Memory"): above the memory budget, the map is
-#: made in work units.
+#: saliency, the binned codes; docs/changes.md, "Memory"), above the base of a process
+#: (:data:`lidar_sig.tiling.memory.BASE_BYTES`): above the memory budget, the map is made in
+#: work units.
 ONE_BLOCK_BYTES_PER_POINT = 330
 #: Work units per worker at least, so that every worker has work while the last ones finish.
 UNITS_PER_WORKER = 2
@@ -61,7 +62,7 @@ def in_units(sources: list[Any], execution: Any, pipeline: Any, resume: bool = F
     tile size, workers, a scheduler or ``resume`` asked for it (as they ask a set's saliency to
     run in tiles), or one block of both epochs would need more than the memory budget (then
     with a descriptor that runs in tiles; another runs as one block, with a note); else None."""
-    from ..tiling.memory import header_points, one_block_note
+    from ..tiling.memory import BASE_BYTES, header_points, one_block_note
 
     if len(sources) != 2:
         return None
@@ -74,7 +75,7 @@ def in_units(sources: list[Any], execution: Any, pipeline: Any, resume: bool = F
         n = sum(header_points(p) or 0 for f in files for p in f)
     except Exception:  # a damaged header: one block reads it and says why
         return None
-    if n * ONE_BLOCK_BYTES_PER_POINT <= int(execution.memory):
+    if BASE_BYTES + n * ONE_BLOCK_BYTES_PER_POINT <= int(execution.memory):  # the process's own memory too
         return None
     if not pipeline.descriptor.tileable:
         warnings.warn(one_block_note(f"{sources[0]} and {sources[1]}", n, int(execution.memory),
