@@ -2,7 +2,7 @@
 data at a few budgets, in one block and in work units, each process of the run's tree sampled.
 
     python benchmarks/bench_memory_budget.py [--memory 366MiB,410MiB] [--data ../shared/data]
-        [--dir DIR] [--workers 2]
+        [--dir DIR] [--workers 2] [--cases one-block,ahn,ign]
 
 The epochs, written once into DIR (default a temporary folder; never committed):
 
@@ -132,6 +132,7 @@ def main():
     parser.add_argument("--data", default=str(Path(__file__).resolve().parents[1].parent / "shared" / "data"))
     parser.add_argument("--dir", default=None)
     parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--cases", default="one-block,ahn,ign", help="of one-block, ahn (work units), ign (work units)")
     args = parser.parse_args()
     from lidar_sig.tiling.memory import budget_bytes
 
@@ -145,17 +146,23 @@ def main():
         thinned_edited(ahn_a, ahn_b)
     ign_a = data / "ign_lidarhd_montpellier"
     ign_b = folder / "ign_b"
-    if not ign_b.exists():
+    asked = set(args.cases.split(","))
+    if "ign" in asked and not ign_b.exists():
         ign_b.mkdir()
         for f in sorted(ign_a.glob("*.laz")):
             thinned_edited(f, ign_b / f.name)
     print(f"{'budget':>8}  {'case':<44} {'process':<17} {'peak':>9}  within")
     for text in args.memory.split(","):
         budget = budget_bytes(text)
-        ca, cb, n_crop = one_block_crop(ahn_a, ahn_b, folder, budget)
-        cases = [(f"one block: AHN3 crop ({n_crop:,} points of both)", [ca, cb]),
-                 (f"work units: AHN3 tile, --workers {args.workers}", [ahn_a, ahn_b, "--workers", str(args.workers)]),
-                 ("work units: IGN tiles as sets", [ign_a, ign_b])]
+        cases = []
+        if "one-block" in asked:
+            ca, cb, n_crop = one_block_crop(ahn_a, ahn_b, folder, budget)
+            cases.append((f"one block: AHN3 crop ({n_crop:,} points of both)", [ca, cb]))
+        if "ahn" in asked:
+            cases.append((f"work units: AHN3 tile, --workers {args.workers}",
+                          [ahn_a, ahn_b, "--workers", str(args.workers)]))
+        if "ign" in asked:
+            cases.append(("work units: IGN tiles as sets", [ign_a, ign_b]))
         for label, extra in cases:
             out = folder / "out"
             out.mkdir(exist_ok=True)

@@ -192,3 +192,15 @@ def test_at_equal_false_flags_the_change_map_s_confidence_is_the_lowest_that_fla
     # every cell at p 0: not even 99% flags 5% or fewer; no compared cell: nothing matched
     assert matched_confidence([{"compared": True, "p": 0.0}] * 10) is None
     assert matched_confidence([{"compared": False, "p": 0.5}]) is None
+
+
+def test_memory_budget_benchmark_samples_every_process_against_the_budget(tmp_path):
+    need_data(ROOT.parent / "shared" / "data" / "ahn3_delft" / "ahn3_cropped_1.laz")
+    proc = subprocess.run([sys.executable, str(BENCH / "bench_memory_budget.py"), "--memory", "410MiB",
+                           "--cases", "one-block", "--dir", str(tmp_path)],
+                          capture_output=True, text=True, timeout=1200)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    rows = [line for line in proc.stdout.splitlines() if "one block: AHN3 crop" in line]
+    assert rows and any(" main " in row for row in rows), proc.stdout
+    for row in rows:  # each process's peak, against the budget
+        assert row.rstrip().endswith(("yes", "OVER")) and "MiB" in row, row
