@@ -36,7 +36,11 @@ class _Group(click.Group):
     is its one error line."""
 
     _listing = False  # while the help lists the commands
-    _noted: set[str] = set()  # the notes said in this process: each once
+    _noted: frozenset[str] = frozenset()  # the notes said in this run: each once
+
+    def main(self, *args, **kwargs):
+        self._noted = frozenset()  # a new run (the command line called again in one process) says them again
+        return super().main(*args, **kwargs)
 
     def _commands(self) -> dict:
         found, clashes = registered_apart("command")
@@ -46,7 +50,7 @@ class _Group(click.Group):
 
     def _note(self, text):
         if text not in self._noted:
-            self._noted.add(text)
+            self._noted = self._noted | {text}
             click.echo(printable(f"lidar-sig: note: {text}"), err=True)
 
     def list_commands(self, ctx: click.Context) -> list[str]:
