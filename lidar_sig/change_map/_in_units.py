@@ -41,7 +41,7 @@ def epoch_files(source):
     (in the order in which one block joins them), or None when it is anything else."""
     import os
 
-    from ..tiling.sources import expand
+    from ..tiling.sources import NotLasSet, expand
 
     if isinstance(source, (str, os.PathLike)):
         given = [source]
@@ -51,7 +51,7 @@ def epoch_files(source):
         return None
     try:
         return expand(given)
-    except LidarSigError:  # not all LAS/LAZ, or not there: one block reads it and says why
+    except NotLasSet:  # other formats: one block reads them (a refusal of the set itself is the user's)
         return None
 
 

@@ -48,7 +48,7 @@ def changes(epochs: Any, *, output: Any = None, cells: Any = None, points: Any =
         from ..change_map.series import POINTS_OF_TWO
 
         raise LidarSigError(POINTS_OF_TWO, path=points)
-    check_outputs(output, png, report, overwrite, cells, points)
+    check_outputs(output, png, report, overwrite, cells, points, inputs=epochs)
     execution = as_execution(execution)
     files = in_units(epochs, execution, pipeline_or_default(options.get("pipeline")), resume)
     if files is not None:
@@ -89,16 +89,19 @@ def _work(execution, outputs):
     return work
 
 
-def check_outputs(output, png, report, overwrite, cells=None, points=None):
-    """Refuse every output of a change map that cannot be written, before anything is computed."""
+def check_outputs(output, png, report, overwrite, cells=None, points=None, inputs=()):
+    """Refuse every output of a change map that cannot be written, before anything is computed,
+    and one that is an epoch's file or that an epoch's folder or pattern would read (``inputs``)."""
     from ..io import check_outputs as check_paths
     from ..io.formats import IMAGE, POINTS, VECTOR, check_format
     from ..io.geotiff import check_geotiff_output
     from ..io.styles import style_path
+    from ..io.tile_lists import check_apart
     from ..reporting import check_report_path
 
     paths = [p for p in (output, output and style_path(output), cells, points, png, report) if p]
     check_paths(paths, overwrite=overwrite)
+    check_apart(paths, list(inputs))
     if output:
         check_geotiff_output(output, overwrite=overwrite)
     if cells:

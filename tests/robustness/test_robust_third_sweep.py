@@ -1,0 +1,155 @@
+"""The defects of the third hostile sweep (issue 46) about tile sets, .vpc files, outputs, cell
+sizes, the work folder and --resume, Python values, and the start-up: outputs that are inputs
+or would become tiles, tiles given twice under any name, .vpc files of every hostile kind, cell
+sizes a grid cannot hold, full disks when the map is written, damaged work folders.
+
+Each case is met as a user meets it, from a scratch folder (the command in this process,
+tests/command_line.py, or the Python call): exit status 2 and one line naming the file or value
+and the fix (or a LidarSigError at the call), no traceback, inputs untouched, nothing half-written.
+"""
+import json
+import os
+import shutil
+import time
+
+import pytest
+
+from command_line import run
+from conftest import SAMPLES
+from robustness.helpers import assert_one_line_error, digests
+
+EPOCH1 = SAMPLES / "epoch1.laz"
+EPOCH2 = SAMPLES / "epoch2.laz"
+
+
+def epochs(folder):
+    """Copies of the two sample epochs in ``folder`` (inputs a run could damage)."""
+    a, b = folder / "a.laz", folder / "b.laz"
+    shutil.copy(EPOCH1, a)
+    shutil.copy(EPOCH2, b)
+    return a, b
+
+
+def vpc(path, hrefs):
+    """A .vpc file listing ``hrefs`` (each as a tile's data asset)."""
+    features = [{"type": "Feature", "assets": {"data": {"href": h, "roles": ["data"]}}} for h in hrefs]
+    path.write_text(json.dumps({"type": "FeatureCollection", "features": features}))
+    return path
+
+
+# -- 1. an output is never an input, nor a later tile of one -------------------------------------
+
+@pytest.mark.parametrize("option", ["--points", "--cells", "--png", "-o"])
+@pytest.mark.parametrize("link", [False, True], ids=["same name", "hard link"])
+def test_an_output_that_is_an_epochs_file_is_refused_before_any_work(tmp_path, option, link):
+    # --points a.laz --overwrite replaced epoch A with B's points
+    a, b = epochs(tmp_path)
+    target = a
+    if link:
+        target = tmp_path / ("other" + {"--points": ".laz", "--cells": ".gpkg", "--png": ".png", "-o": ".tif"}[option])
+        os.link(a, target)
+    before = digests(a, b)
+    proc = run("changes", a, b, option, target, "--overwrite", "-q")
+    if option in ("--points",) or link:
+        assert_one_line_error(proc, target.name, "is the input", "another name")
+    else:  # a.laz is refused as a GeoPackage, PNG or GeoTIFF name first: one line all the same
+        assert_one_line_error(proc, "a.laz")
+    assert digests(a, b) == before
+
+
+def test_saliency_of_one_file_written_over_itself_is_refused(tmp_path):
+    a, _ = epochs(tmp_path)
+    before = digests(a)
+    proc = run("saliency", a, "-o", a, "--overwrite", "-q")
+    assert_one_line_error(proc, "a.laz", "is the input")
+    assert digests(a) == before
+
+
+@pytest.mark.parametrize("form", ["folder", "pattern"])
+def test_points_written_where_an_epoch_would_read_them_as_a_tile_are_refused(tmp_path, form):
+    # --points written into epoch B's folder became a tile of B on the next run (density doubled)
+    folder = tmp_path / "B"
+    folder.mkdir()
+    shutil.copy(EPOCH2, folder / "b.laz")
+    later = folder if form == "folder" else f"{folder}/*.laz"
+    proc = run("changes", EPOCH1, later, "--points", folder / "change.laz", "-q")
+    assert_one_line_error(proc, "change.laz", "would be read as a tile", "outside")
+    assert sorted(p.name for p in folder.iterdir()) == ["b.laz"]
+
+
+def test_a_map_written_into_an_epochs_folder_is_not_a_tile_and_is_written(tmp_path):
+    # a GeoTIFF or GeoPackage in the folder is never read as a tile: it is written
+    folder = tmp_path / "B"
+    folder.mkdir()
+    shutil.copy(EPOCH2, folder / "b.laz")
+    proc = run("changes", EPOCH1, f"{folder}/*.laz", "--points", folder / "change.ply", "-q")
+    assert proc.returncode == 0, proc.stderr  # the pattern takes .laz only
+    assert (folder / "change.ply").is_file()
+
+
+# -- 2. a tile given twice: by path, link, copy, or listed twice --------------------------------
+
+@pytest.mark.parametrize("how", ["copy", "hard link"])
+@pytest.mark.parametrize("units", [False, True], ids=["one block", "work units"])
+def test_a_tile_delivered_twice_under_two_names_is_refused(tmp_path, how, units):
+    # counted twice (+49% points, no note) though each part's SHA-256 is recorded
+    folder = tmp_path / "A"
+    folder.mkdir()
+    shutil.copy(EPOCH1, folder / "t1.laz")
+    (shutil.copy if how == "copy" else os.link)(folder / "t1.laz", folder / "t2.laz")
+    proc = run("changes", folder, EPOCH2, "-q", *(["--tile-size", "100"] if units else []))
+    assert_one_line_error(proc, "t2.laz", "t1.laz", "once")
+
+
+@pytest.mark.parametrize("units", [False, True], ids=["one block", "work units"])
+def test_a_vpc_listing_one_tile_twice_is_refused(tmp_path, units):
+    # rc 0, its points counted twice; in work units the set's refusal was swallowed
+    shutil.copy(EPOCH1, tmp_path / "t.laz")
+    listed = vpc(tmp_path / "a.vpc", ["t.laz", "./t.laz"])
+    proc = run("changes", listed, EPOCH2, "-q", *(["--tile-size", "100"] if units else []))
+    assert_one_line_error(proc, "a.vpc", "twice", "once")
+
+
+def test_a_vpc_listing_the_tiles_200000_times_ends_quickly_in_one_line(tmp_path):
+    # it reached 8.9 GB in 2 minutes: the refusal was swallowed and the map fell back to one block
+    shutil.copy(EPOCH1, tmp_path / "t1.laz")
+    shutil.copy(EPOCH2, tmp_path / "t2.laz")
+    listed = vpc(tmp_path / "a.vpc", ["t1.laz", "t2.laz"] * 200_000)
+    start = time.monotonic()
+    proc = run("changes", listed, EPOCH2, "-q", "--memory", "1GiB")
+    assert_one_line_error(proc, "a.vpc", "twice")
+    assert time.monotonic() - start < 60
+
+
+# -- 3. .vpc files of every hostile kind -----------------------------------------------------------
+
+@pytest.mark.parametrize("make, said", [
+    (lambda t: vpc(t / "a.vpc", [5]), "not a path"),
+    (lambda t: vpc(t / "a.vpc", [{"x": 1}]), "not a path"),
+    (lambda t: (t / "a.vpc").write_text("[" * 100_000 + "]" * 100_000) and t / "a.vpc", "nested too deeply"),
+    (lambda t: vpc(t / "a.vpc", ["sub"]) if (t / "sub").mkdir() is None else None, "is a folder"),
+    (lambda t: os.mkfifo(t / "a.vpc") or t / "a.vpc", "FIFO"),
+    (lambda t: (t / "a.vpc").mkdir() or t / "a.vpc", "is a folder"),
+], ids=["href a number", "href an object", "deep nesting", "folder href", "fifo", "vpc a folder"])
+@pytest.mark.parametrize("command", ["changes", "catalog"])
+def test_a_hostile_vpc_is_one_line(tmp_path, make, said, command):
+    listed = make(tmp_path)
+    args = [listed, EPOCH2] if command == "changes" else [listed, "-o", tmp_path / "c.h5"]
+    proc = run(command, *args, "-q")  # a FIFO must not be waited on
+    assert_one_line_error(proc, "a.vpc", said)
+
+
+@pytest.mark.parametrize("kind", ["bom", "file url"])
+def test_a_vpc_with_a_byte_order_mark_or_file_urls_is_read(tmp_path, kind):
+    shutil.copy(EPOCH1, tmp_path / "t 1.laz")
+    listed = tmp_path / "a.vpc"
+    if kind == "bom":
+        text = vpc(listed, ["t 1.laz"]).read_text()
+        listed.write_bytes(b"\xef\xbb\xbf" + text.encode())
+    else:
+        vpc(listed, [(tmp_path / "t 1.laz").as_uri()])  # file:///.../t%201.laz
+    from lidar_sig.io.tile_lists import tile_list
+
+    assert tile_list(listed) == [tmp_path / "t 1.laz"]
+    proc = run("changes", listed, EPOCH2, "-q")
+    assert proc.returncode == 0, proc.stderr
