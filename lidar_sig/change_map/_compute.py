@@ -12,7 +12,7 @@ import numpy as np
 
 from ..method.class_maps import merge_classes
 from ..method.classes import UNLABELED
-from ..base.errors import LidarSigError, LidarSigWarning, amount, counted, whole_number
+from ..base.errors import LidarSigError, LidarSigWarning, amount, counted, whole_number, yes_no
 from ..metrics import METRIC, METRIC_KEYS
 from ..base.progress import step
 from ..method.signature_raster import Frame, method_differences
@@ -108,6 +108,11 @@ def changes(a: Any, b: Any, *more: Any, cell: float | str = AUTO, pipeline: Pipe
 
     sources = (a, b) + more
     s = _settings(cell, min_points, confidence, score, frame, seed)
+    if columns is not None:  # refused at this call, before any file is read
+        from ..io import parse_columns
+
+        parse_columns(columns)
+    resume = yes_no(resume, "resume")
     pipeline = pipeline_or_default(pipeline)
     table_of_classes = merge_classes(pipeline.classes, class_map)  # a bad map is refused before reading
     execution = as_execution(execution)

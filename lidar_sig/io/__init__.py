@@ -61,7 +61,7 @@ def read(path: str | os.PathLike[str], *, columns: str | Sequence[str] | None = 
     if columns is not None:  # refused here whatever the file, though only text files take them
         from ._text import parse_columns
 
-        columns = parse_columns(columns if isinstance(columns, str) else ",".join(map(str, columns)))
+        columns = parse_columns(columns)
     path = Path(path)
     if not path.exists():
         raise LidarSigError("no such file; check the path", path=path)

@@ -33,7 +33,7 @@ import time
 from collections.abc import Iterable
 from pathlib import Path
 
-from ..base.errors import Interrupted, LidarSigError, arg, check_name_lengths
+from ..base.errors import Interrupted, LidarSigError, arg, check_name_lengths, yes_no
 
 _HOST = socket.gethostname().replace(".", "-")[:32] or "host"
 # Outputs written inside an output_group, waiting to be renamed: [(tmp, path, overwrite)]
@@ -59,6 +59,7 @@ def check_output(path: str | os.PathLike[str], *, overwrite: bool = False) -> Pa
     """Refuse an output path that exists (unless ``overwrite``), is a folder, whose folder is
     missing or not writable, or whose name leaves no room for the temporary file named after it
     (:func:`temp_name`); return it as a Path."""
+    overwrite = yes_no(overwrite, "overwrite")  # "no" is true to Python: it would overwrite
     path = Path(path)
     check_name_lengths(path, room=TEMP_ROOM + len(path.suffix.encode()))
     if path.is_dir():

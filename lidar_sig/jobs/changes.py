@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from ..base.errors import LidarSigError
+from ..base.errors import LidarSigError, whole_number, yes_no
 from ._common import JobRun
 
 
@@ -41,6 +41,8 @@ def changes(epochs: Any, *, output: Any = None, cells: Any = None, points: Any =
     from ..io.styles import style_path
     from ..tiling.execution import as_execution
 
+    overwrite, resume = yes_no(overwrite, "overwrite"), yes_no(resume, "resume")
+    top = whole_number(top, "top (the cells listed)")
     epochs = list(epochs) if isinstance(epochs, (list, tuple)) else [epochs]
     if len(epochs) < 2:
         raise LidarSigError("give at least two epochs (A B), in time order")
@@ -92,6 +94,7 @@ def _work(execution, outputs):
 def check_outputs(output, png, report, overwrite, cells=None, points=None, inputs=()):
     """Refuse every output of a change map that cannot be written, before anything is computed,
     and one that is an epoch's file or that an epoch's folder or pattern would read (``inputs``)."""
+    from ..base.errors import as_path
     from ..io import check_outputs as check_paths
     from ..io.formats import IMAGE, POINTS, VECTOR, check_format
     from ..io.geotiff import check_geotiff_output
@@ -99,6 +102,10 @@ def check_outputs(output, png, report, overwrite, cells=None, points=None, input
     from ..io.tile_lists import check_apart
     from ..reporting import check_report_path
 
+    said = {"output": output, "cells": cells, "points": points, "png": png, "report": report}
+    for what, path in said.items():
+        if path is not None:
+            as_path(path, what)  # output=5 is named at this call
     paths = [p for p in (output, output and style_path(output), cells, points, png, report) if p]
     check_paths(paths, overwrite=overwrite)
     check_apart(paths, list(inputs))

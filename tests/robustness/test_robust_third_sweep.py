@@ -153,3 +153,57 @@ def test_a_vpc_with_a_byte_order_mark_or_file_urls_is_read(tmp_path, kind):
     assert tile_list(listed) == [tmp_path / "t 1.laz"]
     proc = run("changes", listed, EPOCH2, "-q")
     assert proc.returncode == 0, proc.stderr
+
+
+# -- 9. Python values refused at the call that received them --------------------------------------
+
+@pytest.fixture(scope="module")
+def sample_map():
+    import lidar_sig as ls
+
+    return ls.changes(EPOCH1, EPOCH2)
+
+
+@pytest.mark.parametrize("call, named", [
+    (lambda cm: cm.uncompared("nope"), "'nope'"),  # StopIteration
+    (lambda cm: cm.levels[cm.score].lod_at(0), "got 0"),  # StatisticsError
+    (lambda cm: cm.levels[cm.score].lod_at(float("nan")), "got nan"),  # an array of NaN
+    (lambda cm: cm.levels[cm.score].lod_at(True), "got True"),
+    (lambda cm: cm.rank_by("nope"), "'nope'"),  # numpy ValueError
+], ids=["uncompared", "lod_at 0", "lod_at nan", "lod_at bool", "rank_by"])
+def test_a_change_maps_methods_name_a_bad_value(sample_map, call, named):
+    import lidar_sig as ls
+
+    with pytest.raises(ls.LidarSigError, match=named):
+        call(sample_map)
+    assert sample_map.levels[sample_map.score].lod_at(0.95).shape == (sample_map.grid.n_cells,)
+
+
+def test_a_series_interval_out_of_range_is_named():
+    import lidar_sig as ls
+
+    series = ls.changes(EPOCH1, EPOCH2, SAMPLES / "epoch2_aligned.laz")
+    with pytest.raises(ls.LidarSigError, match="interval.*from 0 to 1, got 9"):  # IndexError
+        series.interval_name(9)
+    assert series.interval_name(1).startswith("interval 2")
+
+
+@pytest.mark.parametrize("call, named", [
+    (lambda ls, t: ls.changes(EPOCH1, EPOCH2, columns=5), "columns.*an int"),  # TypeError
+    (lambda ls, t: ls.changes(EPOCH1, EPOCH2, resume="yes"), "resume.*'yes'"),
+    (lambda ls, t: ls.jobs.changes([EPOCH1, EPOCH2], output=5), "output.*an int"),  # TypeError
+    (lambda ls, t: ls.jobs.changes([EPOCH1, EPOCH2], resume="yes"), "resume.*'yes'"),
+    (lambda ls, t: ls.jobs.changes([EPOCH1, EPOCH2], output=t, overwrite="no"), "overwrite.*'no'"),  # overwrote
+    (lambda ls, t: ls.jobs.changes([EPOCH1, EPOCH2], top=-1), "top.*-1"),  # then to_dict() raised
+    (lambda ls, t: ls.jobs.saliency(EPOCH1, t.with_suffix(".laz"), resume="yes"), "resume.*'yes'"),
+    (lambda ls, t: ls.jobs.signature(EPOCH1, t.with_suffix(".h5"), overwrite="no"), "overwrite.*'no'"),
+], ids=["columns", "resume", "output", "job resume", "overwrite", "top", "saliency resume", "signature overwrite"])
+def test_python_values_of_the_wrong_kind_are_refused_at_the_call(tmp_path, call, named):
+    import lidar_sig as ls
+
+    target = tmp_path / "kept.tif"
+    target.write_bytes(b"not to be replaced")
+    target.with_suffix(".h5").write_bytes(b"not to be replaced")
+    with pytest.raises(ls.LidarSigError, match=named):
+        call(ls, target)
+    assert target.read_bytes() == target.with_suffix(".h5").read_bytes() == b"not to be replaced"
