@@ -21,7 +21,7 @@ from ._cells import CELL_FRAME, SEED, bin_points, cell_table
 from ._cores import cell_values
 from ._density import AUTO, auto_cell, auto_min_points, density, fewer_points, no_defined_cell, sparse_note
 from ._epochs import Epoch, check_same_crs, epoch_name, read_epoch
-from ._grid import Grid, check_cell, check_cells, check_overlap
+from ._grid import Grid, check_cell, check_cells, check_overlap, check_span
 from ._lod import CONFIDENCE, REPLICATES, few_cells_note
 from ._maps import LABEL_FREE_SCORE, SCORE, ChangeMap, geometry_only_note, metric_levels, scheme_warnings
 from .series import ChangeSeries
@@ -227,6 +227,7 @@ def _layout(clouds, given, names, pipeline, s, notes):
     for k in range(len(clouds) - 1):  # before the grid: disjoint epochs would span a needless one
         check_overlap(used[k], used[k + 1], names[k], names[k + 1])
     corners = np.vstack([np.vstack(bounds(xy)) for xy in used])  # not every point stacked
+    check_span(corners, s.cell / units.horizontal, s.cell)
     grid = Grid.covering(corners, s.cell / units.horizontal)
     check_cells(grid, s.cell)
     counts = [np.bincount(grid.cell_of(xy), minlength=grid.n_cells) for xy in used]

@@ -24,7 +24,7 @@ from ..method.signature_raster import Signature
 from ._cells import CHANGE_KEYS, counts_table
 from ._lod import few_cells_note
 from ._density import auto_cell, auto_min_points, no_defined_cell, sparse_note
-from ._grid import Grid, check_cells, check_overlap
+from ._grid import Grid, check_cells, check_overlap, check_span
 from ._units import (UNIT_BYTES_PER_POINT, VIEW_POINTS, UnitPlan, code_task, density_pixel, density_task,
                      unit_points, unit_task, view_path)
 
@@ -176,8 +176,9 @@ def changes_in_units(files, names, *, pipeline, execution, work, resume, setting
     from ..tiling.work import prepare_work, work_scope
     from ._epochs import check_same_crs
 
-    crs = [next((s.crs for s in scan(f) if s.error is None), None) for f in files]  # before any work
-    check_same_crs([SimpleNamespace(crs=c) for c in crs], names)
+    scanned = [[s for s in scan(f) if s.error is None] for f in files]  # before any work
+    check_same_crs([SimpleNamespace(crs=next((s.crs for s in good), None)) for good in scanned], names)
+    _check_headers(scanned, names, execution, settings)
     with work_scope(work):
         work = prepare_work(work, resume, keep=[p for f in files for p in f] + list(settings.get("keep", ())))
         with execution.backend() as backend:
@@ -197,6 +198,26 @@ def changes_in_units(files, names, *, pipeline, execution, work, resume, setting
             cm.timings["saliency"] = seconds
             cm.timings["all"] = time.perf_counter() - start
             return cm
+
+
+def _check_headers(scanned, names, execution, settings):
+    """What the epochs' headers (``scanned``: each epoch's readable :class:`Source` files) tell
+    before any saliency: epochs that share no land, a given cell size whose grid is too large, a
+    tile size too small for either epoch (found then after both saliencies, with a work folder
+    kept that no resumed run could finish)."""
+    from ..tiling.run_set import header_tile_size, least_tile_size
+
+    if not all(scanned):
+        return  # a file that cannot be read is named by its epoch's run
+    corners = [np.array([np.min([s.lo for s in good], axis=0)[:2], np.max([s.hi for s in good], axis=0)[:2]])
+               for good in scanned]
+    check_overlap(*corners, *names)
+    if settings.get("cell") is not None:
+        check_span(np.vstack(corners), settings["cell"] / scanned[0][0].factors[0], settings["cell"])
+    if execution.tile_size is not None:
+        least = max(least_tile_size(good) for good in scanned)  # the advice passes for both epochs
+        for good in scanned:
+            header_tile_size(good, execution.tile_size, execution.memory, execution.workers or 1, advise=least)
 
 
 def _frame(runs, names, s, backend, work):

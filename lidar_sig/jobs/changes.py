@@ -2,6 +2,7 @@
 checked before any work, then all written together or none."""
 from __future__ import annotations
 
+import contextlib
 from dataclasses import dataclass
 from typing import Any
 
@@ -40,6 +41,7 @@ def changes(epochs: Any, *, output: Any = None, cells: Any = None, points: Any =
     from ..io import output_group
     from ..io.styles import style_path
     from ..tiling.execution import as_execution
+    from ..tiling.work import work_scope
 
     overwrite, resume = yes_no(overwrite, "overwrite"), yes_no(resume, "resume")
     top = whole_number(top, "top (the cells listed)")
@@ -58,17 +60,20 @@ def changes(epochs: Any, *, output: Any = None, cells: Any = None, points: Any =
         options.update(work=_work(execution, outputs))
         if points:
             check_streamed(points, len(files[1]), epochs[1])
-    result = change_map(*epochs, execution=execution, resume=resume, **options)
-    done = ChangesRun(changes=result, top=top)
-    with output_group():  # all or none
-        for path in (output, cells, points, png, report):
-            if path:
-                result.save(path, overwrite=overwrite)
-                done.written.append(str(path))
-                style = style_path(path) if str(path).lower().endswith((".tif", ".tiff")) else None
-                done.lines.append(f"wrote {path}" + (f" (style {style})" if style else ""))
-    if files is not None:
-        result.close()  # written: the work folder goes
+    # in work units, the outputs are written within the work folder's scope: an output that
+    # cannot be written (a full disk) leaves the folder as any failure does, named for --resume
+    with work_scope(options["work"]) if files is not None else contextlib.nullcontext():
+        result = change_map(*epochs, execution=execution, resume=resume, **options)
+        done = ChangesRun(changes=result, top=top)
+        with output_group():  # all or none
+            for path in (output, cells, points, png, report):
+                if path:
+                    result.save(path, overwrite=overwrite)
+                    done.written.append(str(path))
+                    style = style_path(path) if str(path).lower().endswith((".tif", ".tiff")) else None
+                    done.lines.append(f"wrote {path}" + (f" (style {style})" if style else ""))
+        if files is not None:
+            result.close()  # written: the work folder goes
     return done
 
 

@@ -7,12 +7,15 @@ Each case is met as a user meets it, from a scratch folder (the command in this 
 tests/command_line.py, or the Python call): exit status 2 and one line naming the file or value
 and the fix (or a LidarSigError at the call), no traceback, inputs untouched, nothing half-written.
 """
+import contextlib
 import json
 import os
 import shutil
 import time
 
 import pytest
+
+import lidar_sig as ls
 
 from command_line import run
 from conftest import SAMPLES
@@ -207,3 +210,96 @@ def test_python_values_of_the_wrong_kind_are_refused_at_the_call(tmp_path, call,
     with pytest.raises(ls.LidarSigError, match=named):
         call(ls, target)
     assert target.read_bytes() == target.with_suffix(".h5").read_bytes() == b"not to be replaced"
+
+
+# -- 4. cell and tile sizes, and disjoint epochs, from the headers before any saliency ------------
+
+@pytest.fixture
+def no_saliency(monkeypatch):
+    """Fail a test that computes a saliency (one block or a set's tiles): what is refused here is
+    refused before any of it."""
+    import lidar_sig.pipeline.flow as flow
+    import lidar_sig.tiling.run_set as run_set
+
+    def computed(*args, **kwargs):
+        raise AssertionError("a saliency was computed before the refusal")
+
+    monkeypatch.setattr(flow.Pipeline, "saliency", computed)
+    monkeypatch.setattr(run_set, "run_set", computed)
+
+
+@pytest.mark.parametrize("cell, said", [("1e300", "at most"), ("1e-300", "more than 4,000,000"),
+                                        ("1e-320", "more than 4,000,000"), ("0.01", "8,168 x 8,138")])
+@pytest.mark.parametrize("units", [False, True], ids=["one block", "work units"])
+def test_a_cell_size_no_grid_holds_is_refused_before_any_saliency(tmp_path, no_saliency, cell, said, units):
+    # 1e300: OverflowError after both saliencies; 1e-300 refused, but only after them
+    proc = run("changes", EPOCH1, EPOCH2, "--cell", cell, "-q", *(["--tile-size", "50"] if units else []),
+               cwd=tmp_path)
+    assert_one_line_error(proc, said, "--cell")
+    assert os.listdir(tmp_path) == []  # no work folder kept
+
+
+def test_disjoint_epochs_in_work_units_are_refused_from_the_headers(tmp_path, no_saliency):
+    import laspy
+
+    far = tmp_path / "far.laz"
+    las = laspy.read(EPOCH2)
+    las.x = las.x + 10_000.0
+    las.write(far)
+    proc = run("changes", EPOCH1, far, "--tile-size", "50", "-q", cwd=tmp_path)
+    assert_one_line_error(proc, "do not overlap")
+    assert sorted(os.listdir(tmp_path)) == ["far.laz"]  # no work folder kept for a resume
+
+
+def test_the_tile_size_advice_names_a_value_that_passes_for_both_epochs(tmp_path, no_saliency):
+    # "give at least 8.08 m", where 8.08 and 9.1 were refused (after both saliencies) and 9.2 passed
+    import re
+
+    proc = run("changes", EPOCH1, EPOCH2, "--tile-size", "5", "-q", cwd=tmp_path)
+    assert_one_line_error(proc, "--tile-size", "give at least")
+    least = float(re.search(r"give at least ([\d.]+) m", proc.stderr).group(1))
+    assert os.listdir(tmp_path) == []
+    from lidar_sig.tiling.run_set import header_tile_size
+    from lidar_sig.tiling.sources import scan
+
+    for epoch in (EPOCH1, EPOCH2):
+        assert header_tile_size(scan([epoch]), least, 2**30, 1) == least  # passes for both epochs
+    refused = 0
+    for epoch in (EPOCH1, EPOCH2):  # and is the least that does, to its rounding
+        with contextlib.suppress(ls.LidarSigError):
+            header_tile_size(scan([epoch]), least * 0.95, 2**30, 1)
+            continue
+        refused += 1
+    assert refused >= 1
+    again = run("changes", EPOCH1, EPOCH2, "--tile-size", str(least), "-q", cwd=tmp_path)
+    assert "too small" not in again.stderr
+
+
+# -- 5. the map's GeoTIFF on a full disk ------------------------------------------------------------
+
+@pytest.mark.parametrize("leave", [0, 9000], ids=["full", "room for a part"])
+def test_the_geotiff_on_a_full_disk_is_one_line_and_leaves_nothing(tmp_path, leave):
+    # rasterio's CPLE_AppDefinedError traceback, or libtiff's lines on stderr and a half-written map
+    from robustness.helpers import fill, mounted_tmpfs
+
+    with mounted_tmpfs(tmp_path, size="64k") as fs:
+        fill(fs, leave=leave)
+        proc = run("changes", EPOCH1, EPOCH2, "-o", fs / "map.tif", "-q")
+        assert_one_line_error(proc, "map.tif", "no space left")
+        assert sorted(os.listdir(fs)) == ["filler"]
+
+
+def test_the_geotiff_on_a_full_disk_in_work_units_keeps_the_work_for_resume(tmp_path):
+    from robustness.helpers import fill, mounted_tmpfs
+
+    work = tmp_path / "work"
+    with mounted_tmpfs(tmp_path, size="64k") as fs:
+        fill(fs, leave=9000)
+        args = ("changes", EPOCH1, EPOCH2, "-o", fs / "map.tif", "--tile-size", "50", "--work-dir", work, "-q")
+        proc = run(*args)
+        assert_one_line_error(proc, "map.tif", "no space left", f"kept in {work} for --resume")
+        assert sorted(os.listdir(fs)) == ["filler"]
+        (fs / "filler").unlink()
+        again = run(*args, "--resume")
+        assert again.returncode == 0, again.stderr
+        assert (fs / "map.tif").is_file() and not work.exists()
