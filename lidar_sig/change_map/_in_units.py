@@ -195,6 +195,11 @@ def changes_in_units(files, names, *, pipeline, execution, work, resume, setting
                 runs.append(run)
                 seconds.append(time.perf_counter() - t0)
             cm = _map(runs, names, files, pipeline, backend, work, settings, classes_table, WorkHolder(work, remove, own))
+            if resume:
+                from ..tiling.run_set import resumed_note
+
+                units = cm.timings["units"]
+                resumed_note(work, [f"{units['reused']} of {counted(units['units'], 'work unit')}"])
             cm.timings["saliency"] = seconds
             cm.timings["all"] = time.perf_counter() - start
             return cm
@@ -286,7 +291,7 @@ def _map(runs, names, files, pipeline, backend, work, settings, classes_table, h
                    warnings=notes + schemes + few, timings={"lod": time.perf_counter() - t0, "replicates": 2 * REPLICATES})
     cm.rank_by(score)
     cm.cell_rule, cm.min_points_rule, cm.density = s.cell_rule, s.min_points_rule, tuple(densities)
-    cm.timings["units"] = {"units": len(unit_ids), "side_cells": side}
+    cm.timings["units"] = {"units": len(unit_ids), "side_cells": side, "reused": gathered["reused"]}
     cm.timings.update({f"{k}_seconds": v for k, v in seconds.items()})
     return cm
 
@@ -344,7 +349,8 @@ def _gather(uplan, units, tiles_of, backend, n_classes):
     n, k = uplan.grid.n_cells, len(CHANGE_KEYS)
     out = {"points": np.zeros((2, n), np.int64), "undefined": np.zeros((2, n), np.int64),
            "classes": np.zeros((2, n, n_classes), np.int64), "metrics": np.full((n, k), np.nan),
-           "mu0": np.full((n, k), np.nan), "sigma": np.full((n, k), np.nan), "defined": np.zeros((n, k), bool)}
+           "mu0": np.full((n, k), np.nan), "sigma": np.full((n, k), np.nan), "defined": np.zeros((n, k), bool),
+           "reused": 0}
     items = [(uplan, u, (tiles_of[0].get(u, []), tiles_of[1].get(u, []))) for u in units]
     with step("work units", units=len(items), side=f"{uplan.side} cells"):
         for (_, u, _), res, err in progress(backend.run(unit_task, items), total=len(items), desc="cells",
@@ -352,6 +358,7 @@ def _gather(uplan, units, tiles_of, backend, n_classes):
             if err is not None:
                 raise _failed(err, f"work unit {u}", uplan.work)
             cells = res["cells"]
+            out["reused"] += bool(res.get("resumed"))
             for name in ("points", "undefined", "classes"):
                 out[name][:, cells] = res[name]
             for name in ("metrics", "mu0", "sigma", "defined"):

@@ -170,7 +170,7 @@ def exclusive_output(path, doing):
         release(path, fd)
 
 
-def hold(path, doing, errors=None):
+def hold(path, doing, errors=None, fix="wait for that run to end, then run this command again"):
     """Lock ``path`` for this run (:func:`exclusive_output`) until :func:`release`: the file
     descriptor of its lock ``.NAME.lock`` beside it; a run holding it already is named in a
     LidarSigError (``doing``: what that run does with it). ``errors``: the context that turns
@@ -190,8 +190,7 @@ def hold(path, doing, errors=None):
         except BlockingIOError:
             holder = os.read(fd, 200).decode(errors="replace").strip() or "a process not yet named"
             os.close(fd)
-            raise LidarSigError(f"another lidar-sig run is {doing} it ({holder}); wait for that run to end, "
-                                "then run this command again", path=path) from None
+            raise LidarSigError(f"another lidar-sig run is {doing} it ({holder}); {fix}", path=path) from None
         except OSError as exc:  # a file system without locks
             os.close(fd)
             raise LidarSigError(f"cannot be locked for this run ({exc.strerror or exc}); write it on a local "
@@ -304,8 +303,9 @@ def keeping_work(folder, kept=True):
     if work is None:
         return
     folder = str(folder)
-    if kept and folder not in work:
-        work.append(folder)
+    inside = [w for w in work if Path(w) in Path(folder).parents]
+    if kept and folder not in work and not inside:  # a run's folder inside its job's is said as the job's
+        work[:] = [w for w in work if Path(folder) not in Path(w).parents] + [folder]
     elif not kept and folder in work:
         work.remove(folder)
 

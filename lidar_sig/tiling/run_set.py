@@ -144,7 +144,29 @@ def _run_set(pipeline, inputs, *, work, tile_size, backend, resume, progress_ena
         with step("signature of the set", enabled=False):
             run.signature = sum_signatures(run)
     run.seconds = time.perf_counter() - start
+    if resume:
+        resumed_note(work, [f"{run.reused_parts} of {counted(len(records), 'staged part')}",
+                            f"{sum(bool(t.get('resumed')) for t in run.tile_stats.values())} of "
+                            f"{counted(len(tiles), 'tile')}"], [f"{name} (edited since)" for name in run.restaged])
     return run
+
+
+def resumed_note(work, reused, recomputed=()):
+    """Say, as a note, what a resumed run reused from the work folder ``work`` (``reused``: "3 of
+    4 tiles", ...) and what it recomputed besides what was left to do: ``recomputed`` and the
+    damaged files it found there (:func:`~lidar_sig.tiling.work.damaged`)."""
+    import warnings
+
+    from ..base.errors import LidarSigWarning
+    from .work import damaged
+
+    found = damaged(work)
+    if not found and not recomputed and all(r.startswith("0 of") for r in reused):
+        return  # nothing was there: the work folder's own note said so
+    again = list(recomputed) + ([f"{counted(len(found), 'damaged file')} ({Path(found[0]).name}"
+                                 + (", ..." if len(found) > 1 else "") + ")"] if found else [])
+    warnings.warn(f"resumed from {work}: reused {', '.join(reused)}"
+                  + (f"; recomputed {', '.join(again)}" if again else ""), LidarSigWarning, stacklevel=2)
 
 
 def header_tile_size(good, tile_size, memory, workers, *, advise=None):
@@ -212,15 +234,24 @@ def _tiles(plan, tiles, run, backend, progress_enabled, start):
 def _stage(work, good, sources, cells, run, backend, resume, noise_codes, progress_enabled):
     """Stage every part of the readable files ``good`` (reusing what a resumed run finished);
     {(source, part): record} of those staged, the files that failed recorded in ``run``."""
+    from ..io.archive import sha256_of
+
     records = {}
     todo = []
     for s in good:
-        for part, (first, stop) in enumerate(s.parts(backend.workers)):
-            info = staged(work, s, part, first, stop, cells, noise_codes) if resume else None
+        parts = s.parts(backend.workers)
+        infos = [staged(work, s, part, first, stop, cells, noise_codes) if resume else None
+                 for part, (first, stop) in enumerate(parts)]
+        if any(infos) and (infos[0] is None or infos[0].get("sha256") != sha256_of(s.path)):
+            # a file edited in place keeps its size and time: its content is what tells
+            infos = [None] * len(parts)
+            run.restaged.append(s.name)
+        for part, ((first, stop), info) in enumerate(zip(parts, infos)):
             if info is None:
                 todo.append((str(work), s, part, first, stop, cells, noise_codes))
             else:
                 records[(s.id, part)] = info
+                run.reused_parts += 1
     with step("staging", enabled=False, parts=len(todo)) as st:  # --verbose: each stage's time
         for (_, s, part, *_), info, err in progress(backend.run(stage_task, todo), total=len(todo),
                                                    desc="reading", enabled=progress_enabled, unit="part"):

@@ -31,7 +31,7 @@ from ..method.cloud import MAX_COORDINATE, check_magnitude, kept_points
 from ..base.errors import LidarSigError, arg, as_path, counted, reason, special_file
 from ..io import LAS_EXTENSIONS
 from ..io.tile_lists import check_distinct, tile_list
-from .work import STAGED
+from .work import STAGED, read_record
 
 #: Bits of a point identifier that hold its index in its file (files up to 10^12 points).
 ID_BITS = 40
@@ -194,11 +194,8 @@ def file_identity(path):
 def staged(work, source, part, start, stop, cells, noise_codes=None):
     """The record of a part staged from the file as it is now on the grid ``cells``, leaving
     out the same points (``noise_codes``, as for :func:`stage_part`), or None."""
-    rec = part_record(work, source.id, part)
-    if not rec.is_file():
-        return None
-    info = json.loads(rec.read_text())
-    if (info.get("identity") != file_identity(source.path) or info.get("path") != source.path
+    info = read_record(part_record(work, source.id, part), work)
+    if not isinstance(info, dict) or (info.get("identity") != file_identity(source.path) or info.get("path") != source.path
             or info.get("range") != [start, stop] or info.get("grid") != cells.record()
             or info.get("noise_codes", "?") != _codes_record(noise_codes)):
         return None

@@ -303,3 +303,109 @@ def test_the_geotiff_on_a_full_disk_in_work_units_keeps_the_work_for_resume(tmp_
         again = run(*args, "--resume")
         assert again.returncode == 0, again.stderr
         assert (fs / "map.tif").is_file() and not work.exists()
+
+
+# -- 6. --resume: damaged records and results, nothing to resume, files edited in place -----------
+
+def kept_work(folder):
+    """A change map's work folder of the two sample epochs (copies in ``folder``), kept as an
+    interrupted run keeps it: every staged part, tile and work unit finished."""
+    a, b = epochs(folder)
+    work = folder / "wd"
+    ls.changes(a, b, execution=ls.Execution(tile_size=50, workers=1), work=work)  # the folder stays: it was given
+    return a, b, work
+
+
+def cells(proc):
+    """The cells of a run's --json (all of them: --top 1000), or its stderr where it failed."""
+    assert proc.returncode == 0, proc.stderr
+    return json.loads(proc.stdout)["top"]
+
+
+def from_the_start(a, b):
+    return cells(run("changes", a, b, "--tile-size", "50", "--workers", "1", "-q", "--json", "--top", "1000"))
+
+
+def resume(folder, a, b, work):
+    return run("changes", a, b, "--tile-size", "50", "--workers", "1", "--work-dir", work, "--resume", "-q",
+               "-o", folder / "map.tif", "--overwrite", "--json", "--top", "1000")
+
+
+def test_damaged_files_of_the_work_folder_are_recomputed_with_a_note(tmp_path):
+    # a JSONDecodeError traceback; random bytes in a unit file: numpy's "allow_pickle" advice and
+    # "run with --resume", which then failed the same way every time
+    a, b, work = kept_work(tmp_path)
+    (sorted((work / "units").glob("*.npz"))[0]).write_bytes(os.urandom(500))
+    (sorted((work / "epoch_a" / "tiles").glob("*.npz"))[0]).write_bytes(os.urandom(500))
+    (sorted((work / "epoch_b" / "stage").glob("*.json"))[0]).write_text("{broken")
+    proc = resume(tmp_path, a, b, work)
+    assert proc.returncode == 0, proc.stderr
+    notes = [ln for ln in proc.stderr.splitlines() if "recomputed 1 damaged file" in ln]
+    assert len(notes) == 3 and all("resumed from" in ln for ln in notes), proc.stderr
+    assert "Traceback" not in proc.stderr and not work.exists()
+    assert cells(proc) == from_the_start(a, b)  # the same map
+
+
+def test_resume_with_nothing_to_resume_says_so(tmp_path):
+    # the work folder elsewhere: everything recomputed silently, the earlier folder orphaned
+    a, b = epochs(tmp_path)
+    proc = run("changes", a, b, "--tile-size", "50", "--work-dir", tmp_path / "elsewhere", "--resume", "-q")
+    assert proc.returncode == 0, proc.stderr
+    notes = [ln for ln in proc.stderr.splitlines() if "note" in ln]
+    assert len(notes) == 1 and "nothing to resume in" in notes[0] and "--work-dir" in notes[0], proc.stderr
+
+
+def test_resume_finds_a_file_edited_in_place_with_the_same_size_and_time(tmp_path):
+    # the staged points of the old content were reused: the record holds the SHA-256
+    import laspy
+
+    a, b, work = kept_work(tmp_path)
+    las = laspy.read(b)
+    las.z = las.z + 5.0
+    las.write(tmp_path / "edited.laz")
+    edited = (tmp_path / "edited.laz").read_bytes()
+    st = os.stat(b)
+    assert len(edited) == st.st_size
+    with open(b, "r+b") as fh:  # in place: the same size, and the same time below
+        fh.write(edited)
+    os.utime(b, ns=(st.st_atime_ns, st.st_mtime_ns))
+    proc = resume(tmp_path, a, b, work)
+    assert proc.returncode == 0, proc.stderr
+    assert "recomputed b.laz (edited since)" in proc.stderr
+    assert cells(proc) == from_the_start(a, b)  # the edited file's map, as a run from the start gives
+
+
+# -- 7. work folders: two runs in one folder, an interrupt names one -------------------------------
+
+def test_a_second_run_in_the_same_default_work_folder_is_told_of_work_dir(tmp_path):
+    import subprocess
+    import sys
+
+    from conftest import ROOT
+
+    work = tmp_path / ".lidar-sig-changes-work"  # what a run without -o uses in its folder
+    holder = subprocess.Popen([sys.executable, "-c", "import sys, time\nfrom lidar_sig.tiling.work import prepare_work\n"
+                               f"prepare_work({str(work)!r}, False)\nprint('held', flush=True)\ntime.sleep(60)\n"],
+                              stdout=subprocess.PIPE, text=True, env=dict(os.environ, PYTHONPATH=str(ROOT)))
+    try:
+        assert holder.stdout.readline().strip() == "held"
+        proc = run("changes", EPOCH1, EPOCH2, "--tile-size", "50", "-q", cwd=tmp_path)
+        assert_one_line_error(proc, "another lidar-sig run is working in it", "--work-dir")
+    finally:
+        holder.kill()
+        holder.wait()
+
+
+def test_a_work_folder_inside_another_is_said_as_the_outer_one():
+    # an interrupt named the map's folder and each epoch's inside it: three folders for one
+    from lidar_sig.io.atomic import keeping_work, recording_outputs
+
+    with recording_outputs() as written:
+        keeping_work("/w")
+        keeping_work("/w/epoch_a")
+        keeping_work("/w/epoch_b")
+        assert written.work == ["/w"]
+    with recording_outputs() as written:
+        keeping_work("/w/epoch_a")
+        keeping_work("/w")
+        assert written.work == ["/w"]
