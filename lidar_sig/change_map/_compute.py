@@ -108,11 +108,7 @@ def changes(a: Any, b: Any, *more: Any, cell: float | str = AUTO, pipeline: Pipe
 
     sources = (a, b) + more
     s = _settings(cell, min_points, confidence, score, frame, seed)
-    if columns is not None:  # refused at this call, before any file is read
-        from ..io import parse_columns
-
-        parse_columns(columns)
-    resume = yes_no(resume, "resume")
+    resume = _checked_flags(columns, resume)
     pipeline = pipeline_or_default(pipeline)
     table_of_classes = merge_classes(pipeline.classes, class_map)  # a bad map is refused before reading
     execution = as_execution(execution)
@@ -163,6 +159,16 @@ def _maps(clouds, names, given, kept, pipeline, table_of_classes, labelled, grid
     for text in dict.fromkeys(w for m in maps for w in m.warnings):  # each once
         warnings.warn(text, LidarSigWarning, stacklevel=3)
     return maps[0] if len(maps) == 1 else ChangeSeries(maps, epochs)
+
+
+def _checked_flags(columns, resume):
+    """``resume`` as a bool, and ``columns`` checked: both refused at the call, before any file is
+    read (a text is no flag: ``resume="no"`` is true to Python)."""
+    if columns is not None:
+        from ..io import parse_columns
+
+        parse_columns(columns)
+    return yes_no(resume, "resume")
 
 
 def _settings(cell, min_points, confidence, score, frame, seed):
