@@ -489,3 +489,43 @@ def test_ctrl_c_at_any_instant_of_the_start_is_one_line_once_the_package_runs(tm
             lines = err.strip().splitlines()
             assert len(lines) == 1 and "interrupted (SIGINT)" in lines[0], err
     assert runs >= 10
+
+
+# -- 8. the same inputs everywhere: patterns, .vpc, folders ---------------------------------------
+
+def tile_forms(folder):
+    """A folder of one tile, a pattern and a .vpc naming it, and a .vpc naming two tiles."""
+    tiles = folder / "tiles"
+    tiles.mkdir()
+    shutil.copy(EPOCH1, tiles / "t1.laz")
+    two = vpc(folder / "two.vpc", [str(EPOCH1), str(EPOCH2)])
+    return {"pattern": f"{tiles}/*.laz", "vpc": vpc(folder / "one.vpc", ["tiles/t1.laz"]), "two": two, "folder": tiles}
+
+
+@pytest.mark.parametrize("form", ["pattern", "vpc", "two", "folder"])
+def test_signature_compare_and_saliency_take_patterns_and_vpc_files(tmp_path, form):
+    # "no such file" and "unknown point-cloud format '.vpc'" where changes and catalog took them
+    given = tile_forms(tmp_path)[form]
+    proc = run("signature", given, "-o", tmp_path / "s.h5", "-q")
+    assert proc.returncode == 0, proc.stderr
+    proc = run("compare", given, EPOCH2, "-q")
+    assert proc.returncode == 0, proc.stderr
+    output = tmp_path / ("out" if form in ("two", "folder") else "out.laz")
+    proc = run("saliency", given, "-o", output, "-q")
+    assert proc.returncode == 0, proc.stderr
+
+
+@pytest.mark.parametrize("form", ["pattern", "vpc"])
+@pytest.mark.parametrize("command", ["info", "resilience"])
+def test_one_file_named_by_a_pattern_or_vpc_is_read_by_every_command(tmp_path, form, command):
+    given = tile_forms(tmp_path)[form]
+    proc = run(command, given, *(["--fractions", "0.5", "--repeats", "1"] if command == "resilience" else []))
+    assert proc.returncode == 0, proc.stderr
+
+
+@pytest.mark.parametrize("form, said", [("two", "names 2 tiles"), ("folder", "is a folder")])
+@pytest.mark.parametrize("command", ["info", "resilience"])
+def test_several_tiles_where_one_cloud_is_read_say_where_a_set_is_taken(tmp_path, form, said, command):
+    given = tile_forms(tmp_path)[form]
+    proc = run(command, given)
+    assert_one_line_error(proc, said, "is taken by signature", "compare")
