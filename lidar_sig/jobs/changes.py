@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 from ..base.errors import LidarSigError, whole_number, yes_no
@@ -77,12 +78,10 @@ def changes(epochs: Any, *, output: Any = None, cells: Any = None, points: Any =
     return done
 
 
-def _work(execution, outputs):
+def _work(execution: Any, outputs: list[Any]) -> Path:
     """The work folder of a change map in work units: the execution's ``work_dir``, else beside
     the first output (on its file system), else in the working folder (where a resumed run
     finds it again); refused when it would hold an output, as it goes once they are written."""
-    from pathlib import Path
-
     from ..base.errors import arg
     from ._common import work_folder
 
@@ -96,7 +95,8 @@ def _work(execution, outputs):
     return work
 
 
-def check_outputs(output, png, report, overwrite, cells=None, points=None, inputs=()):
+def check_outputs(output: Any, png: Any, report: Any, overwrite: bool, cells: Any = None, points: Any = None,
+                  inputs: Any = ()) -> None:
     """Refuse every output of a change map that cannot be written, before anything is computed,
     and one that is an epoch's file or that an epoch's folder or pattern would read (``inputs``)."""
     from ..base.errors import as_path
