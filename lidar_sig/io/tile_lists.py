@@ -18,7 +18,9 @@ def tile_list(source: str | os.PathLike[str]) -> list[Path] | None:
     """The tiles ``source`` names, or None where it names one file or a folder: the files a
     glob pattern matches (sorted; point-cloud extensions only), or the data assets a ``.vpc``
     file lists (each asset's ``href`` relative to the file)."""
-    from . import CLOUD_EXTENSIONS  # the installed formats', made when first asked for
+    from .formats import POINTS, extensions
+
+    cloud_extensions = extensions(POINTS)  # the installed formats', made when first asked for
 
     text = str(source)
     if text.lower().endswith(".vpc"):
@@ -26,10 +28,10 @@ def tile_list(source: str | os.PathLike[str]) -> list[Path] | None:
     if GLOB & set(text) and not Path(text).exists():
         import glob
 
-        paths = sorted(Path(p) for p in glob.glob(text) if Path(p).suffix.lower() in CLOUD_EXTENSIONS
+        paths = sorted(Path(p) for p in glob.glob(text) if Path(p).suffix.lower() in cloud_extensions
                        and Path(p).is_file())
         if not paths:
-            raise LidarSigError(f"matches no point-cloud file ({', '.join(CLOUD_EXTENSIONS)}); check the pattern, "
+            raise LidarSigError(f"matches no point-cloud file ({', '.join(cloud_extensions)}); check the pattern, "
                                 "and quote it so that the shell does not expand it", path=text)
         return paths
     return None
@@ -134,8 +136,9 @@ def check_apart(outputs: list[str | os.PathLike[str]], inputs: list[object]) -> 
     next run (a point-cloud file in that folder, or one the pattern matches): an output never
     replaces an input nor joins it later. ``inputs``: what a job was given (paths, folders,
     patterns, .vpc files, lists of them; anything else is not a file and is passed over)."""
-    from . import CLOUD_EXTENSIONS
+    from .formats import POINTS, extensions
 
+    cloud_extensions = extensions(POINTS)
     given: list[str | os.PathLike[str]] = []
     for x in inputs:
         if isinstance(x, (list, tuple)):
@@ -160,7 +163,7 @@ def check_apart(outputs: list[str | os.PathLike[str]], inputs: list[object]) -> 
                     raise LidarSigError(f"is the input {f}; an output never replaces an input: give it another "
                                         "name", path=existing[(st.st_dev, st.st_ino)])
         for o in outs:
-            if o.suffix.lower() not in CLOUD_EXTENSIONS:
+            if o.suffix.lower() not in cloud_extensions:
                 continue  # a folder or pattern of point clouds never reads it
             absolute = Path(os.path.abspath(o))
             inside = folder is not None and absolute.parent.resolve() == folder.resolve()
