@@ -3,8 +3,11 @@
 that comes waits) from the first line of ``lidar_sig/__init__.py`` until the command line
 handles them (:mod:`lidar_sig.__main__`): one that comes while Python loads the package and
 the command line is then said in one line, where it was a KeyboardInterrupt traceback or a
-silent end (status -15). A program that only imports lidar_sig is left alone. (Before the
-package's first line, while Python itself starts, a signal acts as on any program.)
+silent end (status -15). A program that only imports lidar_sig is left alone. A Ctrl-C that
+came while Python read the package's first file is raised at its first call: that call installs
+a handler that records it, so that it too is said in one line (or given back, in a program that
+only imports lidar_sig, to the handler it replaced). (Before that, while Python itself starts, a
+signal acts as on any program.)
 """
 from __future__ import annotations
 
@@ -54,9 +57,13 @@ def hold(blocked_before: set[int] | None = None, *, handler: tuple = (None, None
     recorded is delivered with those held (:func:`let_go`), elsewhere to that handler at once."""
     global held
     installed, before = handler
+    if before is _signal.SIG_IGN:  # a background job ignores Ctrl-C: one that came meanwhile too
+        received = []
     if installed is not None and before is not installed and _signal.getsignal(_signal.SIGINT) is installed:
         _signal.signal(_signal.SIGINT, _signal.default_int_handler if before is None else before)
-    if not hasattr(_signal, "pthread_sigmask"):
+    if not hasattr(_signal, "pthread_sigmask"):  # nothing can be held (Windows): a Ctrl-C recorded comes now
+        for signum in received or ():
+            _signal.raise_signal(signum)
         return
     signals = {_signal.SIGINT, _signal.SIGTERM}
     if blocked_before is None:  # not blocked yet
