@@ -222,7 +222,55 @@ def test_the_cells_geopackage_has_an_index_a_style_and_the_command_s_cells(outpu
     # the envelope in the index is the cell: 8 m squares on multiples of 8 m
     x0, x1, y0, y1 = index[0][1:]
     assert x1 - x0 == 8.0 and y1 - y0 == 8.0 and x0 % 8 == 0 and y0 % 8 == 0
-    assert "coverage: String" in ogrinfo("-so", gpkg, "cells") and "Feature Count: 81" in ogrinfo("-so", gpkg, "cells")
+    summary = ogrinfo("-so", gpkg, "cells")
+    assert "coverage: String" in summary and f"Feature Count: {len(rows)}" in summary
+    counts = info["coverage"]["cells"]  # every cell compared, appeared or vanished; sparse ones where surveyed
+    states = [r[3] for r in rows]
+    assert [states.count(k) for k in ("compared", "appeared", "vanished")] == \
+        [counts[k] for k in ("compared", "appeared", "vanished")]
+    assert states.count("too few points") <= counts["too few points"]
+
+
+def test_the_cells_layer_holds_no_sliver_at_a_survey_s_edge_but_keeps_a_sparse_cell_inside_it():
+    # issue 48: a survey's edge crossing the grid leaves a few points in the cells beyond it
+    from types import SimpleNamespace
+
+    from lidar_sig.change_map._cells import coverage as states
+    from lidar_sig.change_map._layers import drawn_cells
+
+    full = 1000
+    points = np.full((5, 5), full)
+    points[0, :] = 6  # a sliver row: the edge of both surveys crosses it
+    points[:, 4] = 3  # and a sliver column
+    points[2, 2] = 40  # a pond inside the survey: too few points, surrounded by land
+    flat = points.ravel()
+    valid = flat >= 200
+    table = np.zeros(25, dtype=[("coverage", np.int8), ("points_a", np.int64), ("points_b", np.int64)])
+    table["points_a"] = table["points_b"] = flat
+    table["coverage"] = states(flat, flat, valid, 200)
+    cm = SimpleNamespace(table=table, grid=SimpleNamespace(rows=5, cols=5), min_points=200, cell=10.0)
+    drawn = drawn_cells(cm).reshape(5, 5)
+    assert not drawn[0, :].any() and not drawn[:, 4].any()  # no sliver
+    assert drawn[2, 2] and drawn[1:, :4].all()  # the pond, and every compared cell
+
+
+def test_two_ign_tiles_give_cells_without_slivers(tmp_path):
+    # the issue's case: two 50 m tiles on a 25 m grid that overhangs them; every cell drawn has
+    # something to say (compared, appeared, vanished, or sparse land inside a survey)
+    from conftest import IGN, need_data
+
+    folder = need_data(IGN)
+    tiles = [folder / "test_data_77055_627755_LA93_IGN69.laz", folder / "test_data_77060_627755_LA93_IGN69.laz"]
+    import lidar_sig
+    from lidar_sig.change_map._layers import cell_features, coverage
+
+    cm = lidar_sig.changes(tiles, tiles, cell=25)
+    covered = coverage(cm.table)
+    slivers = (covered == "too few points") & (cm.table["points_a"] < 0.05 * cm.min_points)
+    assert slivers.sum() >= 4  # the grid overhangs the tiles
+    drawn = {(f["row"], f["col"]) for _, f in cell_features(cm)}
+    assert not drawn & {(int(cm.table["row"][i]), int(cm.table["col"][i])) for i in np.flatnonzero(slivers)}
+    assert {(int(cm.table["row"][i]), int(cm.table["col"][i])) for i in np.flatnonzero(covered == "compared")} <= drawn
 
 
 def test_the_cells_layer_names_the_coverage_state_the_change_map_gives_each_cell():
