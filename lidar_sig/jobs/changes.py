@@ -23,7 +23,7 @@ class ChangesRun(JobRun):
 
 def changes(epochs: Any, *, output: Any = None, cells: Any = None, points: Any = None, png: Any = None,
             report: Any = None, overwrite: bool = False, top: int = 10, execution: Any = None, resume: bool = False,
-            **options: Any) -> ChangesRun:
+            crs: str | None = None, **options: Any) -> ChangesRun:
     """The change map of ``epochs`` (two or more, in time order; :func:`lidar_sig.changes`, which
     takes ``options``: cell, min_points, score, confidence, class_map, pipeline, render,
     columns) written as the GeoTIFF ``output`` (with its QGIS style beside it), the cells'
@@ -32,42 +32,47 @@ def changes(epochs: Any, *, output: Any = None, cells: Any = None, points: Any =
     LAS/LAZ files above the memory budget of ``execution`` (or with tiles, workers or a
     scheduler asked) are mapped in work units, with their work folder beside the first output
     (or ``execution.work_dir``), kept after an interruption for ``resume`` and removed once the
-    outputs are written."""
-    from ..change_map import changes as change_map
-    from ..change_map import in_units
-    from ..change_map import check_streamed
-    from ..pipeline.flow import pipeline_or_default
-    from ..io import output_group
-    from ..io.styles import style_path
-    from ..tiling.execution import as_execution
+    outputs are written.
+    ``crs``: the CRS of clouds whose header carries none (:func:`~lidar_sig.method.crs.clouds_crs`).
+    """
+    from ..method.crs import clouds_crs
 
-    epochs = list(epochs) if isinstance(epochs, (list, tuple)) else [epochs]
-    if len(epochs) < 2:
-        raise LidarSigError("give at least two epochs (A B), in time order")
-    if points and len(epochs) > 2:
-        from ..change_map.series import POINTS_OF_TWO
+    with clouds_crs(crs):
+        from ..change_map import changes as change_map
+        from ..change_map import in_units
+        from ..change_map import check_streamed
+        from ..pipeline.flow import pipeline_or_default
+        from ..io import output_group
+        from ..io.styles import style_path
+        from ..tiling.execution import as_execution
 
-        raise LidarSigError(POINTS_OF_TWO, path=points)
-    check_outputs(output, png, report, overwrite, cells, points)
-    execution = as_execution(execution)
-    files = in_units(epochs, execution, pipeline_or_default(options.get("pipeline")), resume)
-    if files is not None:
-        outputs = [p for p in (output, output and style_path(output), cells, points, png, report) if p]
-        options.update(work=_work(execution, outputs))
-        if points:
-            check_streamed(points, len(files[1]), epochs[1])
-    result = change_map(*epochs, execution=execution, resume=resume, **options)
-    done = ChangesRun(changes=result, top=top)
-    with output_group():  # all or none
-        for path in (output, cells, points, png, report):
-            if path:
-                result.save(path, overwrite=overwrite)
-                done.written.append(str(path))
-                style = style_path(path) if str(path).lower().endswith((".tif", ".tiff")) else None
-                done.lines.append(f"wrote {path}" + (f" (style {style})" if style else ""))
-    if files is not None:
-        result.close()  # written: the work folder goes
-    return done
+        epochs = list(epochs) if isinstance(epochs, (list, tuple)) else [epochs]
+        if len(epochs) < 2:
+            raise LidarSigError("give at least two epochs (A B), in time order")
+        if points and len(epochs) > 2:
+            from ..change_map.series import POINTS_OF_TWO
+
+            raise LidarSigError(POINTS_OF_TWO, path=points)
+        check_outputs(output, png, report, overwrite, cells, points)
+        execution = as_execution(execution)
+        files = in_units(epochs, execution, pipeline_or_default(options.get("pipeline")), resume)
+        if files is not None:
+            outputs = [p for p in (output, output and style_path(output), cells, points, png, report) if p]
+            options.update(work=_work(execution, outputs))
+            if points:
+                check_streamed(points, len(files[1]), epochs[1])
+        result = change_map(*epochs, execution=execution, resume=resume, **options)
+        done = ChangesRun(changes=result, top=top)
+        with output_group():  # all or none
+            for path in (output, cells, points, png, report):
+                if path:
+                    result.save(path, overwrite=overwrite)
+                    done.written.append(str(path))
+                    style = style_path(path) if str(path).lower().endswith((".tif", ".tiff")) else None
+                    done.lines.append(f"wrote {path}" + (f" (style {style})" if style else ""))
+        if files is not None:
+            result.close()  # written: the work folder goes
+        return done
 
 
 def _work(execution, outputs):

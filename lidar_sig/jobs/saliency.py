@@ -40,7 +40,7 @@ class SaliencyRun(JobRun):
 
 def saliency(sources: Sources, output: PathLike, *, pipeline: Pipeline | None = None,
              execution: Execution | None = None, overwrite: bool = False, resume: bool = False,
-             columns: Columns = None) -> SaliencyRun:
+             columns: Columns = None, crs: str | None = None) -> SaliencyRun:
     """Write each of ``sources`` with its per-point Cl, Cs, Cp, Egeom, GeomClass (and
     OptimalScale) to ``output``.
 
@@ -62,48 +62,52 @@ def saliency(sources: Sources, output: PathLike, *, pipeline: Pipeline | None = 
         work folder (kept after a failure).
     columns : str or list, optional
         Columns of a text cloud.
+    ``crs``: the CRS of clouds whose header carries none (:func:`~lidar_sig.method.crs.clouds_crs`).
     """
-    from ..pipeline.flow import pipeline_or_default
-    from ..tiling.execution import as_execution
+    from ..method.crs import clouds_crs
 
-    pipeline = pipeline_or_default(pipeline)
-    execution = as_execution(execution)
-    sources = as_sources(sources)
-    output = as_path(output, "saliency's output")
-    one_output = len(sources) == 1 and Path(sources[0]).is_file() and holds(output, POINTS)  # one file in, one out
-    if resume and one_output:
-        raise LidarSigError(f"{arg('resume', True)} continues a set's run from its kept work folder, and one file in "
-                            f"tiles keeps none (it starts over); leave out {arg('resume', True)}, or give a folder as "
-                            "output to run the file as a set", path=output)
-    if is_set(sources, execution, resume) and not one_output:
-        return _of_set(sources, output, pipeline, execution, overwrite, resume)
-    source = sources[0]
-    if not holds(output, POINTS):
-        raise LidarSigError(f"output must be a point cloud: {', '.join(CLOUD_EXTENSIONS)}", path=output)
-    check_output(output, overwrite=overwrite)
-    start = time.perf_counter()
-    over = execution.over_budget(source, pipeline)
-    result: Result
-    if over or execution.tiles_asked:
-        from ..pipeline.flow import in_tiles
-        from ..tiling.work import work_scope
+    with clouds_crs(crs):
+        from ..pipeline.flow import pipeline_or_default
+        from ..tiling.execution import as_execution
 
-        check_las_output(output, over, execution)
-        work = work_folder(execution, output.with_name(f".{output.name}.lidar-sig-work"))
-        with work_scope(work), in_tiles(pipeline, source, execution, n_points=over, work=work,
-                                        outputs=[output]) as tiled:
-            tiled.write(output, overwrite=overwrite)
-        result = tiled
-        lines = tiled.summary_lines()
-    else:
-        cloud = read(source, columns=columns)
-        check_cloud_output(output, cloud)  # before the work, not after
-        result = pipeline.run(cloud)
-        result.write(output, overwrite=overwrite)
-        lines = [result.summary(source)]
-    seconds = time.perf_counter() - start
-    return SaliencyRun(written=[str(output)], seconds=seconds, result=result,
-                       lines=lines + [f"wrote {output} in {seconds:.1f} s"])
+        pipeline = pipeline_or_default(pipeline)
+        execution = as_execution(execution)
+        sources = as_sources(sources)
+        output = as_path(output, "saliency's output")
+        one_output = len(sources) == 1 and Path(sources[0]).is_file() and holds(output, POINTS)  # one file in, one out
+        if resume and one_output:
+            raise LidarSigError(f"{arg('resume', True)} continues a set's run from its kept work folder, and one file in "
+                                f"tiles keeps none (it starts over); leave out {arg('resume', True)}, or give a folder as "
+                                "output to run the file as a set", path=output)
+        if is_set(sources, execution, resume) and not one_output:
+            return _of_set(sources, output, pipeline, execution, overwrite, resume)
+        source = sources[0]
+        if not holds(output, POINTS):
+            raise LidarSigError(f"output must be a point cloud: {', '.join(CLOUD_EXTENSIONS)}", path=output)
+        check_output(output, overwrite=overwrite)
+        start = time.perf_counter()
+        over = execution.over_budget(source, pipeline)
+        result: Result
+        if over or execution.tiles_asked:
+            from ..pipeline.flow import in_tiles
+            from ..tiling.work import work_scope
+
+            check_las_output(output, over, execution)
+            work = work_folder(execution, output.with_name(f".{output.name}.lidar-sig-work"))
+            with work_scope(work), in_tiles(pipeline, source, execution, n_points=over, work=work,
+                                            outputs=[output]) as tiled:
+                tiled.write(output, overwrite=overwrite)
+            result = tiled
+            lines = tiled.summary_lines()
+        else:
+            cloud = read(source, columns=columns)
+            check_cloud_output(output, cloud)  # before the work, not after
+            result = pipeline.run(cloud)
+            result.write(output, overwrite=overwrite)
+            lines = [result.summary(source)]
+        seconds = time.perf_counter() - start
+        return SaliencyRun(written=[str(output)], seconds=seconds, result=result,
+                           lines=lines + [f"wrote {output} in {seconds:.1f} s"])
 
 
 def check_las_output(output: Path, over: int | None, execution: Execution) -> None:
