@@ -4,7 +4,7 @@ from __future__ import annotations
 import os
 from typing import TYPE_CHECKING
 
-from ..reporting.render import encode_png, signature_image
+from ..reporting.render import encode_png, signature_picture
 from .atomic import atomic_output
 
 if TYPE_CHECKING:
@@ -21,5 +21,5 @@ def write_png(path, data, *, overwrite=False):
 
 def write_signature_png(path: str | os.PathLike[str], signature: Signature, *, kind: str = "sas", mode: str = "smooth",
                         overwrite: bool = False) -> None:
-    """Write Sas (default) or Sg of ``signature`` as a PNG file."""
-    write_png(path, signature_image(signature, kind, mode), overwrite=overwrite)
+    """Write Sas (default, with the legend of its classes) or Sg of ``signature`` as a PNG file."""
+    write_png(path, signature_picture(signature, kind, mode), overwrite=overwrite)
