@@ -210,6 +210,9 @@ def test_geotiff_has_the_crs_transform_bands_metadata_and_no_data(sample_run):
         assert names[16].startswith("coverage:") and names[11].startswith("height_lod:")
         assert names[17].startswith("lod_ratio:")  # added last: the seventeen before keep their numbers
         assert names[18].startswith("q:") and names[19].startswith("changed:")  # and after it, these two
+        # short, as QGIS titles a band's legend "Band 18: " and its description; the full text its meaning
+        assert max(len(n) for n in names) <= 60 - len("Band 20: ")
+        assert "1 at the level, above 1 exactly where significant" in src.tags(18)["meaning"]
         changed, significant = src.read(20), src.read(3)
         assert np.array_equal(changed == 1, significant == 1)  # nothing appeared or vanished here
         height, height_lod, lod_ratio = src.read(11), src.read(12), src.read(18)
@@ -567,7 +570,9 @@ def test_three_epochs_give_a_series_computed_once_per_epoch(tmp_path, monkeypatc
     with rasterio.open(tmp_path / "series.tif") as src:
         names = src.descriptions
         assert len(names) == 2 * 20 + 1 and names[-1].startswith("when:")
-        assert names[0].startswith("interval 1 (") and names[20].startswith("interval 2 (")
+        assert names[0].startswith("[1] score") and names[20].startswith("[2] score")
+        assert src.tags(1)["meaning"].startswith("interval 1 (") and src.tags(21)["meaning"].startswith("interval 2 (")
+        assert max(len(n) for n in names) <= 60 - len("Band 41: ")  # QGIS's legend title, within 60 characters
         assert np.array_equal(src.read(len(names)) == -9999.0, ~valid.reshape(src.shape))
         assert src.tags()["epoch_3"]
     html = series.report().html()

@@ -570,8 +570,9 @@ def _plain(value):
 
 
 #: The most characters of a band's short description: QGIS titles the band's legend "Band 18: "
-#: and the description, within 60 characters (a Layers panel's width, a print layout's legend).
-BAND_TITLE_MAX = 51
+#: and the description, within 60 characters (a Layers panel's width, a print layout's legend),
+#: a series' interval "[2] " before it.
+BAND_TITLE_MAX = 47
 
 
 def _band_title(name, score):
@@ -583,8 +584,7 @@ def _band_title(name, score):
               "significant": "significant: 1 above its level of detection",
               "points_a": "points of epoch A", "points_b": "points of epoch B",
               "undefined_a": "share of A's points undefined", "undefined_b": "share of B's points undefined",
-              "coverage": "coverage: " + ", ".join(f"{k} {v.replace('too few points', 'few')}"
-                                                      for k, v in sorted(COVERAGE.items()) if k),
+              "coverage": "coverage: " + ", ".join(f"{k} {v}" for k, v in sorted(COVERAGE.items()) if 0 < k < 4),
               "q": "q: the cell's q-value", "changed": "changed: 1 significant, appeared or vanished",
               "lod_ratio": "lod_ratio: x its level of detection", HEIGHT: f"{HEIGHT_NAME}: EMD of heights (m)"}
     names = {m.key: m.name for m in METRICS}

@@ -134,7 +134,7 @@ class ChangeSeries:
 
     def save(self, path: str | os.PathLike[str], *, overwrite: bool = False) -> None:
         """Write by extension: ``.tif``/``.tiff`` every interval's bands (as a change map's,
-        described "interval k: ...", their meaning "interval k (Ek -> Ek+1): ...") then "when", with its QGIS style beside it
+        described "[k] ...", their meaning "interval k (Ek -> Ek+1): ...") then "when", with its QGIS style beside it
         (``.qml``: "when" in one colour per interval); ``.gpkg`` the cells of each interval, a
         layer each named by its interval
         (``cells_A_to_B``, ``cells_B_to_C``, ...: :func:`~._layers.interval_layer_names`); ``.png`` the map of "when"; ``.html`` the
@@ -161,7 +161,7 @@ class ChangeSeries:
 
             rasters, descriptions, meanings = [], [], []
             for k, m in enumerate(self.maps):
-                r, d, long = m.bands(prefix=f"interval {k + 1}: ", meaning_prefix=f"{self.interval_name(k)}: ")
+                r, d, long = m.bands(prefix=f"[{k + 1}] ", meaning_prefix=f"{self.interval_name(k)}: ")
                 rasters += r
                 descriptions += d
                 meanings += long
