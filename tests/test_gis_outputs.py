@@ -298,6 +298,38 @@ def test_the_outliers_geopackage_has_an_index_a_style_and_marks_the_tiles_that_s
     assert marked["epoch1.laz"] == 1 and sum(marked.values()) == info["standing_out"] == 1
 
 
+def test_similar_tiles_are_written_with_their_footprints_to_be_seen_on_the_map(tmp_path):
+    # issue 48: a table without geometry could not be seen on the map
+    cat = tmp_path / "samples.h5"
+    assert run("catalog", SAMPLES, "-o", cat, "--workers", "1", "-q").returncode == 0
+    done = run("similar", SAMPLES / "epoch1.laz", cat, "--top", "2", "-o", tmp_path / "like.gpkg", "--json")
+    assert done.returncode == 0, done.stderr
+    info = json.loads(done.stdout)
+    assert info["written"] == [str(tmp_path / "like.gpkg")]
+    check_geopackage(tmp_path / "like.gpkg", "tiles", 2)
+    from lidar_sig.survey_catalog import Catalog
+
+    catalogue = Catalog(cat)
+    with sqlite3.connect(tmp_path / "like.gpkg") as con:
+        rows = con.execute('SELECT fid, "rank", name, distance, kl FROM tiles ORDER BY "rank"').fetchall()
+        srs = con.execute("SELECT definition FROM gpkg_spatial_ref_sys JOIN gpkg_geometry_columns USING (srs_id) "
+                          "WHERE table_name = 'tiles'").fetchone()[0]
+        boxes = dict((fid, (x0, x1, y0, y1)) for fid, x0, x1, y0, y1 in
+                     con.execute("SELECT id, minx, maxx, miny, maxy FROM rtree_tiles_geom"))
+        qml = con.execute("SELECT styleQML FROM layer_styles WHERE f_table_name = 'tiles'").fetchone()[0]
+    assert [(r, n) for _, r, n, _, _ in rows] == [(t["rank"], t["name"]) for t in info["results"]]
+    assert [d for *_, d, _ in rows] == pytest.approx([t["distance"] for t in info["results"]], rel=1e-12)
+    assert "Lambert-93" in srs  # the tiles' CRS
+    for fid, _, name, _, _ in rows:  # each footprint the tile's convex hull
+        hull = np.asarray(catalogue.columns["hull"][catalogue.columns["name"].index(name)])
+        (x0, y0), (x1, y1) = hull.min(axis=0), hull.max(axis=0)
+        assert boxes[fid] == pytest.approx((x0, x1, y0, y1), abs=0.25)  # the R*Tree keeps float32, rounded out
+    assert 'name="delta_KL"' in qml  # the metrics by their names
+    # an existing output refused, one line, the catalogue left as it was
+    done = run("similar", SAMPLES / "epoch1.laz", cat, "-o", tmp_path / "like.gpkg")
+    assert_one_line_error(done, "like.gpkg", "--overwrite")
+
+
 # -- the later epoch's points with their cell's change ------------------------------------------
 
 def test_the_points_carry_their_cell_s_change_with_descriptions_laspy_reads(outputs):
