@@ -652,3 +652,19 @@ def test_a_class_map_file_given_on_the_command_line_is_read(tmp_path):
     assert parse_class_map([str(tmp_path / "veg.toml"), "9=water"]) == {"vegetation": [3, 5], "water": [9]}
     with pytest.raises(LidarSigError, match="'vegetation' is given twice"):
         parse_class_map([str(tmp_path / "veg.toml"), "4=vegetation"])
+
+
+def test_a_series_geopackage_names_each_interval_s_layer_by_its_epochs():
+    # issue 48: cells_1, cells_2 said nothing of the intervals
+    from types import SimpleNamespace
+
+    from lidar_sig.change_map._layers import interval_layer_names
+
+    def series(*names):
+        return SimpleNamespace(epochs=[SimpleNamespace(name=n) for n in names], maps=[None] * (len(names) - 1))
+
+    assert interval_layer_names(series("/data/2019.laz", "/data/2021 survey.laz", "tiles/2023")) == \
+        ["cells_2019_to_2021_survey", "cells_2021_survey_to_2023"]
+    # the same pair twice: told apart by the interval's number
+    assert interval_layer_names(series("a.laz", "b.laz", "a.laz", "b.laz")) == \
+        ["cells_a_to_b_1", "cells_b_to_a", "cells_a_to_b_3"]

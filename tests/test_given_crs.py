@@ -85,3 +85,13 @@ def test_python_jobs_take_crs(bare, tmp_path):
 
     done = changes(list(bare), output=tmp_path / "m.tif", crs=RD_NEW, cell=8)
     assert "Amersfoort" in done.changes.settings()["crs"]
+
+
+def test_clouds_crs_names_the_crs_of_clouds_read_within_it_and_only_there(bare):
+    import lidar_sig as ls
+    from lidar_sig.method.crs import clouds_crs, crs_name
+
+    with clouds_crs(RD_NEW):
+        inside = ls.read(bare[0])
+    assert crs_name(inside.crs) == "Amersfoort / RD New" and inside.units.known
+    assert ls.read(bare[0]).crs is None  # outside, the header's own: none
