@@ -231,6 +231,28 @@ def test_the_cells_geopackage_has_an_index_a_style_and_the_command_s_cells(outpu
     assert states.count("too few points") <= counts["too few points"]
 
 
+def test_the_cells_style_lists_only_the_rules_that_draw_a_cell_and_names_the_fields(outputs):
+    # issue 48: all seven rules were listed when nothing matched; the fields were internal keys
+    from lidar_sig.change_map._layers import cell_rules
+    from lidar_sig.metrics import METRICS
+
+    out, _ = outputs
+    with sqlite3.connect(out / "cells.gpkg") as con:
+        qml = con.execute("SELECT styleQML FROM layer_styles WHERE f_table_name = 'cells'").fetchone()[0]
+        root = ET.fromstring(qml.split("\n", 1)[1])
+        listed = {rule.get("filter"): rule.get("label") for rule in root.iter("rule") if rule.get("filter")}
+        # a rule's filter is SQL too: SQLite counts the cells each draws
+        drawn = {r.filter: con.execute(f"SELECT count(*) FROM cells WHERE {r.filter}").fetchone()[0]
+                 for _, r in cell_rules()}
+    assert listed and set(listed) == {f for f, n in drawn.items() if n > 0}
+    assert len(drawn) > len(listed)  # this map's cells leave some rules out
+    assert max(len(label) for label in listed.values()) <= 60
+    aliases = {a.get("field"): a.get("name") for a in root.iter("alias")}
+    assert {m.key: aliases[m.key] for m in METRICS} == {m.key: m.name for m in METRICS}
+    precision = {f.get("name"): f.find(".//Option[@name='Precision']").get("value") for f in root.iter("field")}
+    assert precision["kl"] == "4" and precision["lod_ratio"] == "2"
+
+
 def test_the_cells_layer_holds_no_sliver_at_a_survey_s_edge_but_keeps_a_sparse_cell_inside_it():
     # issue 48: a survey's edge crossing the grid leaves a few points in the cells beyond it
     from types import SimpleNamespace
