@@ -93,7 +93,8 @@ def _fields(aliases, precision):
         f'<Option type="int" name="Precision" value="{int(digits)}"/><Option type="QString" name="Style" '
         'value="SpinBox"/><Option type="bool" name="AllowNull" value="true"/></Option></config></editWidget></field>'
         for name, digits in (precision or {}).items())
-    names = "".join(f"<alias field={quoteattr(name)} name={quoteattr(alias)}/>" for name, alias in (aliases or {}).items())
+    names = "".join(f"<alias field={quoteattr(name)} name={quoteattr(alias)}/>"
+                    for name, alias in (aliases or {}).items())
     return f"<fieldConfiguration>{widgets}</fieldConfiguration><aliases>{names}</aliases>"
 
 

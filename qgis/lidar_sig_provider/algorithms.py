@@ -7,15 +7,15 @@ import re
 import shlex
 from pathlib import Path
 
-from qgis.core import (QgsCoordinateReferenceSystem, QgsFeature, QgsField, QgsFields, QgsLayerTree, QgsProcessing,
-                       QgsProcessingAlgorithm, QgsProcessingContext, QgsProcessingException,
+from qgis.core import (QgsCoordinateReferenceSystem, QgsEditorWidgetSetup, QgsFeature, QgsField, QgsFields,
+                       QgsLayerTree, QgsProcessing, QgsProcessingAlgorithm, QgsProcessingContext, QgsProcessingException,
                        QgsProcessingLayerPostProcessorInterface, QgsProcessingOutputNumber, QgsProcessingOutputString,
                        QgsProcessingParameterBoolean, QgsProcessingParameterCrs, QgsProcessingParameterEnum,
                        QgsProcessingParameterFeatureSink,
                        QgsProcessingParameterFile, QgsProcessingParameterFileDestination, QgsProcessingParameterNumber,
                        QgsProcessingParameterRasterDestination, QgsProcessingParameterString,
                        QgsProcessingParameterVectorDestination, QgsProcessingUtils, QgsProviderRegistry, QgsRasterLayer,
-                       QgsWkbTypes)
+                       QgsVectorLayer, QgsWkbTypes)
 from qgis.PyQt.QtCore import QVariant
 
 from . import command
@@ -201,8 +201,9 @@ class LidarSigAlgorithm(QgsProcessingAlgorithm):
 
     def shortHelpString(self):
         example = f", e.g. <code>{self.more_example}</code>" if self.more_example else ""
-        return (self.help + self.notes + f"<p><b>More options</b> (advanced): any other option of lidar-sig {self.job}, as "
-                f"on the command line{example}.</p>" + "<p>Runs <code>lidar-sig " + self.job + "</code> (the executable set in Settings &gt; "
+        return (self.help + self.notes + f"<p><b>More options</b> (advanced): any other option of lidar-sig "
+                f"{self.job}, as on the command line{example}.</p><p>Runs <code>lidar-sig {self.job}</code> (the "
+                "executable set in Settings &gt; "
                 "Options &gt; Processing &gt; Providers &gt; lidar_sig, or lidar-sig on PATH); its progress and notes "
                 "appear in this log, Cancel stops it with nothing half-written. Help opens the command's page "
                 f"(docs/commands/{self.job}.md).</p>")
@@ -406,8 +407,6 @@ def save_display(source, aliases, decimals):
     """Store in the layer ``source`` (a GeoPackage table) the default style that shows its fields
     by ``aliases`` ({field: name}) and their numbers with ``decimals`` ({field: digits}: the
     Range widget's precision, which the attribute table and the identify results use)."""
-    from qgis.core import QgsEditorWidgetSetup, QgsVectorLayer
-
     if not source or NOT_A_FILE.search(source.split("|")[0]):
         return
     layer = QgsVectorLayer(source, "table", "ogr")
