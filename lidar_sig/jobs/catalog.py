@@ -5,8 +5,8 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
-from ..base.errors import counted
-from ._common import JobRun, PathLike, Sources
+from ..base.errors import counted, yes_no
+from ._common import JobRun, PathLike, Sources, reads_clouds
 
 if TYPE_CHECKING:
     from ..pipeline.flow import Pipeline
@@ -39,41 +39,40 @@ class CatalogJob(JobRun):
             f"same job again (with {arg('resume', True)} the tiles finished in the work folder are reused)"]
 
 
+@reads_clouds
 def catalog(inputs: Sources, output: PathLike, *, pipeline: Pipeline | None = None,
             execution: Execution | None = None, resume: bool = False, overwrite: bool = False,
             method_given: Iterable[str] | None = None, crs: str | None = None) -> CatalogJob:
     """Make the catalogue ``output`` (.h5) of the LAS/LAZ tiles of ``inputs``, or grow it
     (:func:`lidar_sig.survey_catalog.build_catalog`), on the workers or cluster of ``execution``, its
     work folder the execution's ``work_dir`` (default ``OUTPUT.work``).
-    ``crs``: the CRS of clouds whose header carries none (:func:`~lidar_sig.method.crs.clouds_crs`).
+    ``crs``: the CRS of clouds whose header carries none (``--crs``; :func:`._common.reads_clouds`).
     """
-    from ..method.crs import clouds_crs
+    from ..survey_catalog import build_catalog
+    from ..method.crs import crs_name
+    from ..reporting.sections import scales_text
+    from ..tiling.execution import as_execution
 
-    with clouds_crs(crs):
-        from ..survey_catalog import build_catalog
-        from ..method.crs import crs_name
-        from ..reporting.sections import scales_text
-        from ..tiling.execution import as_execution
-
-        execution = as_execution(execution)
-        with execution.backend() as backend:
-            run = build_catalog(inputs, output, pipeline, backend=backend, work=execution.work_dir, resume=resume,
-                                overwrite=overwrite, method_given=method_given)
-        lines = []
-        if run.n_tiles:
-            what = [f"{len(run.added)} added"] if run.added or not run.grown else []
-            what += [f"{len(run.updated)} recomputed (changed)"] if run.updated else []
-            what += [f"{len(run.unchanged)} unchanged"] if run.unchanged else []
-            what += [f"{len(run.resumed)} reused from the work folder"] if run.resumed else []
-            m = run.method
-            named = [crs_name(c) or "none" for c in run.crs]
-            where = (f"CRS {named[0]}" if len(named) == 1 else
-                     f"{len(named)} CRSs ({', '.join(named)}): neighbours are found within each")
-            lines = [f"{output}: {run.n_tiles:,} tile{'s' if run.n_tiles != 1 else ''} ({', '.join(what)}), "
-                     f"{m['descriptor']} {m['strategy']}, {scales_text(m)}, {m['weights']} weights; {where}",
-                     f"{run.execution}: {run.seconds:.1f} s"]
-        return CatalogJob(written=[str(output)] if run.n_tiles else [], missing=run.missing, seconds=run.seconds,
-                          lines=lines, run=run)
+    resume = yes_no(resume, "resume")
+    execution = as_execution(execution)
+    with execution.backend() as backend:
+        run = build_catalog(inputs, output, pipeline, backend=backend, work=execution.work_dir, resume=resume,
+                            overwrite=overwrite, method_given=method_given)
+    lines = []
+    if run.n_tiles:
+        what = [f"{len(run.added)} added"] if run.added or not run.grown else []
+        what += [f"{len(run.updated)} recomputed (changed)"] if run.updated else []
+        what += [f"{len(run.unchanged)} unchanged"] if run.unchanged else []
+        what += [f"{len(run.resumed)} reused from the work folder"] if run.resumed else []
+        m = run.method
+        named = [crs_name(c) or "none" for c in run.crs]
+        where = (f"CRS {named[0]}" if len(named) == 1 else
+                 f"{len(named)} CRSs ({', '.join(named)}): neighbours are found within each")
+        lines = [f"{output}: {run.n_tiles:,} tile{'s' if run.n_tiles != 1 else ''} ({', '.join(what)}), "
+                 f"{m['descriptor']} {m['strategy']}, {scales_text(m)}, {m['weights']} weights; {where}",
+                 f"{run.execution}: {run.seconds:.1f} s"]
+    return CatalogJob(written=[str(output)] if run.n_tiles else [], missing=run.missing, seconds=run.seconds,
+                      lines=lines, run=run)
 
 
 @dataclass(repr=False)

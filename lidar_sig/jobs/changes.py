@@ -2,12 +2,13 @@
 checked before any work, then all written together or none."""
 from __future__ import annotations
 
+import contextlib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ..base.errors import LidarSigError
-from ._common import JobRun
+from ..base.errors import LidarSigError, whole_number, yes_no
+from ._common import JobRun, reads_clouds
 
 
 @dataclass(repr=False)
@@ -22,6 +23,7 @@ class ChangesRun(JobRun):
         return {**self.changes.to_dict(self.top), "written": list(self.written)}
 
 
+@reads_clouds
 def changes(epochs: Any, *, output: Any = None, cells: Any = None, points: Any = None, png: Any = None,
             report: Any = None, overwrite: bool = False, top: int = 10, execution: Any = None, resume: bool = False,
             crs: str | None = None, **options: Any) -> ChangesRun:
@@ -34,34 +36,37 @@ def changes(epochs: Any, *, output: Any = None, cells: Any = None, points: Any =
     scheduler asked) are mapped in work units, with their work folder beside the first output
     (or ``execution.work_dir``), kept after an interruption for ``resume`` and removed once the
     outputs are written.
-    ``crs``: the CRS of clouds whose header carries none (:func:`~lidar_sig.method.crs.clouds_crs`).
+    ``crs``: the CRS of clouds whose header carries none (``--crs``; :func:`._common.reads_clouds`).
     """
-    from ..method.crs import clouds_crs
+    from ..change_map import changes as change_map
+    from ..change_map import in_units
+    from ..change_map import check_streamed
+    from ..pipeline.flow import pipeline_or_default
+    from ..io import output_group
+    from ..io.styles import style_path
+    from ..tiling.execution import as_execution
+    from ..tiling.work import work_scope
 
-    with clouds_crs(crs):
-        from ..change_map import changes as change_map
-        from ..change_map import in_units
-        from ..change_map import check_streamed
-        from ..pipeline.flow import pipeline_or_default
-        from ..io import output_group
-        from ..io.styles import style_path
-        from ..tiling.execution import as_execution
+    overwrite, resume = yes_no(overwrite, "overwrite"), yes_no(resume, "resume")
+    top = whole_number(top, "top (the cells listed)")
+    epochs = list(epochs) if isinstance(epochs, (list, tuple)) else [epochs]
+    if len(epochs) < 2:
+        raise LidarSigError("give at least two epochs (A B), in time order")
+    if points and len(epochs) > 2:
+        from ..change_map.series import POINTS_OF_TWO
 
-        epochs = list(epochs) if isinstance(epochs, (list, tuple)) else [epochs]
-        if len(epochs) < 2:
-            raise LidarSigError("give at least two epochs (A B), in time order")
-        if points and len(epochs) > 2:
-            from ..change_map.series import POINTS_OF_TWO
-
-            raise LidarSigError(POINTS_OF_TWO, path=points)
-        check_outputs(output, png, report, overwrite, cells, points)
-        execution = as_execution(execution)
-        files = in_units(epochs, execution, pipeline_or_default(options.get("pipeline")), resume)
-        if files is not None:
-            outputs = [p for p in (output, output and style_path(output), cells, points, png, report) if p]
-            options.update(work=_work(execution, outputs))
-            if points:
-                check_streamed(points, len(files[1]), epochs[1])
+        raise LidarSigError(POINTS_OF_TWO, path=points)
+    check_outputs(output, png, report, overwrite, cells, points, inputs=epochs)
+    execution = as_execution(execution)
+    files = in_units(epochs, execution, pipeline_or_default(options.get("pipeline")), resume)
+    if files is not None:
+        outputs = [p for p in (output, output and style_path(output), cells, points, png, report) if p]
+        options.update(work=_work(execution, outputs))
+        if points:
+            check_streamed(points, len(files[1]), epochs[1])
+    # in work units, the outputs are written within the work folder's scope: an output that
+    # cannot be written (a full disk) leaves the folder as any failure does, named for --resume
+    with work_scope(options["work"]) if files is not None else contextlib.nullcontext():
         result = change_map(*epochs, execution=execution, resume=resume, **options)
         done = ChangesRun(changes=result, top=top)
         with output_group():  # all or none
@@ -73,7 +78,7 @@ def changes(epochs: Any, *, output: Any = None, cells: Any = None, points: Any =
                     done.lines.append(f"wrote {path}" + (f" (style {style})" if style else ""))
         if files is not None:
             result.close()  # written: the work folder goes
-        return done
+    return done
 
 
 def _work(execution: Any, outputs: list[Any]) -> Path:
@@ -93,16 +98,25 @@ def _work(execution: Any, outputs: list[Any]) -> Path:
     return work
 
 
-def check_outputs(output: Any, png: Any, report: Any, overwrite: bool, cells: Any = None, points: Any = None) -> None:
-    """Refuse every output of a change map that cannot be written, before anything is computed."""
+def check_outputs(output: Any, png: Any, report: Any, overwrite: bool, cells: Any = None, points: Any = None,
+                  inputs: Any = ()) -> None:
+    """Refuse every output of a change map that cannot be written, before anything is computed,
+    and one that is an epoch's file or that an epoch's folder or pattern would read (``inputs``)."""
+    from ..base.errors import as_path
     from ..io import check_outputs as check_paths
     from ..io.formats import IMAGE, POINTS, VECTOR, check_format
     from ..io.geotiff import check_geotiff_output
     from ..io.styles import style_path
+    from ..io.tile_lists import check_apart
     from ..reporting import check_report_path
 
+    said = {"output": output, "cells": cells, "points": points, "png": png, "report": report}
+    for what, path in said.items():
+        if path is not None:
+            as_path(path, what)  # output=5 is named at this call
     paths = [p for p in (output, output and style_path(output), cells, points, png, report) if p]
     check_paths(paths, overwrite=overwrite)
+    check_apart(paths, list(inputs))
     if output:
         check_geotiff_output(output, overwrite=overwrite)
     if cells:

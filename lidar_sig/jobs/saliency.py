@@ -13,10 +13,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ..base.errors import LidarSigError, arg, as_path
+from ..base.errors import LidarSigError, arg, as_path, yes_no
 from ..io import CLOUD_EXTENSIONS, check_cloud_output, check_output, read
 from ..io.formats import POINTS, format_of, holds
-from ._common import Columns, JobRun, PathLike, Sources, as_sources, is_set, work_folder
+from ..io.tile_lists import check_apart
+from ._common import Columns, JobRun, PathLike, Sources, as_sources, is_set, work_folder, reads_clouds
 
 if TYPE_CHECKING:
     from ..pipeline.flow import Pipeline
@@ -38,6 +39,7 @@ class SaliencyRun(JobRun):
         return out
 
 
+@reads_clouds
 def saliency(sources: Sources, output: PathLike, *, pipeline: Pipeline | None = None,
              execution: Execution | None = None, overwrite: bool = False, resume: bool = False,
              columns: Columns = None, crs: str | None = None) -> SaliencyRun:
@@ -62,52 +64,52 @@ def saliency(sources: Sources, output: PathLike, *, pipeline: Pipeline | None = 
         work folder (kept after a failure).
     columns : str or list, optional
         Columns of a text cloud.
-    ``crs``: the CRS of clouds whose header carries none (:func:`~lidar_sig.method.crs.clouds_crs`).
+    crs : str, optional
+        The CRS of clouds whose header carries none (``--crs``; :func:`._common.reads_clouds`).
     """
-    from ..method.crs import clouds_crs
+    from ..pipeline.flow import pipeline_or_default
+    from ..tiling.execution import as_execution
 
-    with clouds_crs(crs):
-        from ..pipeline.flow import pipeline_or_default
-        from ..tiling.execution import as_execution
+    resume = yes_no(resume, "resume")
+    pipeline = pipeline_or_default(pipeline)
+    execution = as_execution(execution)
+    sources = as_sources(sources)
+    output = as_path(output, "saliency's output")
+    one_output = len(sources) == 1 and Path(sources[0]).is_file() and holds(output, POINTS)  # one file in, one out
+    if resume and one_output:
+        raise LidarSigError(f"{arg('resume', True)} continues a set's run from its kept work folder, and one file in "
+                            f"tiles keeps none (it starts over); leave out {arg('resume', True)}, or give a folder as "
+                            "output to run the file as a set", path=output)
+    if is_set(sources, execution, resume) and not one_output:
+        return _of_set(sources, output, pipeline, execution, overwrite, resume)
+    source = sources[0]
+    if not holds(output, POINTS):
+        raise LidarSigError(f"output must be a point cloud: {', '.join(CLOUD_EXTENSIONS)}", path=output)
+    check_output(output, overwrite=overwrite)
+    check_apart([output], [source])
+    start = time.perf_counter()
+    over = execution.over_budget(source, pipeline)
+    result: Result
+    if over or execution.tiles_asked:
+        from ..pipeline.flow import in_tiles
+        from ..tiling.work import work_scope
 
-        pipeline = pipeline_or_default(pipeline)
-        execution = as_execution(execution)
-        sources = as_sources(sources)
-        output = as_path(output, "saliency's output")
-        one_output = len(sources) == 1 and Path(sources[0]).is_file() and holds(output, POINTS)  # one file in, one out
-        if resume and one_output:
-            raise LidarSigError(f"{arg('resume', True)} continues a set's run from its kept work folder, and one file in "
-                                f"tiles keeps none (it starts over); leave out {arg('resume', True)}, or give a folder as "
-                                "output to run the file as a set", path=output)
-        if is_set(sources, execution, resume) and not one_output:
-            return _of_set(sources, output, pipeline, execution, overwrite, resume)
-        source = sources[0]
-        if not holds(output, POINTS):
-            raise LidarSigError(f"output must be a point cloud: {', '.join(CLOUD_EXTENSIONS)}", path=output)
-        check_output(output, overwrite=overwrite)
-        start = time.perf_counter()
-        over = execution.over_budget(source, pipeline)
-        result: Result
-        if over or execution.tiles_asked:
-            from ..pipeline.flow import in_tiles
-            from ..tiling.work import work_scope
-
-            check_las_output(output, over, execution)
-            work = work_folder(execution, output.with_name(f".{output.name}.lidar-sig-work"))
-            with work_scope(work), in_tiles(pipeline, source, execution, n_points=over, work=work,
-                                            outputs=[output]) as tiled:
-                tiled.write(output, overwrite=overwrite)
-            result = tiled
-            lines = tiled.summary_lines()
-        else:
-            cloud = read(source, columns=columns)
-            check_cloud_output(output, cloud)  # before the work, not after
-            result = pipeline.run(cloud)
-            result.write(output, overwrite=overwrite)
-            lines = [result.summary(source)]
-        seconds = time.perf_counter() - start
-        return SaliencyRun(written=[str(output)], seconds=seconds, result=result,
-                           lines=lines + [f"wrote {output} in {seconds:.1f} s"])
+        check_las_output(output, over, execution)
+        work = work_folder(execution, output.with_name(f".{output.name}.lidar-sig-work"))
+        with work_scope(work), in_tiles(pipeline, source, execution, n_points=over, work=work,
+                                        outputs=[output]) as tiled:
+            tiled.write(output, overwrite=overwrite)
+        result = tiled
+        lines = tiled.summary_lines()
+    else:
+        cloud = read(source, columns=columns)
+        check_cloud_output(output, cloud)  # before the work, not after
+        result = pipeline.run(cloud)
+        result.write(output, overwrite=overwrite)
+        lines = [result.summary(source)]
+    seconds = time.perf_counter() - start
+    return SaliencyRun(written=[str(output)], seconds=seconds, result=result,
+                       lines=lines + [f"wrote {output} in {seconds:.1f} s"])
 
 
 def check_las_output(output: Path, over: int | None, execution: Execution) -> None:

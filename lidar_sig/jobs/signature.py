@@ -13,9 +13,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ..base.errors import LidarSigError, arg
+from ..base.errors import LidarSigError, arg, yes_no
 from ..io import check_outputs, output_group, read
-from ._common import Columns, JobRun, PathLike, Sources, as_sources, is_set, work_folder
+from ._common import Columns, JobRun, PathLike, Sources, as_sources, is_set, work_folder, reads_clouds
 
 if TYPE_CHECKING:
     from ..method.signature_raster import Signature
@@ -41,6 +41,7 @@ class SignatureRun(JobRun):
         return out
 
 
+@reads_clouds
 def signature(sources: Sources, output: PathLike | None = None, *, png: PathLike | None = None,
               sg: PathLike | None = None, report: PathLike | None = None, plots: PathLike | None = None,
               points: bool = True, render: str | None = None, pipeline: Pipeline | None = None,
@@ -55,61 +56,59 @@ def signature(sources: Sources, output: PathLike | None = None, *, png: PathLike
     records the tiling and every file with its SHA-256 (no per-point datasets). ``points``:
     per-point datasets in the archive of one cloud run as one block. A report needs the whole
     cloud in memory. Other parameters as for :func:`lidar_sig.jobs.saliency`.
-    ``crs``: the CRS of clouds whose header carries none (:func:`~lidar_sig.method.crs.clouds_crs`).
+    ``crs``: the CRS of clouds whose header carries none (``--crs``; :func:`._common.reads_clouds`).
     """
-    from ..method.crs import clouds_crs
+    from ..pipeline.flow import pipeline_or_default
+    from ..method.signature_raster import RENDERINGS
+    from ..tiling.execution import as_execution
 
-    with clouds_crs(crs):
-        from ..pipeline.flow import pipeline_or_default
-        from ..method.signature_raster import RENDERINGS
-        from ..tiling.execution import as_execution
+    resume = yes_no(resume, "resume")
+    pipeline = pipeline_or_default(pipeline)
+    execution = as_execution(execution)
+    sources = as_sources(sources)
+    as_set = is_set(sources, execution, resume)
+    over = None if as_set else execution.over_budget(sources[0], pipeline)
+    if over and (report or plots):
+        from ..tiling.memory import exceed
 
-        pipeline = pipeline_or_default(pipeline)
-        execution = as_execution(execution)
-        sources = as_sources(sources)
-        as_set = is_set(sources, execution, resume)
-        over = None if as_set else execution.over_budget(sources[0], pipeline)
-        if over and (report or plots):
-            from ..tiling.memory import exceed
+        raise LidarSigError(f"{exceed(over, int(execution.memory))}; {arg('report')} and {arg('plots')} need the whole "
+                            f"cloud in memory: raise {arg('memory')}, or write the archive", path=sources[0])
+    if as_set and (report or plots):
+        raise LidarSigError(f"{arg('report')} and {arg('plots')} are made from one cloud: give one file without "
+                            f"{arg('tile_size')}, {arg('workers')} or {arg('scheduler')}; for a set of tiles write the "
+                            "archive and compare it")
+    ext, outputs = _checked_outputs(output, png, sg, report, plots, overwrite)
+    render = render or RENDERINGS[0]
+    start = time.perf_counter()
+    if as_set and not over:
+        return _of_set(sources, output, ext, png, sg, render, pipeline, execution, overwrite, resume, start)
+    if over:
+        from ..pipeline.flow import in_tiles
+        from ..tiling.work import work_scope
 
-            raise LidarSigError(f"{exceed(over, int(execution.memory))}; {arg('report')} and {arg('plots')} need the whole "
-                                f"cloud in memory: raise {arg('memory')}, or write the archive", path=sources[0])
-        if as_set and (report or plots):
-            raise LidarSigError(f"{arg('report')} and {arg('plots')} are made from one cloud: give one file without "
-                                f"{arg('tile_size')}, {arg('workers')} or {arg('scheduler')}; for a set of tiles write the "
-                                "archive and compare it")
-        ext, outputs = _checked_outputs(output, png, sg, report, plots, overwrite)
-        render = render or RENDERINGS[0]
-        start = time.perf_counter()
-        if as_set and not over:
-            return _of_set(sources, output, ext, png, sg, render, pipeline, execution, overwrite, resume, start)
-        if over:
-            from ..pipeline.flow import in_tiles
-            from ..tiling.work import work_scope
-
-            first = Path(outputs[0])
-            work = work_folder(execution, first.with_name(f".{first.name}.lidar-sig-work"))
-            with work_scope(work), in_tiles(pipeline, sources[0], execution, n_points=over, work=work,
-                                            outputs=outputs) as tiled, output_group():  # all outputs or none
-                _write(tiled.signature, output, ext, png, sg, render, overwrite, archive=tiled.write)
-            return SignatureRun(written=outputs, signature=tiled.signature, result=tiled,
-                                lines=tiled.summary_lines() + [f"wrote {', '.join(outputs)}"],
-                                seconds=time.perf_counter() - start)
-        result = pipeline.run(read(sources[0], columns=columns))
-        lines = [result.summary(sources[0])] + ([f"wrote {', '.join(outputs)}"] if outputs else [])
-        written = list(outputs)
-        with output_group():  # all outputs or none
-            _write(result.signature, output, ext, png, sg, render, overwrite,
-                   archive=lambda path, **kw: result.write(path, points=points, **kw))
-            if report or plots:
-                from ..comparison import report as make_report
-                from ._reports import write_report
-
-                more, said = write_report(lambda: make_report(result, render=render), report, plots, overwrite)
-                written += more
-                lines += said
-        return SignatureRun(written=written, signature=result.signature, result=result, lines=lines,
+        first = Path(outputs[0])
+        work = work_folder(execution, first.with_name(f".{first.name}.lidar-sig-work"))
+        with work_scope(work), in_tiles(pipeline, sources[0], execution, n_points=over, work=work,
+                                        outputs=outputs) as tiled, output_group():  # all outputs or none
+            _write(tiled.signature, output, ext, png, sg, render, overwrite, archive=tiled.write)
+        return SignatureRun(written=outputs, signature=tiled.signature, result=tiled,
+                            lines=tiled.summary_lines() + [f"wrote {', '.join(outputs)}"],
                             seconds=time.perf_counter() - start)
+    result = pipeline.run(read(sources[0], columns=columns))
+    lines = [result.summary(sources[0])] + ([f"wrote {', '.join(outputs)}"] if outputs else [])
+    written = list(outputs)
+    with output_group():  # all outputs or none
+        _write(result.signature, output, ext, png, sg, render, overwrite,
+               archive=lambda path, **kw: result.write(path, points=points, **kw))
+        if report or plots:
+            from ..comparison import report as make_report
+            from ._reports import write_report
+
+            more, said = write_report(lambda: make_report(result, render=render), report, plots, overwrite)
+            written += more
+            lines += said
+    return SignatureRun(written=written, signature=result.signature, result=result, lines=lines,
+                        seconds=time.perf_counter() - start)
 
 
 def _checked_outputs(output: PathLike | None, png: PathLike | None, sg: PathLike | None, report: PathLike | None,
