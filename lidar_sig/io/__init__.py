@@ -84,7 +84,9 @@ def read(path: str | os.PathLike[str], *, columns: str | Sequence[str] | None = 
         with step(f"reading {path.name}", bytes=path.stat().st_size) as s:
             cloud = fmt.read(path, columns=columns)
             s.note(points=len(cloud))
-        return cloud
+        from ..method.crs import cloud_in_given_crs
+
+        return cloud_in_given_crs(cloud)  # a format without a CRS in the CRS given (--crs)
     if fmt is not None and SIGNATURE in fmt.holds:
         from .catalog_file import refuse_catalog
 

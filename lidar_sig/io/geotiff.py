@@ -45,13 +45,15 @@ def check_geotiff_output(path: str | os.PathLike[str], *, overwrite: bool = Fals
     check_output(path, overwrite=overwrite)
 
 
-def write_geotiff(path, bands, descriptions, transform, crs, *, overwrite=False, tags=None):
+def write_geotiff(path, bands, descriptions, transform, crs, *, overwrite=False, tags=None, meanings=None):
     """Write (rows, cols) float rasters as one Cloud-Optimized GeoTIFF, NaN written as
     :data:`NODATA`.
 
     ``transform`` is (a, b, c, d, e, f) in rasterio's order; ``crs`` WKT or any text pyproj
     reads, or None (no CRS written); ``tags`` a dict of text metadata of the dataset (GDAL
-    metadata items: ``gdalinfo`` and QGIS show them, rasterio's ``tags()`` reads them).
+    metadata items: ``gdalinfo`` and QGIS show them, rasterio's ``tags()`` reads them);
+    ``meanings`` a text per band, its metadata item ``meaning`` (``tags(k)["meaning"]``): what
+    a short description leaves out.
     """
     rasterio = rasterio_module()
     from affine import Affine
@@ -82,6 +84,8 @@ def write_geotiff(path, bands, descriptions, transform, crs, *, overwrite=False,
                         src.update_tags(**{str(k): str(v) for k, v in tags.items()})
                     for k, text in enumerate(descriptions, 1):
                         src.set_band_description(k, text)
+                    for k, text in enumerate(meanings or (), 1):
+                        src.update_tags(k, meaning=str(text))
                     copy(src, tmp, driver="COG", COMPRESS="DEFLATE", PREDICTOR="YES", BLOCKSIZE=str(TILE),
                          OVERVIEWS="AUTO", OVERVIEW_RESAMPLING="NEAREST")
             except (rasterio.errors.RasterioIOError, CPLE_BaseError) as exc:

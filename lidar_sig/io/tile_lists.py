@@ -25,7 +25,7 @@ def tile_list(source: str | os.PathLike[str]) -> list[Path] | None:
     text = str(source)
     if text.lower().endswith(".vpc"):
         return _vpc_paths(Path(text))
-    if GLOB & set(text) and not Path(text).exists():
+    if GLOB & set(text) and not os.path.exists(text):
         import glob
 
         paths = sorted(Path(p) for p in glob.glob(text) if Path(p).suffix.lower() in cloud_extensions
@@ -43,7 +43,7 @@ def _vpc_paths(path: Path) -> list[Path]:
 
     if special_file(path):  # a FIFO or a device would be waited on: refused before it is opened
         raise LidarSigError(f"is {special_file(path)}, not a regular file; give a .vpc file", path=path)
-    if path.is_dir():
+    if os.path.isdir(path):  # os.path: False, not OSError, for a name too long
         raise LidarSigError("is a folder; give a .vpc file, or the folder itself as the set of tiles", path=path)
     try:
         # utf-8-sig: a byte order mark, which some editors write, is no part of the JSON
@@ -74,9 +74,9 @@ def _vpc_paths(path: Path) -> list[Path]:
         seen[key] = k
         paths.append(p)
     for p in paths:
-        if p.is_dir():
+        if os.path.isdir(p):
             raise LidarSigError(f"lists {p}, which is a folder; list the tile files themselves", path=path)
-    missing = [p for p in paths if not p.is_file()]
+    missing = [p for p in paths if not os.path.isfile(p)]
     if missing:
         raise LidarSigError(f"lists {missing[0]}, which does not exist ({len(missing)} of {len(paths)} tiles "
                             "missing); give the .vpc beside its tiles, as it was written", path=path)
@@ -154,7 +154,7 @@ def check_apart(outputs: list[str | os.PathLike[str]], inputs: list[object]) -> 
     for source in given:
         text = str(source)
         listed = tile_list(source)
-        folder = Path(text) if listed is None and Path(text).is_dir() else None
+        folder = Path(text) if listed is None and os.path.isdir(text) else None
         files = listed if listed is not None else [Path(text)] if folder is None else []
         for f in files:
             with contextlib.suppress(OSError):

@@ -6,13 +6,15 @@ import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, TypeAlias
+from typing import TYPE_CHECKING, Any, Callable, TypeAlias, TypeVar
 
 from ..base.errors import LidarSigError, a_kind, arg, as_path
 
 if TYPE_CHECKING:
     from ..tiling.execution import Execution
 
+#: What a job returns.
+R = TypeVar("R")
 #: A path as the jobs take it.
 PathLike: TypeAlias = "str | os.PathLike[str]"
 #: Inputs of a job: one file or folder, or a list of them.
@@ -93,3 +95,17 @@ class JobRun:
         shown = ", ".join(self.written[:2]) + (f", ... ({len(self.written)})" if len(self.written) > 2 else "")
         return one_line(f"<{type(self).__name__} {state}; wrote {shown or 'nothing'}>")
 
+
+def reads_clouds(job: Callable[..., R]) -> Callable[..., R]:
+    """A job that reads clouds, run with its ``crs`` argument (the CRS of clouds whose header
+    carries none, ``--crs``) in force: every cloud it reads, in this process or in those it
+    starts, takes that CRS (:func:`lidar_sig.method.crs.clouds_crs`)."""
+    import functools
+
+    @functools.wraps(job)
+    def run(*args: Any, **kwargs: Any) -> R:
+        from ..method.crs import clouds_crs
+
+        with clouds_crs(kwargs.get("crs")):
+            return job(*args, **kwargs)
+    return run

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from ..base.errors import counted, yes_no
-from ._common import JobRun, PathLike, Sources
+from ._common import JobRun, PathLike, Sources, reads_clouds
 
 if TYPE_CHECKING:
     from ..pipeline.flow import Pipeline
@@ -39,12 +39,15 @@ class CatalogJob(JobRun):
             f"same job again (with {arg('resume', True)} the tiles finished in the work folder are reused)"]
 
 
+@reads_clouds
 def catalog(inputs: Sources, output: PathLike, *, pipeline: Pipeline | None = None,
             execution: Execution | None = None, resume: bool = False, overwrite: bool = False,
-            method_given: Iterable[str] | None = None) -> CatalogJob:
+            method_given: Iterable[str] | None = None, crs: str | None = None) -> CatalogJob:
     """Make the catalogue ``output`` (.h5) of the LAS/LAZ tiles of ``inputs``, or grow it
     (:func:`lidar_sig.survey_catalog.build_catalog`), on the workers or cluster of ``execution``, its
-    work folder the execution's ``work_dir`` (default ``OUTPUT.work``)."""
+    work folder the execution's ``work_dir`` (default ``OUTPUT.work``).
+    ``crs``: the CRS of clouds whose header carries none (``--crs``; :func:`._common.reads_clouds`).
+    """
     from ..survey_catalog import build_catalog
     from ..method.crs import crs_name
     from ..reporting.sections import scales_text
@@ -62,8 +65,9 @@ def catalog(inputs: Sources, output: PathLike, *, pipeline: Pipeline | None = No
         what += [f"{len(run.unchanged)} unchanged"] if run.unchanged else []
         what += [f"{len(run.resumed)} reused from the work folder"] if run.resumed else []
         m = run.method
-        crs = [crs_name(c) or "none" for c in run.crs]
-        where = f"CRS {crs[0]}" if len(crs) == 1 else f"{len(crs)} CRSs ({', '.join(crs)}): neighbours are found within each"
+        named = [crs_name(c) or "none" for c in run.crs]
+        where = (f"CRS {named[0]}" if len(named) == 1 else
+                 f"{len(named)} CRSs ({', '.join(named)}): neighbours are found within each")
         lines = [f"{output}: {run.n_tiles:,} tile{'s' if run.n_tiles != 1 else ''} ({', '.join(what)}), "
                  f"{m['descriptor']} {m['strategy']}, {scales_text(m)}, {m['weights']} weights; {where}",
                  f"{run.execution}: {run.seconds:.1f} s"]

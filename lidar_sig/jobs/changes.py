@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from ..base.errors import LidarSigError, whole_number, yes_no
-from ._common import JobRun
+from ._common import JobRun, reads_clouds
 
 
 @dataclass(repr=False)
@@ -23,9 +23,10 @@ class ChangesRun(JobRun):
         return {**self.changes.to_dict(self.top), "written": list(self.written)}
 
 
+@reads_clouds
 def changes(epochs: Any, *, output: Any = None, cells: Any = None, points: Any = None, png: Any = None,
             report: Any = None, overwrite: bool = False, top: int = 10, execution: Any = None, resume: bool = False,
-            **options: Any) -> ChangesRun:
+            crs: str | None = None, **options: Any) -> ChangesRun:
     """The change map of ``epochs`` (two or more, in time order; :func:`lidar_sig.changes`, which
     takes ``options``: cell, min_points, score, confidence, class_map, pipeline, render,
     columns) written as the GeoTIFF ``output`` (with its QGIS style beside it), the cells'
@@ -34,7 +35,9 @@ def changes(epochs: Any, *, output: Any = None, cells: Any = None, points: Any =
     LAS/LAZ files above the memory budget of ``execution`` (or with tiles, workers or a
     scheduler asked) are mapped in work units, with their work folder beside the first output
     (or ``execution.work_dir``), kept after an interruption for ``resume`` and removed once the
-    outputs are written."""
+    outputs are written.
+    ``crs``: the CRS of clouds whose header carries none (``--crs``; :func:`._common.reads_clouds`).
+    """
     from ..change_map import changes as change_map
     from ..change_map import in_units
     from ..change_map import check_streamed

@@ -17,7 +17,7 @@ from ..base.errors import LidarSigError, arg, as_path, yes_no
 from ..io import CLOUD_EXTENSIONS, check_cloud_output, check_output, read
 from ..io.formats import POINTS, format_of, holds
 from ..io.tile_lists import check_apart
-from ._common import Columns, JobRun, PathLike, Sources, as_sources, is_set, work_folder
+from ._common import Columns, JobRun, PathLike, Sources, as_sources, is_set, work_folder, reads_clouds
 
 if TYPE_CHECKING:
     from ..pipeline.flow import Pipeline
@@ -39,9 +39,10 @@ class SaliencyRun(JobRun):
         return out
 
 
+@reads_clouds
 def saliency(sources: Sources, output: PathLike, *, pipeline: Pipeline | None = None,
              execution: Execution | None = None, overwrite: bool = False, resume: bool = False,
-             columns: Columns = None) -> SaliencyRun:
+             columns: Columns = None, crs: str | None = None) -> SaliencyRun:
     """Write each of ``sources`` with its per-point Cl, Cs, Cp, Egeom, GeomClass (and
     OptimalScale) to ``output``.
 
@@ -63,6 +64,8 @@ def saliency(sources: Sources, output: PathLike, *, pipeline: Pipeline | None = 
         work folder (kept after a failure).
     columns : str or list, optional
         Columns of a text cloud.
+    crs : str, optional
+        The CRS of clouds whose header carries none (``--crs``; :func:`._common.reads_clouds`).
     """
     from ..pipeline.flow import pipeline_or_default
     from ..tiling.execution import as_execution

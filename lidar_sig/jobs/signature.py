@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 
 from ..base.errors import LidarSigError, arg, yes_no
 from ..io import check_outputs, output_group, read
-from ._common import Columns, JobRun, PathLike, Sources, as_sources, is_set, work_folder
+from ._common import Columns, JobRun, PathLike, Sources, as_sources, is_set, work_folder, reads_clouds
 
 if TYPE_CHECKING:
     from ..method.signature_raster import Signature
@@ -41,11 +41,12 @@ class SignatureRun(JobRun):
         return out
 
 
+@reads_clouds
 def signature(sources: Sources, output: PathLike | None = None, *, png: PathLike | None = None,
               sg: PathLike | None = None, report: PathLike | None = None, plots: PathLike | None = None,
               points: bool = True, render: str | None = None, pipeline: Pipeline | None = None,
               execution: Execution | None = None, overwrite: bool = False, resume: bool = False,
-              columns: Columns = None) -> SignatureRun:
+              columns: Columns = None, crs: str | None = None) -> SignatureRun:
     """Compute the signature of ``sources`` and write it: an archive (``output`` .h5) or an image
     of Sas (``output`` .png), Sas as PNG (``png``), Sg as PNG (``sg``), one cloud's HTML report
     (``report``) and its figures (``plots``, a folder).
@@ -55,6 +56,7 @@ def signature(sources: Sources, output: PathLike | None = None, *, png: PathLike
     records the tiling and every file with its SHA-256 (no per-point datasets). ``points``:
     per-point datasets in the archive of one cloud run as one block. A report needs the whole
     cloud in memory. Other parameters as for :func:`lidar_sig.jobs.saliency`.
+    ``crs``: the CRS of clouds whose header carries none (``--crs``; :func:`._common.reads_clouds`).
     """
     from ..pipeline.flow import pipeline_or_default
     from ..method.signature_raster import RENDERINGS
