@@ -18,12 +18,12 @@ class ChangesRun(JobRun):
     top: int = 10
 
     def to_dict(self) -> dict[str, Any]:
-        return {**self.changes.to_dict(self.top), "written": list(self.written)}
+        return {**self.changes.to_dict(self.top), "written": list(self.written), **self.area_dict()}
 
 
 def changes(epochs: Any, *, output: Any = None, cells: Any = None, points: Any = None, png: Any = None,
             report: Any = None, overwrite: bool = False, top: int = 10, execution: Any = None, resume: bool = False,
-            **options: Any) -> ChangesRun:
+            aoi: Any = None, **options: Any) -> ChangesRun:
     """The change map of ``epochs`` (two or more, in time order; :func:`lidar_sig.changes`, which
     takes ``options``: cell, min_points, score, confidence, class_map, pipeline, render,
     columns) written as the GeoTIFF ``output`` (with its QGIS style beside it), the cells'
@@ -32,14 +32,9 @@ def changes(epochs: Any, *, output: Any = None, cells: Any = None, points: Any =
     LAS/LAZ files above the memory budget of ``execution`` (or with tiles, workers or a
     scheduler asked) are mapped in work units, with their work folder beside the first output
     (or ``execution.work_dir``), kept after an interruption for ``resume`` and removed once the
-    outputs are written."""
-    from ..change_map import changes as change_map
-    from ..change_map import in_units
-    from ..change_map import check_streamed
-    from ..pipeline.flow import pipeline_or_default
-    from ..io import output_group
-    from ..io.styles import style_path
-    from ..tiling.execution import as_execution
+    outputs are written. ``aoi``: an area of interest every epoch is clipped to first (reading
+    only what it needs; :func:`lidar_sig.jobs.saliency`)."""
+    from ..io.clip import clip_inputs
 
     epochs = list(epochs) if isinstance(epochs, (list, tuple)) else [epochs]
     if len(epochs) < 2:
@@ -49,6 +44,21 @@ def changes(epochs: Any, *, output: Any = None, cells: Any = None, points: Any =
 
         raise LidarSigError(POINTS_OF_TWO, path=points)
     check_outputs(output, png, report, overwrite, cells, points)
+    with clip_inputs(epochs, aoi) as clip:
+        done = _changes(clip.inputs, output, cells, points, png, report, overwrite, top, execution, resume, options)
+        return done.with_reading(clip)
+
+
+def _changes(epochs: list[Any], output: Any, cells: Any, points: Any, png: Any, report: Any, overwrite: bool,
+             top: int, execution: Any, resume: bool, options: dict[str, Any]) -> ChangesRun:
+    from ..change_map import changes as change_map
+    from ..change_map import in_units
+    from ..change_map import check_streamed
+    from ..pipeline.flow import pipeline_or_default
+    from ..io import output_group
+    from ..io.styles import style_path
+    from ..tiling.execution import as_execution
+
     execution = as_execution(execution)
     files = in_units(epochs, execution, pipeline_or_default(options.get("pipeline")), resume)
     if files is not None:

@@ -40,7 +40,7 @@ class SaliencyRun(JobRun):
 
 def saliency(sources: Sources, output: PathLike, *, pipeline: Pipeline | None = None,
              execution: Execution | None = None, overwrite: bool = False, resume: bool = False,
-             columns: Columns = None) -> SaliencyRun:
+             columns: Columns = None, aoi: Any = None) -> SaliencyRun:
     """Write each of ``sources`` with its per-point Cl, Cs, Cp, Egeom, GeomClass (and
     OptimalScale) to ``output``.
 
@@ -62,7 +62,19 @@ def saliency(sources: Sources, output: PathLike, *, pipeline: Pipeline | None = 
         work folder (kept after a failure).
     columns : str or list, optional
         Columns of a text cloud.
+    aoi : str, path or tuple, optional
+        An area of interest: bounds ``"XMIN,YMIN,XMAX,YMAX"`` (or four numbers) in the clouds'
+        CRS, or a GeoPackage or GeoJSON polygon file in any CRS; the inputs are clipped to it
+        first, reading only what it needs (docs/scale-out.md#an-area-of-interest).
     """
+    from ..io.clip import clip_inputs
+
+    with clip_inputs([as_sources(sources)], aoi) as clip:
+        return _saliency(clip.inputs[0], output, pipeline, execution, overwrite, resume, columns).with_reading(clip)
+
+
+def _saliency(sources: Sources, output: PathLike, pipeline: Pipeline | None, execution: Execution | None,
+              overwrite: bool, resume: bool, columns: Columns) -> SaliencyRun:
     from ..pipeline.flow import pipeline_or_default
     from ..tiling.execution import as_execution
 
