@@ -106,8 +106,9 @@ class Area:
     def describe(self) -> str:
         """The area for a summary line: its bounds in the clouds' CRS, and how it was given."""
         x0, y0, x1, y1 = self.bounds
-        shape = "bounds" if self.box else "polygon"
-        return f"{shape} {x0:.2f},{y0:.2f},{x1:.2f},{y1:.2f} ({self.said})"
+        if self.box:  # bounds in the clouds' CRS: as given
+            return f"bounds {x0:.2f},{y0:.2f},{x1:.2f},{y1:.2f}"
+        return f"polygon within {x0:.2f},{y0:.2f},{x1:.2f},{y1:.2f} ({self.said})"
 
 
 def area_of(value: Any) -> Area | None:

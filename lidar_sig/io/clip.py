@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import copy
 import os
+import re
 import shutil
 import tempfile
 from dataclasses import dataclass, field
@@ -83,7 +84,9 @@ class Clipped:
 
     def shown(self, line: str) -> str:
         """``line`` with the scratch folder's paths shown as the inputs' names."""
-        return line.replace(f"{self._scratch}{os.sep}", "") if self._scratch is not None else line
+        if self._scratch is None:
+            return line
+        return re.sub(re.escape(f"{self._scratch}{os.sep}") + r"i\d+_\d+" + re.escape(os.sep), "", line)
 
     def cleanup(self) -> None:
         if self._scratch is not None:
