@@ -113,14 +113,19 @@ def clip_inputs(inputs: list[Any], aoi: Any, folder: str | os.PathLike[str] | No
             if not isinstance(text, (str, os.PathLike)):
                 raise LidarSigError(f"{arg('aoi')} clips LAS/LAZ/COPC files and URLs, not {type(text).__name__}; "
                                     "give the inputs as paths")
+    from ..base.progress import step
+
     scratch = Path(tempfile.mkdtemp(prefix="lidar-sig-aoi-", dir=folder))
     try:
         reading = Reading(area=area.said if area is not None else "")
         clipper = _Clipper(area, reading)
         out = []
-        for g, group in enumerate(groups):
-            kept = [clipper.input(str(text), scratch / f"i{g}_{k}") for k, text in enumerate(group)]
-            kept = [k for k in kept if k is not None]
+        with step("reading the area of interest" if area is not None else "fetching the inputs") as shown:
+            clipper.shown = shown
+            kept_groups = [[clipper.input(str(text), scratch / f"i{g}_{k}") for k, text in enumerate(group)]
+                           for g, group in enumerate(groups)]
+        for group, made in zip(groups, kept_groups):
+            kept = [k for k in made if k is not None]
             if not kept:
                 raise LidarSigError(f"the area of interest {area.said if area else ''} misses every cloud of this "
                                     f"input ({clipper.extent()}); give an area in the clouds' CRS that meets "
@@ -249,6 +254,7 @@ class _Clipper:
 
     def __init__(self, area: Area | None, reading: Reading):
         self.area, self.reading = area, reading
+        self.shown: Any = None  # the progress step: bytes read so far after each file
         self._in: dict[Any, Area] = {}
         self._lo = np.full(2, np.inf)
         self._hi = np.full(2, -np.inf)
@@ -318,6 +324,9 @@ class _Clipper:
                 return False
         before = len(self.reading.skipped)
         done = clip_file(tile, target, self.area, self.reading, self.crs_of)
+        if self.shown is not None:
+            self.shown.note(bytes_read=self.reading.bytes, bytes_fetched=self.reading.remote)
+            self.shown.postfix(f"{size(self.reading.bytes)} read, {size(self.reading.remote)} fetched")
         if self.area is not None and len(self.reading.skipped) > before:
             return False
         return done
