@@ -231,3 +231,34 @@ def test_a_server_without_range_requests_is_one_line_with_the_fix(tmp_path):
     assert done.returncode == 2
     lines = done.stderr.strip().splitlines()
     assert len(lines) == 1 and "does not answer byte-range requests" in lines[0] and "download it" in lines[0]
+
+
+def test_a_vpc_feature_outside_the_area_is_not_opened_at_all(tiled_epochs, tmp_path):
+    dirs, area, folder = tiled_epochs
+    west = laspy.open(dirs[1] / "west.laz").header
+    far = [area[2] + 100, area[1], area[2] + 150, area[3]]
+
+    def feature(href, lo, hi):
+        return {"type": "Feature", "assets": {"data": {"href": href, "roles": ["data"]}},
+                "properties": {"proj:epsg": 2154, "proj:bbox": [lo[0], lo[1], hi[0], hi[1]]}}
+
+    vpc = dirs[1] / "epoch.vpc"
+    vpc.write_text(json.dumps({"type": "FeatureCollection", "features": [
+        feature("west.laz", west.mins, west.maxs), feature("nowhere.laz", far[:2], far[2:])]}))
+    done = ls.jobs.saliency(vpc, tmp_path / "out", aoi=area, execution=ls.Execution(workers=1),
+                            pipeline=ls.Pipeline(progress=False))
+    assert done.reading.skipped == ["nowhere.laz"]  # listed, missing, outside: never looked for
+    assert [p.name for p in (tmp_path / "out").iterdir() if p.suffix == ".laz"] == ["west.laz"]
+    with pytest.raises(ls.LidarSigError, match="does not exist"):  # without the area, it is looked for
+        ls.jobs.saliency(vpc, tmp_path / "out2", execution=ls.Execution(workers=1),
+                         pipeline=ls.Pipeline(progress=False))
+
+
+def test_a_local_vpc_of_urls_given_where_urls_are_not_read_is_one_line(tmp_path):
+    from lidar_sig.tiling.sources import expand
+
+    vpc = tmp_path / "remote.vpc"
+    vpc.write_text(json.dumps({"type": "FeatureCollection", "features": [
+        {"type": "Feature", "assets": {"data": {"href": "https://example.org/t.copc.laz"}}, "properties": {}}]}))
+    with pytest.raises(ls.LidarSigError, match="a URL; give the .vpc to a command or job"):
+        expand([vpc])

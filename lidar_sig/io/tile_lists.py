@@ -35,19 +35,15 @@ def tile_list(source: str | os.PathLike[str]) -> list[Path] | None:
 
 
 def _vpc_paths(path: Path) -> list[Path]:
-    """The tiles a virtual point cloud file lists (:func:`tile_list`)."""
-    try:
-        features = json.loads(path.read_text(encoding="utf-8"))["features"]
-        hrefs = [next(a["href"] for a in f["assets"].values() if "data" in a.get("roles", ["data"]))
-                 for f in features]
-    except FileNotFoundError:
-        raise LidarSigError("does not exist; give an existing .vpc file", path=path) from None
-    except (OSError, ValueError, KeyError, TypeError, StopIteration, AttributeError) as exc:
-        raise LidarSigError(f"cannot be read as a virtual point cloud ({type(exc).__name__}: {exc}); give a .vpc "
-                            "file as QGIS or PDAL write it (a STAC ItemCollection of the tiles)", path=path) from None
-    if not hrefs:
-        raise LidarSigError("lists no tile; give a .vpc file that lists the epoch's tiles", path=path)
-    paths = [Path(h) if Path(h).is_absolute() else path.parent / h for h in hrefs]
+    """The tiles a virtual point cloud file lists (:func:`tile_list`), as :func:`vpc_tiles` reads them."""
+    from .remote import is_url
+
+    hrefs = [href for href, _ in vpc_tiles(str(path))]
+    remote = [h for h in hrefs if is_url(h)]
+    if remote:
+        raise LidarSigError(f"lists {remote[0]}, a URL; give the .vpc to a command or job (they read URLs by range "
+                            "requests), or download the tiles", path=path)
+    paths = [Path(h) for h in hrefs]  # relative ones resolved against the .vpc's folder
     missing = [p for p in paths if not p.is_file()]
     if missing:
         raise LidarSigError(f"lists {missing[0]}, which does not exist ({len(missing)} of {len(paths)} tiles "
