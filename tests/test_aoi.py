@@ -262,3 +262,18 @@ def test_a_local_vpc_of_urls_given_where_urls_are_not_read_is_one_line(tmp_path)
         {"type": "Feature", "assets": {"data": {"href": "https://example.org/t.copc.laz"}}, "properties": {}}]}))
     with pytest.raises(ls.LidarSigError, match="a URL; give the .vpc to a command or job"):
         expand([vpc])
+
+
+def test_a_las_1_4_file_with_evlrs_is_clipped_with_them(tmp_path):
+    # the clipped copy's writer took the EVLRs as a plain list and failed ("'list' object has no attribute 'write_to'")
+    las = laspy.read(SAMPLES / "epoch1.laz")
+    las.evlrs = laspy.vlrs.vlrlist.VLRList([laspy.VLR("lidar_sig_test", 7, "a note", b"kept")])
+    las.write(tmp_path / "with_evlr.laz")
+    from lidar_sig.io.clip import clip_inputs
+
+    h = las.header
+    area = (h.mins[0] + 5, h.mins[1] + 5, h.mins[0] + 25, h.mins[1] + 25)
+    with clip_inputs([str(tmp_path / "with_evlr.laz")], area) as clip:
+        copy = laspy.read(clip.inputs[0])
+        assert [(v.user_id, v.record_id, v.record_data) for v in copy.evlrs] == [("lidar_sig_test", 7, b"kept")]
+        assert 0 < len(copy) == clip.reading.kept < len(las)

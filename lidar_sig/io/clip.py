@@ -227,7 +227,7 @@ def _write(out, header, chunks, fh, reading, drop_copc):
 
     header = copy.deepcopy(header)
     drop_copc(header)
-    evlrs = list(header.evlrs or [])
+    evlrs = laspy.vlrs.vlrlist.VLRList(list(header.evlrs or []))  # the writer takes a VLRList, not a list
     writer = None
     try:
         for chunk in chunks:
