@@ -185,3 +185,18 @@ def test_at_equal_false_flags_the_change_map_s_confidence_is_the_lowest_that_fla
     # every cell at p 0: not even 99% flags 5% or fewer; no compared cell: nothing matched
     assert matched_confidence([{"compared": True, "p": 0.0}] * 10) is None
     assert matched_confidence([{"compared": False, "p": 0.5}]) is None
+
+
+def test_the_copc_district_benchmark_runs_on_a_small_delivery(tmp_path):
+    # issue 49: the district's change map reads a share of the delivery's bytes, locally and by range
+    pytest.importorskip("copclib", reason="copclib is not installed (pip install copclib: the benchmark's own need)")
+    done = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "copc_district.py"), "--out", str(tmp_path),
+                           "--points", "100000", "--district", "40", "--repeats", "1", "--http"],
+                          capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    import json
+
+    out = json.loads(done.stdout)
+    assert out["points_per_epoch"][0] >= 99_000 and 0 < out["bytes_read"] < sum(out["file_bytes"])
+    assert out["district_points"] > 0 and out["copc_nodes"] > 0
+    assert 0 < out["http_bytes_sent"] == out["http_bytes_fetched"] < sum(out["file_bytes"])
