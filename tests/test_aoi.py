@@ -121,9 +121,10 @@ class _Server:
     """A local web server of a folder, on 127.0.0.1, that honours Range requests (or not) and
     counts the bytes of the files it sends."""
 
-    def __init__(self, folder, ranges=True):
+    def __init__(self, folder, ranges=True, failures=0):
         server = self
         self.sent = 0
+        self.failures = failures  # requests answered 503 first (a server busy for a moment)
 
         class Handler(http.server.SimpleHTTPRequestHandler):
             def __init__(self, *args, **kwargs):
@@ -134,6 +135,9 @@ class _Server:
 
             def do_GET(self):
                 path = self.translate_path(self.path)
+                if server.failures > 0:
+                    server.failures -= 1
+                    return self.send_error(503)
                 if not os.path.isfile(path):
                     return self.send_error(404)
                 data = open(path, "rb").read()
@@ -277,3 +281,23 @@ def test_a_las_1_4_file_with_evlrs_is_clipped_with_them(tmp_path):
         copy = laspy.read(clip.inputs[0])
         assert [(v.user_id, v.record_id, v.record_data) for v in copy.evlrs] == [("lidar_sig_test", 7, b"kept")]
         assert 0 < len(copy) == clip.reading.kept < len(las)
+
+
+def test_a_busy_server_is_asked_again_and_a_missing_file_is_one_line(tmp_path, monkeypatch):
+    from lidar_sig.io import remote
+
+    monkeypatch.setattr(remote.time, "sleep", lambda seconds: None)  # the waits between attempts
+    folder = tmp_path / "www"
+    folder.mkdir()
+    (folder / "a.copc.laz").write_bytes(COPC.read_bytes())
+    server = _Server(folder, failures=2)
+    try:
+        with remote.RangeFile(f"{server.url}/a.copc.laz") as fh:  # two 503s, then the answer
+            assert fh.size == COPC.stat().st_size and fh.read(4) == b"LASF"
+        server.failures = remote.RETRIES + 1  # busy beyond the retries
+        with pytest.raises(ls.LidarSigError, match="HTTP 503"):
+            remote.RangeFile(f"{server.url}/a.copc.laz")
+        with pytest.raises(ls.LidarSigError, match="HTTP 404 .*check the URL"):
+            remote.RangeFile(f"{server.url}/gone.copc.laz")
+    finally:
+        server.close()
