@@ -165,33 +165,42 @@ def clip_file(source: str, out: Path, area: Area | None, reading: Reading, crs_o
     """Write the points of the LAS/LAZ/COPC file or URL ``source`` inside ``area`` (every point
     without one) to ``out``; False, with nothing written, when the file's bounds miss the area or
     no point is inside. ``crs_of(wkt)`` gives the area in a file's CRS."""
+    with open_input(source) as fh:
+        try:
+            return _clip_open(fh, source, out, area, reading, crs_of)
+        except LidarSigError:
+            raise
+        except OSError as exc:
+            if exc.filename is not None and str(exc.filename).startswith(str(out.parent)):
+                raise LidarSigError(f"cannot write the clipped copy of {_name(source)} ({exc.strerror}); free space "
+                                    "or point TMPDIR at a folder with room", path=out.parent) from None
+            raise LidarSigError(f"cannot be read ({reason(exc)})", path=source) from None
+        except Exception as exc:  # laspy and lazrs raise many kinds on damaged input
+            raise LidarSigError(f"cannot be read as LAS/LAZ ({reason(exc)}); check that the file is complete",
+                                path=source) from None
+        finally:  # what was read, the header of a file skipped by its bounds too
+            reading.bytes += fh.bytes_read
+            reading.remote += fh.bytes_read if fh.remote else 0
+
+
+def _clip_open(fh, source, out, area, reading, crs_of):
+    """:func:`clip_file` of the opened input ``fh``."""
     import laspy
 
     from ..method.crs import las_units
     from .las import drop_copc
 
-    with open_input(source) as fh:
-        try:
-            with laspy.open(fh, closefd=False) as reader:
-                header = reader.header
-                crs, _ = las_units(header, path=source)
-                here = crs_of(crs, header.mins, header.maxs) if area is not None else None
-                if here is not None and not here.meets(header.mins, header.maxs):
-                    reading.skipped.append(_name(source))
-                    return False
-                reading.files += 1
-                is_copc = any(v.user_id == "copc" for v in header.vlrs)
-                if not (is_copc and here is not None):
-                    chunks = _chunks(reader, here, reading)
-                    return _write(out, header, chunks, fh, reading, drop_copc)
-            return _write(out, header, _copc_query(fh, here, reading), fh, reading, drop_copc)
-        except LidarSigError:
-            raise
-        except OSError as exc:
-            raise LidarSigError(f"cannot be read ({reason(exc)})", path=source) from None
-        except Exception as exc:  # laspy and lazrs raise many kinds on damaged input
-            raise LidarSigError(f"cannot be read as LAS/LAZ inside the area of interest ({reason(exc)}); check "
-                                "that the file is complete", path=source) from None
+    with laspy.open(fh, closefd=False) as reader:
+        header = reader.header
+        crs, _ = las_units(header, path=source)
+        here = crs_of(crs, header.mins, header.maxs) if area is not None else None
+        if here is not None and not here.meets(header.mins, header.maxs):
+            reading.skipped.append(_name(source))
+            return False
+        reading.files += 1
+        if here is None or not any(v.user_id == "copc" for v in header.vlrs):
+            return _write(out, header, _chunks(reader, here, reading), reading, drop_copc)
+    return _write(out, header, _copc_query(fh, here, reading), reading, drop_copc)
 
 
 def _chunks(reader, area, reading):
@@ -220,7 +229,7 @@ def _copc_query(fh, area, reading):
     yield points[area.contains(np.asarray(points.x), np.asarray(points.y))]
 
 
-def _write(out, header, chunks, fh, reading, drop_copc):
+def _write(out, header, chunks, reading, drop_copc):
     """Write the chunks under ``header`` (its COPC records dropped) to ``out``; False when no
     point was kept (nothing written)."""
     import laspy
@@ -244,8 +253,6 @@ def _write(out, header, chunks, fh, reading, drop_copc):
     finally:
         if writer is not None:
             writer.close()
-        reading.bytes += fh.bytes_read
-        reading.remote += fh.bytes_read if fh.remote else 0
     return writer is not None
 
 
