@@ -188,8 +188,6 @@ def _clip_open(fh, source, out, area, reading, crs_of):
     import laspy
 
     from ..method.crs import las_units
-    from .las import drop_copc
-
     with laspy.open(fh, closefd=False) as reader:
         header = reader.header
         crs, _ = las_units(header, path=source)
@@ -199,8 +197,8 @@ def _clip_open(fh, source, out, area, reading, crs_of):
             return False
         reading.files += 1
         if here is None or not any(v.user_id == "copc" for v in header.vlrs):
-            return _write(out, header, _chunks(reader, here, reading), reading, drop_copc)
-    return _write(out, header, _copc_query(fh, here, reading), reading, drop_copc)
+            return _write(out, header, _chunks(reader, here, reading), reading)
+    return _write(out, header, _copc_query(fh, here, reading), reading)
 
 
 def _chunks(reader, area, reading):
@@ -229,14 +227,16 @@ def _copc_query(fh, area, reading):
     yield points[area.contains(np.asarray(points.x), np.asarray(points.y))]
 
 
-def _write(out, header, chunks, reading, drop_copc):
+def _write(out, header, chunks, reading):
     """Write the chunks under ``header`` (its COPC records dropped) to ``out``; False when no
     point was kept (nothing written)."""
     import laspy
 
+    from .las import drop_copc, without_copc
+
     header = copy.deepcopy(header)
     drop_copc(header)
-    evlrs = laspy.vlrs.vlrlist.VLRList(list(header.evlrs or []))  # the writer takes a VLRList, not a list
+    evlrs = without_copc(header.evlrs or [])  # a VLRList, as the writer takes
     writer = None
     try:
         for chunk in chunks:
