@@ -9,11 +9,13 @@ the report's top view and the per-point change, streamed."""
 from __future__ import annotations
 
 import math
+import os
 import warnings
 import time
 import weakref
 from pathlib import Path
 from types import SimpleNamespace
+from typing import Any
 
 import numpy as np
 
@@ -29,8 +31,9 @@ from ._units import (UNIT_BYTES_PER_POINT, VIEW_POINTS, UnitPlan, code_task, den
                      unit_points, unit_task, view_path)
 
 #: Bytes a change map computed in one block holds per point of both epochs (the clouds, their
-#: saliency, the binned codes; docs/changes.md, "Memory"): above the memory budget, the map is
-#: made in work units.
+#: saliency, the binned codes; docs/changes.md, "Memory"), above the base of a process
+#: (:data:`lidar_sig.tiling.memory.BASE_BYTES`): above the memory budget, the map is made in
+#: work units.
 ONE_BLOCK_BYTES_PER_POINT = 330
 #: Work units per worker at least, so that every worker has work while the last ones finish.
 UNITS_PER_WORKER = 2
@@ -39,7 +42,6 @@ UNITS_PER_WORKER = 2
 def epoch_files(source):
     """The LAS/LAZ files of an epoch given as a file, folder, list, glob pattern or ``.vpc``
     (in the order in which one block joins them), or None when it is anything else."""
-    import os
 
     from ..tiling.sources import expand
 
@@ -55,12 +57,12 @@ def epoch_files(source):
         return None
 
 
-def in_units(sources, execution, pipeline, resume=False):
+def in_units(sources: list[Any], execution: Any, pipeline: Any, resume: bool = False) -> list[list[Path]] | None:
     """The LAS/LAZ files of each of two epochs when their change map runs in work units: a
     tile size, workers, a scheduler or ``resume`` asked for it (as they ask a set's saliency to
     run in tiles), or one block of both epochs would need more than the memory budget (then
     with a descriptor that runs in tiles; another runs as one block, with a note); else None."""
-    from ..tiling.memory import header_points, one_block_note
+    from ..tiling.memory import BASE_BYTES, header_points, one_block_note
 
     if len(sources) != 2:
         return None
@@ -73,7 +75,7 @@ def in_units(sources, execution, pipeline, resume=False):
         n = sum(header_points(p) or 0 for f in files for p in f)
     except Exception:  # a damaged header: one block reads it and says why
         return None
-    if n * ONE_BLOCK_BYTES_PER_POINT <= int(execution.memory):
+    if BASE_BYTES + n * ONE_BLOCK_BYTES_PER_POINT <= int(execution.memory):  # the process's own memory too
         return None
     if not pipeline.descriptor.tileable:
         warnings.warn(one_block_note(f"{sources[0]} and {sources[1]}", n, int(execution.memory),
@@ -350,7 +352,7 @@ def _failed(err, what, work):
                          f"work folder, then {again}", path=work)
 
 
-def check_streamed(path, n_files, name):
+def check_streamed(path: str | os.PathLike[str], n_files: int, name: object) -> None:
     """Refuse a per-point change that a map in work units cannot stream: not LAS/LAZ, or a later
     epoch ``name`` of several files (the per-point change of one file is written)."""
     from ..io.formats import format_of

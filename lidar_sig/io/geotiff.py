@@ -11,6 +11,7 @@ A viewer then reads any part at any zoom without reading the whole file, also ov
 """
 from __future__ import annotations
 
+import os
 
 import numpy as np
 
@@ -32,7 +33,7 @@ def rasterio_module():
     return rasterio
 
 
-def check_geotiff_output(path, *, overwrite=False):
+def check_geotiff_output(path: str | os.PathLike[str], *, overwrite: bool = False) -> None:
     """Refuse, before any work, a GeoTIFF output that cannot be written: wrong extension, no
     rasterio, existing file (unless ``overwrite``), missing or read-only folder."""
     from .formats import RASTER, check_format

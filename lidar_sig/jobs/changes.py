@@ -3,6 +3,7 @@ checked before any work, then all written together or none."""
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 from ..base.errors import LidarSigError
@@ -80,12 +81,10 @@ def _changes(epochs: list[Any], output: Any, cells: Any, points: Any, png: Any, 
     return done
 
 
-def _work(execution, outputs):
+def _work(execution: Any, outputs: list[Any]) -> Path:
     """The work folder of a change map in work units: the execution's ``work_dir``, else beside
     the first output (on its file system), else in the working folder (where a resumed run
     finds it again); refused when it would hold an output, as it goes once they are written."""
-    from pathlib import Path
-
     from ..base.errors import arg
     from ._common import work_folder
 
@@ -99,7 +98,7 @@ def _work(execution, outputs):
     return work
 
 
-def check_outputs(output, png, report, overwrite, cells=None, points=None):
+def check_outputs(output: Any, png: Any, report: Any, overwrite: bool, cells: Any = None, points: Any = None) -> None:
     """Refuse every output of a change map that cannot be written, before anything is computed."""
     from ..io import check_outputs as check_paths
     from ..io.formats import IMAGE, POINTS, VECTOR, check_format

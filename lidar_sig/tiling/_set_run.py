@@ -41,6 +41,11 @@ class SetRun:
     seconds: float = 0.0
     execution: str = ""
 
+    def __getstate__(self):
+        # what a task of the run needs travels to a worker; the set's signature (tens of MiB:
+        # the counts of every class) stays in this process
+        return {**self.__dict__, "signature": None}
+
     def __repr__(self):
         state = "complete" if self.complete else f"incomplete: {len(self.missing)} missing"
         return (f"<SetRun {counted(len(self.sources), 'file')}, {counted(len(self.tile_stats), 'tile')}, {state}, "

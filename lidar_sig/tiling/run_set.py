@@ -129,7 +129,7 @@ def _run_set(pipeline, inputs, *, work, tile_size, backend, resume, progress_ena
     plan = Plan(str(work), pipe, ctx, tiling, cells, cell_files(work, records),
                 pipeline.classes if labelled else UNLABELED, staged_key)
     tiles = [ij for ij in tiling.tiles() if plan.occupied(ij)]
-    if pipeline.weights == "area":
+    if pipeline.weights.by_area:
         plan = _with_area_cap(plan, tiles, work, run, backend, resume, progress_enabled)
         if plan is None:
             return run
