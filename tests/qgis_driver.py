@@ -123,11 +123,25 @@ def layer_order(project):
     return [node.layer().source() for node in project.layerTreeRoot().findLayers()]
 
 
+def legend_texts(layer):
+    """The texts of the layer's entries in the Layers panel's legend, as QGIS makes them from
+    its style: a raster's band title and classes, a vector layer's rules."""
+    from qgis.core import QgsLayerTreeLayer
+    from qgis.PyQt.QtCore import Qt
+
+    node = QgsLayerTreeLayer(layer)
+    legend = layer.legend()
+    if legend is None:
+        return []
+    return [item.data(Qt.DisplayRole) for item in legend.createLayerTreeModelLegendNodes(node)]
+
+
 def describe(layer):
     """What a loaded layer is and how QGIS draws it."""
     from qgis.core import QgsMapLayerType
 
-    out = {"name": layer.name(), "source": layer.source(), "valid": layer.isValid()}
+    out = {"name": layer.name(), "source": layer.source(), "valid": layer.isValid(), "legend_texts": legend_texts(layer),
+           "crs": layer.crs().authid()}
     if layer.type() == QgsMapLayerType.RasterLayer:
         renderer = layer.renderer()
         out.update(kind="raster", renderer=renderer.type(), bands=layer.bandCount())
@@ -141,6 +155,12 @@ def describe(layer):
         if renderer is not None and renderer.type() == "RuleRenderer":
             out["rules"] = [rule.label() for rule in renderer.rootRule().children()]
         names = layer.fields().names()
+        out["aliases"] = {f.name(): f.alias() for f in layer.fields() if f.alias()}
+        out["precision"] = {name: layer.editorWidgetSetup(k).config().get("Precision") for k, name in enumerate(names)
+                            if layer.editorWidgetSetup(k).type() == "Range"}
+        if "coverage" in names and "points_a" in names:
+            out["cells"] = [{k: f[k] for k in ("row", "col", "coverage", "points_a", "points_b")}
+                            for f in layer.getFeatures()]
         if renderer is not None and renderer.type() == "RuleRenderer" and "row" in names:
             out["matched"] = matched_cells(layer, renderer.rootRule().children())
         if "significant" in names and "row" in names:
@@ -215,6 +235,8 @@ def algorithms(args):
             "algorithms": sorted(a.id() for a in algs),
             "parameters": {a.id(): [p.name() for p in a.parameterDefinitions()] for a in algs},
             "help": {a.id(): bool(a.shortHelpString()) for a in algs},
+            "help_text": {a.id(): a.shortHelpString() for a in algs},
+            "labels": {a.id(): {p.name(): p.description() for p in a.parameterDefinitions()} for a in algs},
             "help_url": {a.id(): a.helpUrl() for a in algs},
             "icons": {a.id(): [not a.icon().isNull(), a.svgIconPath()] for a in [provider, *algs]},
             "options": {a.id(): a.parameterDefinition("OPTIONS").description() for a in algs},
@@ -420,7 +442,7 @@ def dialog(args):
     context = QgsProcessingContext()
     context.setProject(project)
     feedback = recording_feedback()
-    parameters = {"EPOCH_A": args["a"], "EPOCH_B": args["b"],
+    parameters = {"EPOCH_A": args["a"], "EPOCH_B": args["b"], **args.get("parameters", {}),
                   **{name: QgsProcessingOutputLayerDefinition("TEMPORARY_OUTPUT", project)
                      for name in ("OUTPUT", "CELLS")}}
     done = {}

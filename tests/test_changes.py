@@ -210,6 +210,9 @@ def test_geotiff_has_the_crs_transform_bands_metadata_and_no_data(sample_run):
         assert names[16].startswith("coverage:") and names[11].startswith("height_lod:")
         assert names[17].startswith("lod_ratio:")  # added last: the seventeen before keep their numbers
         assert names[18].startswith("q:") and names[19].startswith("changed:")  # and after it, these two
+        # short, as QGIS titles a band's legend "Band 18: " and its description; the full text its meaning
+        assert max(len(n) for n in names) <= 60 - len("Band 20: ")
+        assert "1 at the level, above 1 exactly where significant" in src.tags(18)["meaning"]
         changed, significant = src.read(20), src.read(3)
         assert np.array_equal(changed == 1, significant == 1)  # nothing appeared or vanished here
         height, height_lod, lod_ratio = src.read(11), src.read(12), src.read(18)
@@ -567,7 +570,9 @@ def test_three_epochs_give_a_series_computed_once_per_epoch(tmp_path, monkeypatc
     with rasterio.open(tmp_path / "series.tif") as src:
         names = src.descriptions
         assert len(names) == 2 * 20 + 1 and names[-1].startswith("when:")
-        assert names[0].startswith("interval 1 (") and names[20].startswith("interval 2 (")
+        assert names[0].startswith("[1] score") and names[20].startswith("[2] score")
+        assert src.tags(1)["meaning"].startswith("interval 1 (") and src.tags(21)["meaning"].startswith("interval 2 (")
+        assert max(len(n) for n in names) <= 60 - len("Band 41: ")  # QGIS's legend title, within 60 characters
         assert np.array_equal(src.read(len(names)) == -9999.0, ~valid.reshape(src.shape))
         assert src.tags()["epoch_3"]
     html = series.report().html()
@@ -647,3 +652,19 @@ def test_a_class_map_file_given_on_the_command_line_is_read(tmp_path):
     assert parse_class_map([str(tmp_path / "veg.toml"), "9=water"]) == {"vegetation": [3, 5], "water": [9]}
     with pytest.raises(LidarSigError, match="'vegetation' is given twice"):
         parse_class_map([str(tmp_path / "veg.toml"), "4=vegetation"])
+
+
+def test_a_series_geopackage_names_each_interval_s_layer_by_its_epochs():
+    # issue 48: cells_1, cells_2 said nothing of the intervals
+    from types import SimpleNamespace
+
+    from lidar_sig.change_map._layers import interval_layer_names
+
+    def series(*names):
+        return SimpleNamespace(epochs=[SimpleNamespace(name=n) for n in names], maps=[None] * (len(names) - 1))
+
+    assert interval_layer_names(series("/data/2019.laz", "/data/2021 survey.laz", "tiles/2023")) == \
+        ["cells_2019_to_2021_survey", "cells_2021_survey_to_2023"]
+    # the same pair twice: told apart by the interval's number
+    assert interval_layer_names(series("a.laz", "b.laz", "a.laz", "b.laz")) == \
+        ["cells_a_to_b_1", "cells_b_to_a", "cells_a_to_b_3"]

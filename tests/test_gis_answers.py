@@ -59,6 +59,26 @@ def test_a_value_is_placed_with_its_nearest_reference_case():
                                                                      "another_place", "beyond"]
 
 
+def test_the_range_quoted_holds_the_value_or_the_sentence_says_below_or_above():
+    kl = next(m for m in METRICS if m.key == "kl")
+    low, high = kl.references["adjacent"]
+    below = low * 0.85  # placed with the adjacent tile (nearer it than the resampled land), under its range
+    assert kl.place(below) == ("adjacent", f"like the adjacent tile of the same survey (below {low:.4f}-{high:.4f})")
+    inside = (low + high) / 2
+    assert kl.place(inside)[1] == f"like the adjacent tile of the same survey ({low:.4f}-{high:.4f})"
+    ssim = next(m for m in METRICS if m.key == "ssim")  # a similarity: its raw value above the range
+    lo, hi = sorted(ssim.references["resampled"])
+    assert ssim.place(min(hi + 0.005, 0.9999))[1].endswith(f"(above {ssim.shown_range('resampled')})")
+    for m in METRICS:  # every sentence true to its value
+        for case, (a, b) in m.references.items():
+            for value in (min(a, b) * 0.9, (a + b) / 2, max(a, b) * 1.05):
+                says = m.place(value)[1]
+                if m.shown_range(case) in says and "beyond" not in says:
+                    held = min(a, b) <= value <= max(a, b)
+                    assert held == ("below" not in says and "above" not in says), (m.key, value, says)
+
+
+
 def placed(metric, value):
     """The case a value is placed in, by the rule docs/comparison.md states: as a distance from
     "same", within 5e-5 of it the same land rotated; else the first case below the geometric
@@ -87,9 +107,10 @@ def test_compare_s_json_and_report_place_every_metric(tmp_path):
         entry = info["scale"][m.key]
         like = placed(m, info[m.key])
         assert (entry["name"], entry["like"]) == (m.name, like)
-        if like in m.references:  # the phrase quotes the case's range
+        if like in m.references:  # the phrase quotes the case's range, and says where a value outside it lies
             low, high = m.references[like]
-            assert f"({low:.4f}-{high:.4f})" in entry["says"], entry["says"]
+            side = "below " if info[m.key] < min(low, high) else "above " if info[m.key] > max(low, high) else ""
+            assert f"({side}{low:.4f}-{high:.4f})" in entry["says"], entry["says"]
         assert entry["resampled"] == list(m.references["resampled"]) and entry["rotated"] == m.same
         assert entry["says"] in html
     assert "on the project&#x27;s scale" in html or "on the project's scale" in html

@@ -222,7 +222,77 @@ def test_the_cells_geopackage_has_an_index_a_style_and_the_command_s_cells(outpu
     # the envelope in the index is the cell: 8 m squares on multiples of 8 m
     x0, x1, y0, y1 = index[0][1:]
     assert x1 - x0 == 8.0 and y1 - y0 == 8.0 and x0 % 8 == 0 and y0 % 8 == 0
-    assert "coverage: String" in ogrinfo("-so", gpkg, "cells") and "Feature Count: 81" in ogrinfo("-so", gpkg, "cells")
+    summary = ogrinfo("-so", gpkg, "cells")
+    assert "coverage: String" in summary and f"Feature Count: {len(rows)}" in summary
+    counts = info["coverage"]["cells"]  # every cell compared, appeared or vanished; sparse ones where surveyed
+    states = [r[3] for r in rows]
+    assert [states.count(k) for k in ("compared", "appeared", "vanished")] == \
+        [counts[k] for k in ("compared", "appeared", "vanished")]
+    assert states.count("too few points") <= counts["too few points"]
+
+
+def test_the_cells_style_lists_only_the_rules_that_draw_a_cell_and_names_the_fields(outputs):
+    # issue 48: all seven rules were listed when nothing matched; the fields were internal keys
+    from lidar_sig.change_map._layers import cell_rules
+    from lidar_sig.metrics import METRICS
+
+    out, _ = outputs
+    with sqlite3.connect(out / "cells.gpkg") as con:
+        qml = con.execute("SELECT styleQML FROM layer_styles WHERE f_table_name = 'cells'").fetchone()[0]
+        root = ET.fromstring(qml.split("\n", 1)[1])
+        listed = {rule.get("filter"): rule.get("label") for rule in root.iter("rule") if rule.get("filter")}
+        # a rule's filter is SQL too: SQLite counts the cells each draws
+        drawn = {r.filter: con.execute(f"SELECT count(*) FROM cells WHERE {r.filter}").fetchone()[0]
+                 for _, r in cell_rules()}
+    assert listed and set(listed) == {f for f, n in drawn.items() if n > 0}
+    assert len(drawn) > len(listed)  # this map's cells leave some rules out
+    assert max(len(label) for label in listed.values()) <= 60
+    aliases = {a.get("field"): a.get("name") for a in root.iter("alias")}
+    assert {m.key: aliases[m.key] for m in METRICS} == {m.key: m.name for m in METRICS}
+    precision = {f.get("name"): f.find(".//Option[@name='Precision']").get("value") for f in root.iter("field")}
+    assert precision["kl"] == "4" and precision["lod_ratio"] == "2"
+
+
+def test_the_cells_layer_holds_no_sliver_at_a_survey_s_edge_but_keeps_a_sparse_cell_inside_it():
+    # issue 48: a survey's edge crossing the grid leaves a few points in the cells beyond it
+    from types import SimpleNamespace
+
+    from lidar_sig.change_map._cells import coverage as states
+    from lidar_sig.change_map._layers import drawn_cells
+
+    full = 1000
+    points = np.full((5, 5), full)
+    points[0, :] = 6  # a sliver row: the edge of both surveys crosses it
+    points[:, 4] = 3  # and a sliver column
+    points[2, 2] = 40  # a pond inside the survey: too few points, surrounded by land
+    flat = points.ravel()
+    valid = flat >= 200
+    table = np.zeros(25, dtype=[("coverage", np.int8), ("points_a", np.int64), ("points_b", np.int64)])
+    table["points_a"] = table["points_b"] = flat
+    table["coverage"] = states(flat, flat, valid, 200)
+    cm = SimpleNamespace(table=table, grid=SimpleNamespace(rows=5, cols=5), min_points=200, cell=10.0)
+    drawn = drawn_cells(cm).reshape(5, 5)
+    assert not drawn[0, :].any() and not drawn[:, 4].any()  # no sliver
+    assert drawn[2, 2] and drawn[1:, :4].all()  # the pond, and every compared cell
+
+
+def test_two_ign_tiles_give_cells_without_slivers(tmp_path):
+    # the issue's case: two 50 m tiles on a 25 m grid that overhangs them; every cell drawn has
+    # something to say (compared, appeared, vanished, or sparse land inside a survey)
+    from conftest import IGN, need_data
+
+    folder = need_data(IGN)
+    tiles = [folder / "test_data_77055_627755_LA93_IGN69.laz", folder / "test_data_77060_627755_LA93_IGN69.laz"]
+    import lidar_sig
+    from lidar_sig.change_map._layers import cell_features, coverage
+
+    cm = lidar_sig.changes(tiles, tiles, cell=25)
+    covered = coverage(cm.table)
+    slivers = (covered == "too few points") & (cm.table["points_a"] < 0.05 * cm.min_points)
+    assert slivers.sum() >= 4  # the grid overhangs the tiles
+    drawn = {(f["row"], f["col"]) for _, f in cell_features(cm)}
+    assert not drawn & {(int(cm.table["row"][i]), int(cm.table["col"][i])) for i in np.flatnonzero(slivers)}
+    assert {(int(cm.table["row"][i]), int(cm.table["col"][i])) for i in np.flatnonzero(covered == "compared")} <= drawn
 
 
 def test_the_cells_layer_names_the_coverage_state_the_change_map_gives_each_cell():
@@ -248,6 +318,38 @@ def test_the_outliers_geopackage_has_an_index_a_style_and_marks_the_tiles_that_s
         marked = dict(con.execute('SELECT name, outlier FROM tiles').fetchall())
     assert marked == {r["name"]: int(r["outlier"]) for r in info["results"]}
     assert marked["epoch1.laz"] == 1 and sum(marked.values()) == info["standing_out"] == 1
+
+
+def test_similar_tiles_are_written_with_their_footprints_to_be_seen_on_the_map(tmp_path):
+    # issue 48: a table without geometry could not be seen on the map
+    cat = tmp_path / "samples.h5"
+    assert run("catalog", SAMPLES, "-o", cat, "--workers", "1", "-q").returncode == 0
+    done = run("similar", SAMPLES / "epoch1.laz", cat, "--top", "2", "-o", tmp_path / "like.gpkg", "--json")
+    assert done.returncode == 0, done.stderr
+    info = json.loads(done.stdout)
+    assert info["written"] == [str(tmp_path / "like.gpkg")]
+    check_geopackage(tmp_path / "like.gpkg", "tiles", 2)
+    from lidar_sig.survey_catalog import Catalog
+
+    catalogue = Catalog(cat)
+    with sqlite3.connect(tmp_path / "like.gpkg") as con:
+        rows = con.execute('SELECT fid, "rank", name, distance, kl FROM tiles ORDER BY "rank"').fetchall()
+        srs = con.execute("SELECT definition FROM gpkg_spatial_ref_sys JOIN gpkg_geometry_columns USING (srs_id) "
+                          "WHERE table_name = 'tiles'").fetchone()[0]
+        boxes = dict((fid, (x0, x1, y0, y1)) for fid, x0, x1, y0, y1 in
+                     con.execute("SELECT id, minx, maxx, miny, maxy FROM rtree_tiles_geom"))
+        qml = con.execute("SELECT styleQML FROM layer_styles WHERE f_table_name = 'tiles'").fetchone()[0]
+    assert [(r, n) for _, r, n, _, _ in rows] == [(t["rank"], t["name"]) for t in info["results"]]
+    assert [d for *_, d, _ in rows] == pytest.approx([t["distance"] for t in info["results"]], rel=1e-12)
+    assert "Lambert-93" in srs  # the tiles' CRS
+    for fid, _, name, _, _ in rows:  # each footprint the tile's convex hull
+        hull = np.asarray(catalogue.columns["hull"][catalogue.columns["name"].index(name)])
+        (x0, y0), (x1, y1) = hull.min(axis=0), hull.max(axis=0)
+        assert boxes[fid] == pytest.approx((x0, x1, y0, y1), abs=0.25)  # the R*Tree keeps float32, rounded out
+    assert 'name="delta_KL"' in qml  # the metrics by their names
+    # an existing output refused, one line, the catalogue left as it was
+    done = run("similar", SAMPLES / "epoch1.laz", cat, "-o", tmp_path / "like.gpkg")
+    assert_one_line_error(done, "like.gpkg", "--overwrite")
 
 
 # -- the later epoch's points with their cell's change ------------------------------------------

@@ -11,6 +11,7 @@ import json
 import os
 import shutil
 import signal
+import sqlite3
 import subprocess
 import sys
 import zipfile
@@ -216,9 +217,30 @@ def test_the_provider_loads_and_lists_one_algorithm_per_job(qgis):
         url = found["help_url"][f"lidarsig:{job}"]
         assert url.startswith("file://") and url.endswith(f"/lidar_sig_provider/help/{job}.html")
         assert Path(url[len("file://"):]).is_file()
-        # the More options hint names --classes only where the command takes it
+        # the More options example, in the help, names --classes only where the command takes it
         takes = "--classes" in run(job, "--help").stdout
-        assert ("--classes" in found["options"][f"lidarsig:{job}"]) == takes, job
+        assert ("--classes" in found["help_text"][f"lidarsig:{job}"]) == takes, job
+
+
+#: The most characters of a parameter's label: the changes dialog's 13 parameters and their
+#: browse buttons fit a window 1,000 px wide (the detail is in the help beside them).
+LABEL_MOST = 40
+
+
+def test_every_dialog_label_is_short_and_its_detail_is_in_the_help(qgis):
+    found = qgis("algorithms")
+    for algorithm, labels in found["labels"].items():
+        for name, label in labels.items():
+            assert len(label) <= LABEL_MOST, (algorithm, name, label)
+    changes = found["labels"]["lidarsig:changes"]
+    assert changes["SCORE"] == "Ranking metric"  # was "Metric that ranks the cells (not set: delta_KL, or ...)"
+    assert "not set, delta_KL, or delta_FV without comparable classes" in found["help_text"]["lidarsig:changes"]
+    # a CRS for clouds without one, wherever clouds are read
+    for job in ("saliency", "signature", "compare", "changes", "catalog"):
+        assert found["labels"][f"lidarsig:{job}"]["CRS"] == "CRS of clouds without one", job
+    # compare: the table first, the optional report after it
+    compare = list(found["labels"]["lidarsig:compare"])
+    assert compare.index("METRICS") < compare.index("REPORT")
 
 
 def lod_ratio_band(path):
@@ -354,16 +376,26 @@ def test_every_algorithm_with_temporary_outputs_returns_files_that_exist(qgis, e
     assert all(found[f"{name} run"]["loaded"] == [] for name in outputs)
     for name in ("changes", "no change"):
         cells, raster = found[f"{name} load"]["loaded"]  # top first
-        assert (cells["name"], raster["name"]) == ("Cells", "Change map")
+        later = "epoch2.laz" if name == "changes" else "resampled.laz"
+        assert (cells["name"], raster["name"]) == (f"Cells epoch1.laz → {later}", f"Change epoch1.laz → {later}")
         assert raster["renderer"] == "singlebandpseudocolor" and raster["band"] == 18 and raster["bands"] == 20
         assert cells["renderer"] == "RuleRenderer" and cells["labels"]
         assert raster["source"] == found[f"{name} load"]["results"]["OUTPUT"]
     assert found["no change load"]["loaded"][0]["significant"] == []
     [tiles] = found["outliers load"]["loaded"]
     assert tiles["renderer"] == "RuleRenderer" and tiles["rules"][0] == "stands out (score 3.5 or more)"
+    assert tiles["name"] == "Outlier scores of samples.h5"
+    # similar tiles: their footprints, on the map, named by the query
+    [similar] = found["similar load"]["loaded"]
+    assert similar["name"] == "Tiles like epoch1.laz" and similar["renderer"] == "RuleRenderer"
+    assert similar["crs"] == "EPSG:2154" and similar["labels"]
+    assert similar["aliases"]["kl"] == "delta_KL" and similar["precision"]["distance"] == 4
     # the model's similar read the catalogue its catalog wrote: the two other sample tiles
     [table] = found["model load"]["loaded"]
     assert table["features"] == 2 and [layer["features"] for layer in found["similar load"]["loaded"]] == [2]
+    # the metrics' table: named by the clouds, its values shown rounded
+    [metrics] = found["compare load"]["loaded"]
+    assert metrics["name"] == "Metrics epoch1.laz → epoch1.laz" and metrics["precision"]["value"] == 4
 
 
 def test_the_dialog_s_default_run_loads_a_map_without_change_styled_below_its_cells(qgis, epochs, unchanged,
@@ -378,6 +410,48 @@ def test_the_dialog_s_default_run_loads_a_map_without_change_styled_below_its_ce
     assert raster["source"] == found["results"]["OUTPUT"] and raster["renderer"] == "singlebandpseudocolor"
     assert raster["band"] == 18 and cells["significant"] == []
     assert found["errors"] == [] and found["gdal"] == []  # no "band 3: dfMax should be strictly greater than dfMin"
+
+
+#: The most characters of a legend's title or entry (issue 48): the Layers panel's width, a print layout's legend.
+LEGEND_MOST = 60
+
+
+def test_the_dialog_s_layers_read_at_a_glance_named_by_their_epochs_in_the_crs_given(qgis, epochs, tmp_path):
+    # issue 48, as the dialog runs it (temporary outputs, a background task, then its loading):
+    # two epochs whose headers carry no CRS, the CRS given in the dialog
+    from test_given_crs import without_crs
+
+    from lidar_sig.metrics import METRICS
+
+    a, b = without_crs(epochs[0], tmp_path / "2019.laz"), without_crs(epochs[1], tmp_path / "2023.laz")
+    found = qgis("dialog", a=a, b=b, out=tmp_path, parameters={"CRS": "EPSG:2154", "CELL": 10})
+    assert found["ok"] and found["errors"] == [] and found["gdal"] == []
+    cells, raster = found["loaded"]  # top first
+    # named by their epochs: two runs no longer give two identical pairs
+    assert (cells["name"], raster["name"]) == ("Cells 2019.laz → 2023.laz", "Change 2019.laz → 2023.laz")
+    # the CRS given reaches both layers
+    assert cells["crs"] == raster["crs"] == "EPSG:2154"
+    # the cells' fields by the metrics' names, their numbers rounded
+    assert {m.key: cells["aliases"][m.key] for m in METRICS} == {m.key: m.name for m in METRICS}
+    assert all(cells["precision"][m.key] == 4 for m in METRICS) and cells["precision"]["lod_ratio"] == 2
+    # short legend titles and entries
+    for layer in (cells, raster):
+        assert layer["legend_texts"], layer["name"]
+        for text in (layer["name"], *layer["legend_texts"]):
+            assert len(text) <= LEGEND_MOST, text
+    assert raster["legend_texts"][0].startswith(f"Band {raster['band']}: lod_ratio")
+    # every rule listed draws a cell: none listed without a feature
+    assert cells["rules"] and all(cells["matched"][rule] for rule in cells["rules"]), cells["matched"]
+    # no sliver cell at the surveys' edges: the map has some, the layer draws none
+    done = run("changes", a, b, "--cell", "10", "--crs", "EPSG:2154", "--json", "--top", "0", "-q")
+    assert done.returncode == 0, done.stderr
+    info = json.loads(done.stdout)
+    sliver = 0.05 * info["min_points"]  # a few points of a cell the survey's edge barely enters
+    drawn = cells["cells"]
+    few = [c for c in drawn if c["coverage"] == "too few points"]
+    assert info["coverage"]["cells"]["too few points"] > len(few)  # slivers in the map, left out of the layer
+    assert not [c for c in drawn if c["points_a"] < sliver and c["points_b"] < sliver]
+    assert len(drawn) == len(cells["cells"]) == cells["features"]
 
 
 def test_a_command_that_wrote_nothing_or_bad_options_fail_in_one_line(qgis, tmp_path):
@@ -491,6 +565,10 @@ def test_the_other_jobs_run_in_qgis_as_their_commands_do(qgis, tmp_path):
     assert found["outliers"]["results"]["VERDICT"].startswith("1 tile stands out")
 
 
+#: The cells of a series' second interval (epoch2_aligned.laz to itself), named by it.
+SECOND = "cells_epoch2_aligned_to_epoch2_aligned"
+
+
 def test_qgis_opens_the_change_map_and_the_geopackages_in_their_styles_by_themselves(qgis, tmp_path):
     cat = tmp_path / "samples.h5"
     assert run("catalog", SAMPLES, "-o", cat, "--workers", "1", "-q").returncode == 0
@@ -499,7 +577,7 @@ def test_qgis_opens_the_change_map_and_the_geopackages_in_their_styles_by_themse
                "--cell", "8", "-o", tmp_path / "series.tif", "--cells", tmp_path / "series.gpkg", "-q")
     assert done.returncode == 0, done.stderr
     found = qgis("open", rasters=[str(tmp_path / "series.tif")],
-                 vectors=[str(tmp_path / "tiles.gpkg"), f"{tmp_path / 'series.gpkg'}|layername=cells_2"])
+                 vectors=[str(tmp_path / "tiles.gpkg"), f"{tmp_path / 'series.gpkg'}|layername={SECOND}"])
     series = found[str(tmp_path / "series.tif")]
     import rasterio
 
@@ -509,7 +587,11 @@ def test_qgis_opens_the_change_map_and_the_geopackages_in_their_styles_by_themse
     assert [item[1].split(":")[0] for item in series["legend"]] == ["0", "1", "2"]
     tiles = found[str(tmp_path / "tiles.gpkg")]
     assert tiles["renderer"] == "RuleRenderer" and tiles["rules"][0] == "stands out (score 3.5 or more)"
-    assert found[f"{tmp_path / 'series.gpkg'}|layername=cells_2"]["renderer"] == "RuleRenderer"
+    # a series' layers named by their intervals
+    assert found[f"{tmp_path / 'series.gpkg'}|layername={SECOND}"]["renderer"] == "RuleRenderer"
+    with sqlite3.connect(tmp_path / "series.gpkg") as db:
+        assert [r[0] for r in db.execute("SELECT table_name FROM gpkg_geometry_columns ORDER BY table_name")] == \
+            ["cells_epoch1_to_epoch2_aligned", SECOND]
 
 
 def test_the_cells_style_draws_land_appeared_inside_the_other_survey_as_changed_and_not_its_edge(qgis, tmp_path):
@@ -528,7 +610,7 @@ def test_the_cells_style_draws_land_appeared_inside_the_other_survey_as_changed_
     assert any(state == "appeared" for r, c, ch, state in rows if (r, c) in changed) and edges
     layer = qgis("open", vectors=[str(tmp_path / "cells.gpkg")])[str(tmp_path / "cells.gpkg")]
     matched = layer["matched"]
-    said_changed = [label for label in matched if label.startswith("changed") or "; changed:" in label]
-    said_edge = [label for label in matched if "not counted as changed" in label]
+    said_changed = [label for label in matched if label.startswith("changed") or label.endswith(": changed")]
+    said_edge = [label for label in matched if label.endswith(": not counted")]
     assert {tuple(c) for label in said_changed for c in matched[label]} == changed
     assert {tuple(c) for label in said_edge for c in matched[label]} == edges

@@ -133,8 +133,14 @@ def test_write_png(tmp_path):
 
     from lidar_sig.reporting.render import signature_image
     img = cv2.imread(str(tmp_path / "s.png"), cv2.IMREAD_UNCHANGED)[..., ::-1]  # BGR -> RGB
-    assert img.shape == (512, 512, 3)
-    assert np.array_equal(img, signature_image(res.signature))  # PNG is lossless
+    assert img.shape[1:] == (512, 3) and img.shape[0] > 512
+    assert np.array_equal(img[:512], signature_image(res.signature))  # PNG is lossless
+    # below Sas, the legend of its two classes: a swatch of each class's colour
+    legend = img[512:]
+    for k in np.flatnonzero(res.signature.class_counts > 0):
+        colour = np.round(res.signature.classes.class_colors[k] * 255).astype(np.uint8)
+        assert (legend == colour).all(axis=2).sum() >= 100, res.signature.classes.class_names[k]
+    assert len(np.flatnonzero(res.signature.class_counts > 0)) == 2
     with pytest.raises(ls.LidarSigError, match="overwrite=True"):
         res.write(tmp_path / "s.png")
 

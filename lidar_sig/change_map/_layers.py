@@ -55,14 +55,33 @@ def class_changes(names, counts_a, counts_b):
     return [(names[k], float(change[k])) for k in order if abs(change[k]) >= CLASS_CHANGE_MIN]
 
 
+def drawn_cells(cm):
+    """(cells,) bool: the cells the cells layer holds: those compared, appeared or vanished,
+    and those with too few points inside either epoch's footprint (:func:`~._cells.footprint`:
+    a pond, a dark roof); not the slivers of points that a survey's edge leaves in the cells
+    of the grid it half crosses, which are outside both footprints and say nothing."""
+    from ._cells import HOLE_M2, covering, footprint
+
+    t = cm.table
+    shape = (cm.grid.rows, cm.grid.cols)
+    least = covering(cm.min_points)
+    most = max(1, int(HOLE_M2 // (cm.cell * cm.cell)))
+    inside = np.zeros(len(t), bool)
+    for points in (t["points_a"], t["points_b"]):
+        inside |= footprint((points >= least).reshape(shape), most).ravel()
+    sparse = t["coverage"] == next(code for code, name in STATES.items() if name == "too few points")
+    return (t["coverage"] > 0) & (~sparse | inside)
+
+
 def cell_features(cm):
-    """[(ring (5, 2), fields)] of every cell either epoch covers: row, col, coverage
+    """[(ring (5, 2), fields)] of every cell either epoch covers (:func:`drawn_cells`): row, col, coverage
     (:func:`coverage`), points of each epoch, rank (most changed first, compared cells), score, level of detection, z,
     lod_ratio, significant (1/0; NULL where not compared), changed (1/0: significant, or appeared or vanished
     inside the other epoch's footprint; NULL with too few points), p and q, the metrics in which it changed
     significantly, every metric, and the classes that changed most (share of B minus share of A, points)."""
     t = cm.table
     state = coverage(t)
+    state[~drawn_cells(cm)] = ""  # slivers at the surveys' edges: no feature
     ranks = np.zeros(len(t), np.int64)
     ranks[cm.ranked()] = np.arange(1, int(t["valid"].sum()) + 1)
     names = cm.class_table.class_names
@@ -99,39 +118,87 @@ CELL_TYPES = {"rank": "INTEGER", "significant": "INTEGER", "changed": "INTEGER",
 
 
 def cells_layer(cm, name="cells"):
-    """The cells as a :class:`lidar_sig.io.geopackage.Layer` with its default style."""
+    """The cells as a :class:`lidar_sig.io.geopackage.Layer` with its default style, listing the
+    rules that draw one of its cells."""
     from ..io.geopackage import Layer
 
     ranking = METRIC[cm.score].distance_name
-    return Layer(name, cm.crs, cell_features(cm), f"change map cells of {cm.cell:g} m: {cm.a.name} -> {cm.b.name}, "
-                 f"score {ranking}, {cm.confidence:.0%} level of detection", CELL_TYPES, cells_style())
+    features = cell_features(cm)
+    return Layer(name, cm.crs, features, f"change map cells of {cm.cell:g} m: {cm.a.name} -> {cm.b.name}, "
+                 f"score {ranking}, {cm.confidence:.0%} level of detection", CELL_TYPES,
+                 cells_style([fields for _, fields in features]))
 
 
-def cells_style():
-    """The QGIS style of the cells (QML): what changed (the ``changed`` rule: significant, or
-    appeared or vanished inside the other epoch's footprint) outlined near black, significant
-    cells labelled with their rank; the other compared cells thin grey; appeared and vanished
-    cells hatched (solid outline where they changed, dashed at a survey's edge), those with too
-    few points dashed; no fill where compared, so that the map's colours show through."""
-    from ..io.styles import Rule, polygon_qml
+def interval_layer_names(series):
+    """The table name of each interval's cells in a series' GeoPackage: ``cells_<A>_to_<B>``
+    from the epochs' file names (letters, digits and _ only, as GIS expect of a table), the
+    interval's number added where two intervals would take the same name."""
+    import re
+    from pathlib import Path
+
+    def stem(epoch):
+        return re.sub(r"[^0-9A-Za-z]+", "_", Path(epoch.name).stem).strip("_") or "epoch"
+
+    names = [f"cells_{stem(series.epochs[k])}_to_{stem(series.epochs[k + 1])}" for k in range(len(series.maps))]
+    return [f"{n}_{k + 1}" if names.count(n) > 1 else n for k, n in enumerate(names)]
+
+
+#: Decimals QGIS shows of the cells' numbers (their values are kept whole in the file).
+CELL_PRECISION = {"score": 4, "lod": 4, "z": 2, "lod_ratio": 2, "p": 6, "q": 6, "top_class_change": 1,
+                  **{k: 4 for k in METRIC_KEYS}}
+
+
+def cell_aliases():
+    """{field: the name QGIS shows}: each metric by its display name (delta_KL, d_BD-Img ...,
+    read from the metric), the other fields in words."""
+    return {"coverage": "coverage", "points_a": "points (earlier)", "points_b": "points (later)",
+            "score": "score (ranking metric)", "lod": "level of detection", "z": "z (spreads above the level)",
+            "lod_ratio": "x level of detection", "significant_metrics": "significant in",
+            **{k: METRIC[k].name for k in METRIC_KEYS},
+            "top_class": "class changed most", "top_class_change": "its change (points of share)",
+            "classes_changed": "classes changed"}
+
+
+def cell_rules():
+    """[(field values, :class:`~lidar_sig.io.styles.Rule`)] of the cells' style, the legend's
+    order: what changed (significant, or appeared or vanished inside the other epoch's
+    footprint) outlined near black, significant cells labelled with their rank; the other
+    compared cells thin grey; appeared and vanished cells hatched (solid outline where they
+    changed, dashed at a survey's edge), those with too few points dashed; no fill where
+    compared, so that the map's colours show through. A rule draws the cells whose fields hold
+    its values."""
+    from ..io.styles import Rule, equal
+
+    def rule(label, values, *style, **more):
+        return values, Rule(label, equal(**values), *style, **more)
 
     def hatched(state, changed, pattern, colour):
-        rule = f"\"coverage\" = '{state}' AND \"changed\" = {int(changed)}"
-        means = COVERAGE_MEANS[state] + ("; changed: inside the other epoch's footprint" if changed
-                                         else "; at a survey's edge, not counted as changed")
-        return Rule(means, rule, SIGNIFICANT_OUTLINE if changed else colour, 0.7 if changed else 0.4,
-                    fill=colour, fill_alpha=255, pattern=pattern, line="solid" if changed else "dash")
+        other = "earlier" if state == "appeared" else "later"
+        label = f"{state} inside the {other} survey: changed" if changed else f"{state} at a survey's edge: not counted"
+        return rule(label, {"coverage": state, "changed": int(changed)},
+                    SIGNIFICANT_OUTLINE if changed else colour, 0.7 if changed else 0.4, fill=colour,
+                    fill_alpha=255, pattern=pattern, line="solid" if changed else "dash")
 
-    return polygon_qml([
-        Rule("changed significantly: above its level of detection", '"significant" = 1', SIGNIFICANT_OUTLINE, 0.7),
-        Rule("compared, not significantly changed", "\"coverage\" = 'compared' AND \"significant\" = 0",
-             (110, 110, 110), 0.2),
+    return [
+        rule("changed significantly (its rank)", {"significant": 1}, SIGNIFICANT_OUTLINE, 0.7),
+        rule("compared, not significantly changed", {"coverage": "compared", "significant": 0}, (110, 110, 110), 0.2),
         hatched("appeared", True, "b_diagonal", (33, 102, 172)),
         hatched("vanished", True, "f_diagonal", (217, 95, 2)),
         hatched("appeared", False, "b_diagonal", (33, 102, 172)),
         hatched("vanished", False, "f_diagonal", (217, 95, 2)),
-        Rule(COVERAGE_MEANS["too few points"], "\"coverage\" = 'too few points'", (150, 150, 150), 0.3, line="dash"),
-    ], label_expression='if("significant" = 1, "rank", NULL)')
+        rule(COVERAGE_MEANS["too few points"], {"coverage": "too few points"}, (150, 150, 150), 0.3, line="dash"),
+    ]
+
+
+def cells_style(cells=None):
+    """The QGIS style of the cells (QML, :func:`cell_rules`), listing only the rules that draw
+    one of ``cells`` ([{field: value}]; every rule when not given), the fields by
+    :func:`cell_aliases` with :data:`CELL_PRECISION` decimals."""
+    from ..io.styles import matches, polygon_qml
+
+    rules = [r for values, r in cell_rules() if cells is None or any(matches(values, c) for c in cells)]
+    return polygon_qml(rules, label_expression='if("significant" = 1, "rank", NULL)', aliases=cell_aliases(),
+                       precision=CELL_PRECISION)
 
 
 def level_style(band):

@@ -252,6 +252,8 @@ class ChangeMap:
         (:func:`~lidar_sig.change_map._lod.p_values`, :func:`~lidar_sig.change_map._lod.q_values`);
         ``changed`` the significant cells and the appeared or vanished ones inside the other
         epoch's footprint (``in_footprint``): the map's one answer to "what changed?"."""
+        if score not in self.levels or score == HEIGHT:
+            raise LidarSigError(f"unknown score {score!r}; rank by one of {', '.join(k for k in self.levels if k != HEIGHT)}")
         self.score = score
         each = pooled_confidence(self.confidence, len(self.tests))
         t = self.table
@@ -431,7 +433,9 @@ class ChangeMap:
         """The cells in coverage ``state`` ("appeared", "vanished", ...) as plain dicts: row,
         col, bounds, the points of each epoch, and whether it counts as changed (inside the
         other epoch's footprint)."""
-        code = next(k for k, v in COVERAGE.items() if v == state)
+        code = next((k for k, v in COVERAGE.items() if v == state), None)
+        if code is None:
+            raise LidarSigError(f"unknown coverage state {state!r}; use one of {', '.join(map(repr, COVERAGE.values()))}")
         t = self.table
         return [{"row": int(t["row"][c]), "col": int(t["col"][c]),
                  "bounds": [float(t[k][c]) for k in ("x_min", "y_min", "x_max", "y_max")],
@@ -476,11 +480,13 @@ class ChangeMap:
                 "changed": str(self.n_changed),
                 "epoch_a": self.a.name, "epoch_b": self.b.name}
 
-    def bands(self, prefix=""):
-        """(rasters, descriptions) of the GeoTIFF's bands: the score, its level of detection,
-        significant (0/1), every metric and delta_H, delta_H's level, the points of each epoch,
-        their undefined shares, the coverage state and lod_ratio; NaN where there is no data.
-        ``prefix`` starts each description (a series' interval)."""
+    def bands(self, prefix="", meaning_prefix=None):
+        """(rasters, descriptions, meanings) of the GeoTIFF's bands: the score, its level of
+        detection, significant (0/1), every metric and delta_H, delta_H's level, the points of
+        each epoch, their undefined shares, the coverage state and lod_ratio; NaN where there is
+        no data. A description is short (QGIS shows it as the band's name and its legend's
+        title); its meaning, in full, is the band's metadata. ``prefix`` starts each description
+        and ``meaning_prefix`` (default ``prefix``) each meaning (a series' interval)."""
         names = self.band_names
         rasters = []
         for n in names:
@@ -492,7 +498,9 @@ class ChangeMap:
             elif n == "changed":  # an answer where a cell is compared, appeared or vanished
                 r = np.where(np.isin(self.raster("coverage"), (1, *COVERAGE_CHANGES)), r, np.nan)
             rasters.append(r)
-        return rasters, [prefix + _band_description(n, self.score, self.confidence) for n in names]
+        meaning_prefix = prefix if meaning_prefix is None else meaning_prefix
+        return (rasters, [prefix + _band_title(n, self.score) for n in names],
+                [meaning_prefix + _band_description(n, self.score, self.confidence) for n in names])
 
     @property
     def band_names(self) -> tuple[str, ...]:
@@ -517,10 +525,10 @@ class ChangeMap:
             from ..io.styles import style_path, write_style
             from ._layers import level_style
 
-            rasters, descriptions = self.bands()
+            rasters, descriptions, meanings = self.bands()
             with step(f"writing {Path(path).name}", bands=len(rasters)), output_group():
                 write_geotiff(path, rasters, descriptions, self.grid.transform, self.crs, overwrite=overwrite,
-                              tags=self.metadata_tags())
+                              tags=self.metadata_tags(), meanings=meanings)
                 write_style(style_path(path), level_style(self.band_names.index("lod_ratio") + 1),
                             overwrite=overwrite)
         elif VECTOR in holds:
@@ -565,6 +573,28 @@ class ChangeMap:
 def _plain(value):
     value = float(value)
     return None if math.isnan(value) else value
+
+
+#: The most characters of a band's short description: QGIS titles the band's legend "Band 18: "
+#: and the description, within 60 characters (a Layers panel's width, a print layout's legend),
+#: a series' interval "[2] " before it.
+BAND_TITLE_MAX = 47
+
+
+def _band_title(name, score):
+    """The short description of a band: its name and, where short, what it holds (at most
+    :data:`BAND_TITLE_MAX` characters; the full text is :func:`_band_description`)."""
+    titles = {"score": f"score: {score_name(score)}, the ranking metric",
+              "lod": "lod: level of detection of the score",
+              "height_lod": f"height_lod: level of detection of {HEIGHT_NAME} (m)",
+              "significant": "significant: 1 above its level of detection",
+              "points_a": "points of epoch A", "points_b": "points of epoch B",
+              "undefined_a": "share of A's points undefined", "undefined_b": "share of B's points undefined",
+              "coverage": "coverage: " + ", ".join(f"{k} {v}" for k, v in sorted(COVERAGE.items()) if 0 < k < 4),
+              "q": "q: the cell's q-value", "changed": "changed: 1 significant, appeared or vanished",
+              "lod_ratio": "lod_ratio: x its level of detection", HEIGHT: f"{HEIGHT_NAME}: EMD of heights (m)"}
+    names = {m.key: m.name for m in METRICS}
+    return (titles.get(name) or names[name])[:BAND_TITLE_MAX]
 
 
 def _band_description(name, score, confidence=CONFIDENCE):

@@ -30,7 +30,7 @@ import numpy as np
 
 from ..method.saliency_map import geometric_entropy
 from ..method.signature_raster import Frame, point_codes
-from ..tiling.work import UNITS, save_whole
+from ..tiling.work import UNITS, load_done, save_whole
 from ._cells import CHANGE_KEYS, Binned, null_metrics, observed_metrics, point_keys, stable_order
 from ._density import DENSITY_PIXEL, occupied_pixels
 
@@ -99,15 +99,6 @@ class UnitPlan:
                            self.labelled, self.min_points, self.render, self.seed, self.stream], default=str)
 
 
-def _done(path, key):
-    """The arrays of ``path`` when it was written from ``key``, else None (and it goes)."""
-    if not path.is_file():
-        return None
-    with np.load(path) as done:
-        if str(done["key"]) == key:
-            return {k: done[k] for k in done.files}
-    path.unlink()
-    return None
 
 
 def density_task(run, ij, lo, pixel):
@@ -145,7 +136,7 @@ def code_task(uplan, epoch, ij, view_step):
     point for the top view. Returns {unit: points} of the tile."""
     path = coded_path(uplan.work, epoch, ij)
     key = uplan.key(epoch)
-    done = _done(path, key)
+    done = load_done(path, key, uplan.work, extra=(points_path(path), view_path(uplan.work, epoch, ij)))
     if done is not None:
         return dict(zip(done["units"].tolist(), np.diff(done["starts"]).tolist()))
     run = uplan.epochs[epoch]
@@ -217,9 +208,9 @@ def unit_task(uplan, unit, tiles):
 
     path = unit_path(uplan.work, unit)
     key = uplan.key()
-    done = _done(path, key)
+    done = load_done(path, key, uplan.work)
     if done is not None:
-        return done
+        return {**done, "resumed": True}
     cells = uplan.cells_of(unit)
     n_classes = len(uplan.classes)
     pair = [binned_unit(unit_points(uplan, e, unit, tiles[e]), cells, n_classes) for e in (0, 1)]

@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..base.errors import LidarSigError, as_path
+from ..base.errors import LidarSigError, as_path, whole_number
 from ..base.progress import step
 
 if TYPE_CHECKING:
@@ -97,6 +97,7 @@ class ChangeSeries:
 
     def interval_name(self, k: int) -> str:
         """``"interval 1 (E1 -> E2)"`` for ``k`` = 0, with the epochs' file names."""
+        k = whole_number(k, "the interval (counted from 0)", high=len(self.maps) - 1)
         a, b = (Path(e.name).name for e in (self.epochs[k], self.epochs[k + 1]))
         return f"interval {k + 1} ({a} -> {b})"
 
@@ -136,9 +137,10 @@ class ChangeSeries:
 
     def save(self, path: str | os.PathLike[str], *, overwrite: bool = False) -> None:
         """Write by extension: ``.tif``/``.tiff`` every interval's bands (as a change map's,
-        described "interval k (Ek -> Ek+1): ...") then "when", with its QGIS style beside it
+        described "[k] ...", their meaning "interval k (Ek -> Ek+1): ...") then "when", with its QGIS style beside it
         (``.qml``: "when" in one colour per interval); ``.gpkg`` the cells of each interval, a
-        layer each (``cells_1``, ``cells_2``, ...); ``.png`` the map of "when"; ``.html`` the
+        layer each named by its interval
+        (``cells_A_to_B``, ``cells_B_to_C``, ...: :func:`~._layers.interval_layer_names`); ``.png`` the map of "when"; ``.html`` the
         report with each interval's map."""
         from ..io import output_group
         from ..io.formats import IMAGE, POINTS, RASTER, REPORT, VECTOR, format_of
@@ -149,10 +151,10 @@ class ChangeSeries:
             raise LidarSigError(POINTS_OF_TWO, path=path)
         if VECTOR in holds:
             from ..io.geopackage import write_geopackage
-            from ._layers import cells_layer
+            from ._layers import cells_layer, interval_layer_names
 
             with step(f"writing {Path(path).name}", intervals=len(self.maps)):
-                write_geopackage(path, [cells_layer(m, f"cells_{k + 1}") for k, m in enumerate(self.maps)],
+                write_geopackage(path, [cells_layer(m, name) for m, name in zip(self.maps, interval_layer_names(self))],
                                  overwrite=overwrite)
             return
         if RASTER in holds:
@@ -160,21 +162,22 @@ class ChangeSeries:
             from ..io.styles import style_path, write_style
             from ._layers import when_style
 
-            rasters, descriptions = [], []
+            rasters, descriptions, meanings = [], [], []
             for k, m in enumerate(self.maps):
-                r, d = m.bands(prefix=f"{self.interval_name(k)}: ")
+                r, d, long = m.bands(prefix=f"[{k + 1}] ", meaning_prefix=f"{self.interval_name(k)}: ")
                 rasters += r
                 descriptions += d
+                meanings += long
             rasters.append(self.raster())
-            descriptions.append(f"when: the interval (1 to {len(self.maps)}) in which the cell changed most "
-                                f"(largest z among its significant intervals); {NEVER} compared but never "
-                                "significant")
+            descriptions.append(f"when: the interval that changed most ({NEVER}: none)")
+            meanings.append(f"when: the interval (1 to {len(self.maps)}) in which the cell changed most "
+                            f"(largest z among its significant intervals); {NEVER} compared but never significant")
             tags = {k: v for k, v in self.maps[0].metadata_tags().items() if not k.startswith(("epoch", "compared",
                                                                                                "significant"))}
             tags.update({f"epoch_{k + 1}": e.name for k, e in enumerate(self.epochs)})
             with step(f"writing {Path(path).name}", bands=len(rasters)), output_group():
                 write_geotiff(path, rasters, descriptions, self.grid.transform, self.maps[0].crs,
-                              overwrite=overwrite, tags=tags)
+                              overwrite=overwrite, tags=tags, meanings=meanings)
                 write_style(style_path(path), when_style(self, len(rasters)), overwrite=overwrite)
         elif IMAGE in holds:
             from ..io.png import write_png

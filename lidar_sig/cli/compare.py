@@ -4,7 +4,7 @@ import json
 import click
 
 from ..base.errors import printable
-from .options import (aoi_option, columns_option, execution_options, json_option, overwrite_option, pipeline_options,
+from .options import (aoi_option, crs_option, columns_option, execution_options, json_option, overwrite_option, pipeline_options,
                       render_option, report_options)
 from .summaries import archive_summary_line, say
 
@@ -17,10 +17,11 @@ from .summaries import archive_summary_line, say
 @render_option
 @overwrite_option
 @columns_option
+@crs_option
 @execution_options(work_dir=False)
 @aoi_option
 @pipeline_options
-def compare(a, b, as_json, report, plots, render, overwrite, columns, execution, aoi, pipeline, method_given,
+def compare(a, b, as_json, report, plots, render, overwrite, columns, crs, execution, aoi, pipeline, method_given,
             quiet):
     """Compare the signatures of A and B (point-cloud files, signature archives or folders of
     LAS/LAZ tiles, each folder one epoch processed in tiles; in any mix).
@@ -31,7 +32,7 @@ def compare(a, b, as_json, report, plots, render, overwrite, columns, execution,
     from ..jobs import compare as compare_job
     from ..metrics import METRICS
 
-    done = compare_job(a, b, report=report, plots=plots, overwrite=overwrite, pipeline=pipeline, render=render,
+    done = compare_job(a, b, report=report, plots=plots, overwrite=overwrite, crs=crs, pipeline=pipeline, render=render,
                        columns=columns, execution=execution, method_given=method_given, aoi=aoi)
     result = done.comparison
     for note in result.warnings:

@@ -186,6 +186,11 @@ def make_pipeline(descriptor=None, strategy=None, radii=None, units=None, k=None
 
 overwrite_option = click.option("--overwrite", is_flag=True, help="Replace an existing output file.")
 
+crs_option = click.option(
+    "--crs", default=None, metavar="CRS",
+    help="CRS of clouds whose header carries none, e.g. EPSG:28992; it reaches every output (GeoTIFF, GeoPackage, "
+         "catalogue). A cloud that carries another CRS is refused.")
+
 render_option = click.option(
     "--render", type=Choice(renderings), default=None,
     help="Rendering of Sg and Sas: smooth (a density estimate, robust to sampling), points (the "

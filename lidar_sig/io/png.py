@@ -43,6 +43,36 @@ def signature_image(signature, kind="sas", mode="smooth", *, scale=1):
     return draw_triangle(rgb, signature.frame, scale=scale)
 
 
+def signature_picture(signature, kind="sas", mode="smooth"):
+    """The picture of a signature's PNG file: :func:`signature_image`, and below Sas the legend
+    of its classes (each present class's colour, name and share of the points), so that the
+    file reads alone."""
+    rgb = signature_image(signature, kind, mode)
+    return np.vstack([rgb, class_legend(signature, rgb.shape[1])]) if kind == "sas" else rgb
+
+
+def class_legend(signature, width):
+    """(H, ``width``, 3) uint8 legend of the classes with points in ``signature``, in the
+    colours Sas gives them: a swatch, the class's name and its share, two columns."""
+    cv2 = _cv2()
+    counts = signature.class_counts
+    present = [k for k in np.flatnonzero(counts > 0)]
+    names, colours = signature.classes.class_names, signature.classes.class_colors
+    row, font, columns = 22, 0.45, 2
+    rows = (len(present) + columns - 1) // columns
+    out = np.full((row * rows + 10, width, 3), 255, np.uint8)
+    total = max(int(counts.sum()), 1)
+    for n, k in enumerate(present):
+        x, y = 10 + (n % columns) * (width // columns), 6 + (n // columns) * row
+        colour = tuple(int(round(c * 255)) for c in colours[k])
+        cv2.rectangle(out, (x, y), (x + 14, y + 14), colour, -1)
+        cv2.rectangle(out, (x, y), (x + 14, y + 14), _EDGE, 1)
+        share = 100.0 * counts[k] / total
+        text = f"{names[k]} {share:.0f}%" if share >= 0.5 else f"{names[k]} <1%"
+        cv2.putText(out, text, (x + 20, y + 12), _FONT, font, _INK, 1, cv2.LINE_AA)
+    return out
+
+
 def draw_triangle(rgb, frame, *, labels=VERTEX_LABELS, scale=1.0):
     """Draw the frame's triangle (anti-aliased) and its vertex labels on ``rgb``, in place and
     returned; ``scale`` is the picture's size over the frame's."""
@@ -84,5 +114,5 @@ def write_png(path, data, *, overwrite=False):
 
 def write_signature_png(path: str | os.PathLike[str], signature: Signature, *, kind: str = "sas", mode: str = "smooth",
                         overwrite: bool = False) -> None:
-    """Write Sas (default) or Sg of ``signature`` as a PNG file."""
-    write_png(path, signature_image(signature, kind, mode), overwrite=overwrite)
+    """Write Sas (default, with the legend of its classes) or Sg of ``signature`` as a PNG file."""
+    write_png(path, signature_picture(signature, kind, mode), overwrite=overwrite)

@@ -70,10 +70,39 @@ class Rule:
     pattern: str = "no"
 
 
-def polygon_qml(rules, *, label_expression=None):
+def equal(**values):
+    """The QGIS expression that each field equals its value (``"coverage" = 'appeared' AND
+    "changed" = 1``), for a :class:`Rule`'s filter; :func:`matches` tells the same in Python."""
+    return " AND ".join(f'"{k}" = ' + (f"'{v}'" if isinstance(v, str) else repr(v)) for k, v in values.items())
+
+
+def matches(values, fields):
+    """Whether a feature's ``fields`` ({field: value}) hold every value of ``values``, as the
+    filter :func:`equal` makes of them selects it in QGIS."""
+    return all(fields.get(k) == v for k, v in values.items())
+
+
+def _fields(aliases, precision):
+    """The QML of fields' aliases ({field: alias}) and of the decimals QGIS shows of numbers
+    ({field: digits}: the Range widget's precision, which the attribute table, the identify
+    results and the forms show the value with)."""
+    if not aliases and not precision:
+        return ""
+    widgets = "".join(
+        f'<field name={quoteattr(name)} configurationFlags="None"><editWidget type="Range"><config><Option type="Map">'
+        f'<Option type="int" name="Precision" value="{int(digits)}"/><Option type="QString" name="Style" '
+        'value="SpinBox"/><Option type="bool" name="AllowNull" value="true"/></Option></config></editWidget></field>'
+        for name, digits in (precision or {}).items())
+    names = "".join(f"<alias field={quoteattr(name)} name={quoteattr(alias)}/>"
+                    for name, alias in (aliases or {}).items())
+    return f"<fieldConfiguration>{widgets}</fieldConfiguration><aliases>{names}</aliases>"
+
+
+def polygon_qml(rules, *, label_expression=None, aliases=None, precision=None):
     """A rule-based style of a polygon layer: ``rules`` (:class:`Rule`, the legend's order;
     a feature drawn by every rule it matches) and, with ``label_expression`` (a QGIS
-    expression, NULL for no label), a label over each polygon."""
+    expression, NULL for no label), a label over each polygon; fields shown by their
+    ``aliases`` ({field: name}) and numbers with ``precision`` decimals ({field: digits})."""
     entries, symbols = [], []
     for k, r in enumerate(rules):
         entries.append(f'<rule key="rule{k}" symbol="{k}" label={quoteattr(r.label)} filter={quoteattr(r.filter)}/>')
@@ -93,10 +122,10 @@ def polygon_qml(rules, *, label_expression=None):
                   'bufferColor="255,255,255,255" bufferOpacity="1"/></text-style>'
                   '<placement placement="1" polygonPlacementFlags="2"/>'
                   '<rendering drawLabels="1" obstacle="1" displayAll="1"/></settings></labeling>')
-    return (_HEAD + f'<qgis styleCategories="Symbology|Labeling" labelsEnabled="{1 if labels else 0}">'
+    return (_HEAD + f'<qgis styleCategories="Symbology|Labeling|Fields|Forms" labelsEnabled="{1 if labels else 0}">'
             '<renderer-v2 type="RuleRenderer" symbollevels="0" enableorderby="0" forceraster="0">'
             f'<rules key="root">{"".join(entries)}</rules><symbols>{"".join(symbols)}</symbols></renderer-v2>'
-            f"{labels}<blendMode>0</blendMode><featureBlendMode>0</featureBlendMode>"
+            f"{labels}{_fields(aliases, precision)}<blendMode>0</blendMode><featureBlendMode>0</featureBlendMode>"
             "<layerGeometryType>2</layerGeometryType></qgis>\n")
 
 

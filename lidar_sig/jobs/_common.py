@@ -6,13 +6,15 @@ import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, TypeAlias, TypeVar
+from typing import TYPE_CHECKING, Any, Callable, TypeAlias, TypeVar
 
 from ..base.errors import LidarSigError, a_kind, arg, as_path
 
 if TYPE_CHECKING:
     from ..tiling.execution import Execution
 
+#: What a job returns.
+R = TypeVar("R")
 #: A path as the jobs take it.
 PathLike: TypeAlias = "str | os.PathLike[str]"
 #: Inputs of a job: one file or folder, or a list of them.
@@ -28,9 +30,19 @@ def as_sources(sources: Sources, what: str = "sources") -> list[str]:
     if not isinstance(sources, (list, tuple)) or not sources:
         raise LidarSigError(f"{what} must be a file or folder path or a list of them, got "
                             + ("an empty list" if isinstance(sources, (list, tuple)) else a_kind(sources)))
-    from ..io.remote import is_url
+    from ..io.tile_lists import tile_list
 
-    return [s if is_url(s) else str(as_path(s, what)) for s in sources]  # a URL is not a path
+    out: list[str] = []
+    for s in sources:  # a glob pattern or .vpc stands for its tiles, as in changes and catalog
+        listed = tile_list(as_path(s, what))
+        out += [str(s)] if listed is None else [str(p) for p in listed]
+    return out
+
+
+def source_list(sources: Sources) -> list[Any]:
+    """``sources`` as a list, each as given (a pattern or .vpc not expanded: an area of interest
+    reads a .vpc's bounds first, :func:`lidar_sig.io.clip.clip_inputs`)."""
+    return list(sources) if isinstance(sources, (list, tuple)) else [sources]
 
 
 def is_set(sources: list[str], execution: Execution, resume: bool = False) -> bool:
@@ -106,3 +118,17 @@ class JobRun:
         shown = ", ".join(self.written[:2]) + (f", ... ({len(self.written)})" if len(self.written) > 2 else "")
         return one_line(f"<{type(self).__name__} {state}; wrote {shown or 'nothing'}>")
 
+
+def reads_clouds(job: Callable[..., R]) -> Callable[..., R]:
+    """A job that reads clouds, run with its ``crs`` argument (the CRS of clouds whose header
+    carries none, ``--crs``) in force: every cloud it reads, in this process or in those it
+    starts, takes that CRS (:func:`lidar_sig.method.crs.clouds_crs`)."""
+    import functools
+
+    @functools.wraps(job)
+    def run(*args: Any, **kwargs: Any) -> R:
+        from ..method.crs import clouds_crs
+
+        with clouds_crs(kwargs.get("crs")):
+            return job(*args, **kwargs)
+    return run

@@ -5,8 +5,8 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
-from ..base.errors import counted
-from ._common import JobRun, PathLike, Sources, as_sources
+from ..base.errors import counted, yes_no
+from ._common import JobRun, PathLike, Sources, reads_clouds, source_list
 
 if TYPE_CHECKING:
     from ..pipeline.flow import Pipeline
@@ -39,17 +39,20 @@ class CatalogJob(JobRun):
             f"same job again (with {arg('resume', True)} the tiles finished in the work folder are reused)"]
 
 
+@reads_clouds
 def catalog(inputs: Sources, output: PathLike, *, pipeline: Pipeline | None = None,
             execution: Execution | None = None, resume: bool = False, overwrite: bool = False,
-            method_given: Iterable[str] | None = None, aoi: Any = None) -> CatalogJob:
+            method_given: Iterable[str] | None = None, crs: str | None = None, aoi: Any = None) -> CatalogJob:
     """Make the catalogue ``output`` (.h5) of the LAS/LAZ tiles of ``inputs``, or grow it
     (:func:`lidar_sig.survey_catalog.build_catalog`), on the workers or cluster of ``execution``, its
-    work folder the execution's ``work_dir`` (default ``OUTPUT.work``). ``aoi``: an area of
-    interest the tiles are clipped to first (:func:`lidar_sig.jobs.saliency`): the catalogue then
-    holds the clipped tiles of the area, under their own names."""
+    work folder the execution's ``work_dir`` (default ``OUTPUT.work``).
+    ``crs``: the CRS of clouds whose header carries none (``--crs``; :func:`._common.reads_clouds`).
+    ``aoi``: an area of interest the tiles are clipped to first (:func:`lidar_sig.jobs.saliency`): the
+    catalogue then holds the clipped tiles of the area, under their own names.
+    """
     from ..io.clip import clip_inputs
 
-    with clip_inputs([as_sources(inputs)], aoi) as clip:
+    with clip_inputs([source_list(inputs)], aoi) as clip:
         done = _catalog(clip.inputs[0], output, pipeline, execution, resume, overwrite, method_given)
         return done.with_reading(clip)
 
@@ -61,6 +64,7 @@ def _catalog(inputs: Sources, output: PathLike, pipeline: Pipeline | None, execu
     from ..reporting.sections import scales_text
     from ..tiling.execution import as_execution
 
+    resume = yes_no(resume, "resume")
     execution = as_execution(execution)
     with execution.backend() as backend:
         run = build_catalog(inputs, output, pipeline, backend=backend, work=execution.work_dir, resume=resume,
@@ -72,8 +76,9 @@ def _catalog(inputs: Sources, output: PathLike, pipeline: Pipeline | None, execu
         what += [f"{len(run.unchanged)} unchanged"] if run.unchanged else []
         what += [f"{len(run.resumed)} reused from the work folder"] if run.resumed else []
         m = run.method
-        crs = [crs_name(c) or "none" for c in run.crs]
-        where = f"CRS {crs[0]}" if len(crs) == 1 else f"{len(crs)} CRSs ({', '.join(crs)}): neighbours are found within each"
+        named = [crs_name(c) or "none" for c in run.crs]
+        where = (f"CRS {named[0]}" if len(named) == 1 else
+                 f"{len(named)} CRSs ({', '.join(named)}): neighbours are found within each")
         lines = [f"{output}: {run.n_tiles:,} tile{'s' if run.n_tiles != 1 else ''} ({', '.join(what)}), "
                  f"{m['descriptor']} {m['strategy']}, {scales_text(m)}, {m['weights']} weights; {where}",
                  f"{run.execution}: {run.seconds:.1f} s"]

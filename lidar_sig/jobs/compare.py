@@ -5,7 +5,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
-from ._common import Columns, JobRun, PathLike
+from ._common import Columns, JobRun, PathLike, reads_clouds
 
 if TYPE_CHECKING:
     from ..comparison import Comparison
@@ -25,14 +25,18 @@ class CompareRun(JobRun):
                 **self.area_dict()}
 
 
+@reads_clouds
 def compare(a: Any, b: Any, *, report: PathLike | None = None, plots: PathLike | None = None, overwrite: bool = False,
             pipeline: Pipeline | None = None, render: str | None = None, columns: Columns = None,
-            execution: Execution | None = None, method_given: Iterable[str] = (), aoi: Any = None) -> CompareRun:
+            execution: Execution | None = None, method_given: Iterable[str] = (),
+            crs: str | None = None, aoi: Any = None) -> CompareRun:
     """Compare ``a`` and ``b`` (:func:`lidar_sig.comparison.compare_sources`) and write the
     report (``report``, an .html file) and its figures (``plots``, a folder), checked before any
     work and written together or not at all. ``method_given``: the method options a user set,
     which an archive's recorded method must then agree with. ``aoi``: an area of interest both
-    inputs are clipped to (:func:`lidar_sig.jobs.saliency`)."""
+    inputs are clipped to (:func:`lidar_sig.jobs.saliency`).
+    ``crs``: the CRS of clouds whose header carries none (``--crs``; :func:`._common.reads_clouds`).
+    """
     from ..comparison import compare_sources
     from ..io.clip import clip_inputs
     from ..reporting import COMPARISON_PLOTS

@@ -13,10 +13,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ..base.errors import LidarSigError, arg, as_path
+from ..base.errors import LidarSigError, arg, as_path, yes_no
 from ..io import CLOUD_EXTENSIONS, check_cloud_output, check_output, read
 from ..io.formats import POINTS, format_of, holds
-from ._common import Columns, JobRun, PathLike, Sources, as_sources, is_set, work_folder
+from ..io.tile_lists import check_apart
+from ._common import Columns, JobRun, PathLike, Sources, as_sources, source_list, is_set, work_folder, reads_clouds
 
 if TYPE_CHECKING:
     from ..pipeline.flow import Pipeline
@@ -38,9 +39,10 @@ class SaliencyRun(JobRun):
         return out
 
 
+@reads_clouds
 def saliency(sources: Sources, output: PathLike, *, pipeline: Pipeline | None = None,
              execution: Execution | None = None, overwrite: bool = False, resume: bool = False,
-             columns: Columns = None, aoi: Any = None) -> SaliencyRun:
+             columns: Columns = None, crs: str | None = None, aoi: Any = None) -> SaliencyRun:
     """Write each of ``sources`` with its per-point Cl, Cs, Cp, Egeom, GeomClass (and
     OptimalScale) to ``output``.
 
@@ -62,6 +64,8 @@ def saliency(sources: Sources, output: PathLike, *, pipeline: Pipeline | None = 
         work folder (kept after a failure).
     columns : str or list, optional
         Columns of a text cloud.
+    crs : str, optional
+        The CRS of clouds whose header carries none (``--crs``; :func:`._common.reads_clouds`).
     aoi : str, path or tuple, optional
         An area of interest: bounds ``"XMIN,YMIN,XMAX,YMAX"`` (or four numbers) in the clouds'
         CRS, or a GeoPackage or GeoJSON polygon file in any CRS; the inputs are clipped to it
@@ -69,7 +73,7 @@ def saliency(sources: Sources, output: PathLike, *, pipeline: Pipeline | None = 
     """
     from ..io.clip import clip_inputs
 
-    with clip_inputs([as_sources(sources)], aoi) as clip:
+    with clip_inputs([source_list(sources)], aoi) as clip:
         return _saliency(clip.inputs[0], output, pipeline, execution, overwrite, resume, columns).with_reading(clip)
 
 
@@ -78,6 +82,7 @@ def _saliency(sources: Sources, output: PathLike, pipeline: Pipeline | None, exe
     from ..pipeline.flow import pipeline_or_default
     from ..tiling.execution import as_execution
 
+    resume = yes_no(resume, "resume")
     pipeline = pipeline_or_default(pipeline)
     execution = as_execution(execution)
     sources = as_sources(sources)
@@ -93,6 +98,7 @@ def _saliency(sources: Sources, output: PathLike, pipeline: Pipeline | None, exe
     if not holds(output, POINTS):
         raise LidarSigError(f"output must be a point cloud: {', '.join(CLOUD_EXTENSIONS)}", path=output)
     check_output(output, overwrite=overwrite)
+    check_apart([output], [source])
     start = time.perf_counter()
     over = execution.over_budget(source, pipeline)
     result: Result

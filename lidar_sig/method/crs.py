@@ -9,9 +9,15 @@ and results say so.
 """
 from __future__ import annotations
 
+import os
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 from ..base.errors import LidarSigError
+
+#: The environment variable that holds the CRS given for clouds whose header carries none
+#: (:func:`clouds_crs`): every process of a run reads it, the processes a run starts too.
+GIVEN_CRS = "LIDAR_SIG_CRS"
 
 # GeoTIFF keys (GeoTIFF 1.0 specification, section 6.2)
 _PROJECTED_CS = 3072
@@ -111,12 +117,56 @@ def las_crs(header):
     return crs
 
 
+def given_crs(crs, *, said="--crs"):
+    """``crs`` (an EPSG code such as "EPSG:28992", WKT or any text pyproj reads) as WKT, checked:
+    a CRS pyproj cannot read, or a geographic one (degrees), is refused in one line naming
+    ``said``."""
+    import pyproj
+
+    try:
+        parsed = crs if isinstance(crs, pyproj.CRS) else pyproj.CRS.from_user_input(crs)
+    except (pyproj.exceptions.CRSError, TypeError) as exc:
+        raise LidarSigError(f"{said} {crs!r} is not a CRS ({str(exc).splitlines()[0][:100]}); give one such as "
+                            "EPSG:28992") from None
+    if (parsed.sub_crs_list[0] if parsed.is_compound else parsed).is_geographic:
+        raise LidarSigError(f"{said} {crs} is geographic (degrees), in which distances cannot be measured; give the "
+                            "projected CRS the clouds' coordinates are in")
+    return parsed.to_wkt()
+
+
+@contextmanager
+def clouds_crs(crs, *, said="--crs"):
+    """Within: every cloud read whose header carries no CRS is in ``crs`` (:func:`given_crs`;
+    None: nothing changes), and a cloud that carries another CRS is refused
+    (:func:`las_units`). Held in :data:`GIVEN_CRS`, so that the processes a run starts read it."""
+    if crs is None:
+        yield
+        return
+    wkt = given_crs(crs, said=said)
+    saved = os.environ.get(GIVEN_CRS)
+    os.environ[GIVEN_CRS] = wkt
+    try:
+        yield
+    finally:
+        if saved is None:
+            os.environ.pop(GIVEN_CRS, None)
+        else:
+            os.environ[GIVEN_CRS] = saved
+
+
 def las_units(header, *, path=None):
-    """(CRS as WKT or None, Units) of a LAS header.
+    """(CRS as WKT or None, Units) of a LAS header; the CRS given for clouds without one
+    (:func:`clouds_crs`) where the header has none, and a header in another CRS refused.
 
     GeoTIFF unit keys serve where no EPSG code is given (a user-defined projection).
     """
     crs = las_crs(header)
+    given = os.environ.get(GIVEN_CRS)
+    if given:
+        import pyproj
+
+        check_given(crs.to_wkt() if crs is not None else None, given, path)
+        crs = crs or pyproj.CRS.from_user_input(given)
     if crs is not None:
         return crs.to_wkt(), units_of(crs, path=path)
     keys = _geokeys(header)
@@ -133,6 +183,29 @@ def _geokeys(header):
     if not vlrs:
         return {}
     return {k.id: k.value_offset for k in vlrs[0].geo_keys if k.tiff_tag_location == 0}
+
+
+def check_given(crs, given, path=None):
+    """Refuse a cloud whose own CRS (WKT, or None) is not the CRS ``given`` for clouds without
+    one: its coordinates are in its own CRS, which a given CRS would misname."""
+    if crs is not None and not same_crs(crs, given):
+        raise LidarSigError(f"carries the CRS {crs_name(crs)}, not the one given ({crs_name(given)}); leave out "
+                            "--crs (crs=), which is for clouds without a CRS, or reproject the cloud", path=path)
+
+
+def cloud_in_given_crs(cloud):
+    """``cloud`` (a PointCloud read from a format without a CRS, e.g. PLY or text) in the CRS
+    given for clouds without one (:func:`clouds_crs`), with that CRS's units; unchanged when
+    none is given; a cloud in another CRS refused."""
+    given = os.environ.get(GIVEN_CRS)
+    if not given:
+        return cloud
+    check_given(cloud.crs, given, cloud.path)
+    if cloud.crs is None:
+        cloud.crs = given
+        if not cloud.units.known:
+            cloud.units = units_of(given, path=cloud.path)
+    return cloud
 
 
 def same_crs(a, b):

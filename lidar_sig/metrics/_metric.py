@@ -168,10 +168,18 @@ class Metric:
         ranges = [sorted(self._oriented(x) for x in self.references[c]) for c in cases]
         for k, case in enumerate(cases[:-1]):
             if v < (ranges[k][1] * ranges[k + 1][0]) ** 0.5:
-                return case, f"like {REFERENCE_CASES[case]} ({self.shown_range(case)})"
+                return case, f"like {REFERENCE_CASES[case]} ({self.where_in(value, case)})"
         if v > ranges[-1][1]:
             return "beyond", f"beyond {REFERENCE_CASES[cases[-1]]} ({self.shown_range(cases[-1])})"
-        return cases[-1], f"like {REFERENCE_CASES[cases[-1]]} ({self.shown_range(cases[-1])})"
+        return cases[-1], f"like {REFERENCE_CASES[cases[-1]]} ({self.where_in(value, cases[-1])})"
+
+    def where_in(self, value: float, case: str) -> str:
+        """The range of a reference case as text, saying where ``value`` lies when the range
+        does not hold it (the cases split between their ranges): ``0.0150-0.5972``, ``below
+        0.0150-0.5972`` or ``above 0.0150-0.5972``."""
+        low, high = sorted((self.references or {})[case])
+        side = "below " if value < low else "above " if value > high else ""
+        return side + self.shown_range(case)
 
     def shown_range(self, case: str) -> str:
         """The range of a reference case as text, e.g. ``0.2187-0.5872``."""

@@ -72,6 +72,9 @@ class Similar:
     results: list
     shortlist: dict
     spread: dict = field(default_factory=dict)
+    #: The catalogue searched and the row of each tile found, for their footprints.
+    catalog: Any = None
+    rows: list = field(default_factory=list)
 
     def __repr__(self):
         best = ", ".join(f"{r['name']} {r['distance']:.3g}" for r in self.results[:3])
@@ -96,6 +99,32 @@ class Similar:
 
     def names(self) -> list[str]:
         return [r["name"] for r in self.results]
+
+    def write_geopackage(self, path: str | os.PathLike[str], *, overwrite: bool = False) -> None:
+        """The tiles found as their footprints (convex hulls) with rank, name, path, distance and
+        every metric, in a GeoPackage (one layer per CRS) with a spatial index and a default
+        style: each tile outlined, labelled with its rank, the metrics by their names."""
+        from ..io.geopackage import tile_layers, write_geopackage
+        from ..metrics import METRIC
+
+        layers: dict = {}
+        for r, i in zip(self.results, self.rows):
+            layers.setdefault(self.catalog.crs_of(i), []).append((self.catalog.columns["hull"][i], dict(r)))
+        aliases = {k: METRIC[k].name for k in self.spread if k in METRIC}
+        style = similar_style(aliases)
+        write_geopackage(path, tile_layers(layers, description=f"tiles most like {self.query.get('name')}, best first",
+                                           style=style), overwrite=overwrite)
+
+
+def similar_style(aliases):
+    """The QGIS style of the similar tiles' footprints (QML): each tile outlined dark blue,
+    labelled with its rank, the metrics shown by their names (``aliases``) with 4 decimals."""
+    from ..io.styles import Rule, polygon_qml
+
+    return polygon_qml([Rule("tile like the query (its rank)", "TRUE", (8, 48, 107), 0.6, fill=(158, 202, 225),
+                             fill_alpha=90, pattern="solid")],
+                       label_expression='"rank"', aliases=aliases,
+                       precision={"distance": 4, **{k: 4 for k in aliases}})
 
 
 def shortlist_size(top, n):
@@ -164,4 +193,5 @@ def similar(catalog, query, *, top=10, metric=None, shortlist=None, columns=None
             if shortlist is None else "given", "screened_by": how, "certain": certain,
             "image_metrics": list(IMAGE)}
     return Similar({"name": q.name, "kind": q.kind, "tile": q.index is not None}, metric,
-                   SimilarTiles(results, metric=metric, keys=keys), info, {k: spread[k] for k in keys})
+                   SimilarTiles(results, metric=metric, keys=keys), info, {k: spread[k] for k in keys},
+                   catalog, [i for _, i, _, _ in rows[:top]])

@@ -38,6 +38,8 @@ class SetRun:
     excluded: dict = field(default_factory=dict)  # source id -> withheld or noise points left out
     labelled: bool = False  # some point has a class code
     records: dict = field(default_factory=dict)  # (source, part) -> its staged part's record
+    reused_parts: int = 0  # staged parts a resumed run reused
+    restaged: list = field(default_factory=list)  # files a resumed run staged again (edited since)
     seconds: float = 0.0
     execution: str = ""
 

@@ -7,14 +7,16 @@ import re
 import shlex
 from pathlib import Path
 
-from qgis.core import (QgsCoordinateReferenceSystem, QgsFeature, QgsField, QgsFields, QgsLayerTree, QgsProcessing,
-                       QgsProcessingAlgorithm, QgsProcessingContext, QgsProcessingException,
+from qgis.core import (QgsCoordinateReferenceSystem, QgsEditorWidgetSetup, QgsFeature, QgsField, QgsFields,
+                       QgsLayerTree, QgsProcessing, QgsProcessingAlgorithm, QgsProcessingContext, QgsProcessingException,
                        QgsProcessingLayerPostProcessorInterface, QgsProcessingOutputNumber, QgsProcessingOutputString,
-                       QgsProcessingParameterBoolean, QgsProcessingParameterEnum, QgsProcessingParameterExtent, QgsProcessingParameterFeatureSink,
+                       QgsProcessingParameterBoolean, QgsProcessingParameterCrs, QgsProcessingParameterEnum,
+                       QgsProcessingParameterExtent,
+                       QgsProcessingParameterFeatureSink,
                        QgsProcessingParameterFile, QgsProcessingParameterFileDestination, QgsProcessingParameterNumber,
                        QgsProcessingParameterRasterDestination, QgsProcessingParameterString,
                        QgsProcessingParameterVectorDestination, QgsProcessingUtils, QgsProviderRegistry, QgsRasterLayer,
-                       QgsWkbTypes)
+                       QgsVectorLayer, QgsWkbTypes)
 from qgis.PyQt.QtCore import QVariant
 
 from . import command
@@ -198,8 +200,14 @@ class LidarSigAlgorithm(QgsProcessingAlgorithm):
     def helpUrl(self):
         return help_url(self.job)
 
+    #: Notes on the parameters, in the help: the detail that the dialog's short labels leave out.
+    notes = ""
+
     def shortHelpString(self):
-        return (self.help + "<p>Runs <code>lidar-sig " + self.job + "</code> (the executable set in Settings &gt; "
+        example = f", e.g. <code>{self.more_example}</code>" if self.more_example else ""
+        return (self.help + self.notes + f"<p><b>More options</b> (advanced): any other option of lidar-sig "
+                f"{self.job}, as on the command line{example}.</p><p>Runs <code>lidar-sig {self.job}</code> (the "
+                "executable set in Settings &gt; "
                 "Options &gt; Processing &gt; Providers &gt; lidar_sig, or lidar-sig on PATH); its progress and notes "
                 "appear in this log, Cancel stops it with nothing half-written. Help opens the command's page "
                 f"(docs/commands/{self.job}.md).</p>")
@@ -212,9 +220,7 @@ class LidarSigAlgorithm(QgsProcessingAlgorithm):
         if self.job in AREA_JOBS:  # --aoi: the clouds clipped to the extent (in its CRS) first
             self.addParameter(QgsProcessingParameterExtent("AOI", "Area of interest (not set: the whole clouds)",
                                                            optional=True))
-        example = f", e.g. {self.more_example}" if self.more_example else ""
-        options = QgsProcessingParameterString("OPTIONS", f"More options of lidar-sig {self.job} (as on the command "
-                                               f"line{example})", optional=True)
+        options = QgsProcessingParameterString("OPTIONS", "More options (as on the command line)", optional=True)
         options.setFlags(options.flags() | options.FlagAdvanced)
         self.addParameter(options)
 
@@ -330,6 +336,17 @@ class LidarSigAlgorithm(QgsProcessingAlgorithm):
         self.addParameter(QgsProcessingParameterFile(name, description, behavior=behavior,
                                                      fileFilter="" if folder else files or clouds(), optional=optional))
 
+    def add_crs(self):
+        """The CRS of clouds whose header carries none (--crs): it reaches every output layer."""
+        self.addParameter(QgsProcessingParameterCrs("CRS", "CRS of clouds without one", optional=True))
+
+    def crs_arguments(self, parameters, context):
+        """``--crs`` and the CRS asked, by its authority id (EPSG:28992) or else its WKT; none when not set."""
+        crs = self.parameterAsCrs(parameters, "CRS", context) if self.parameterDefinition("CRS") else None
+        if crs is None or not crs.isValid():
+            return []
+        return ["--crs", crs.authid() or crs.toWkt()]
+
     def add_report(self):
         self.addParameter(QgsProcessingParameterFileDestination("REPORT", "Report (HTML)", HTML, optional=True,
                                                                 createByDefault=False))
@@ -348,17 +365,19 @@ class LidarSigAlgorithm(QgsProcessingAlgorithm):
         value = self.parameterAsString(parameters, name, context)
         return value or None
 
-    def styled(self, paths, context):
+    def styled(self, paths, context, names=None):
         """Have the layers Processing loads from ``paths`` (top first) drawn in their own styles
         and in this order. A raster is opened here in its style and handed to Processing, which
         takes it from the context's layer store: opened by Processing, without its style, a
         change map would first be set up as bands 1-3 in red, green and blue, whose histograms
         GDAL refuses on a constant band ("band 3: dfMax should be strictly greater than dfMin"
-        where no cell is significant)."""
+        where no cell is significant). ``names`` ({path: layer name}) name the layers."""
         order = LoadOrder(paths)
         for path in order.paths:
             if context.willLoadLayerOnCompletion(path):
                 details = context.layerToLoadOnCompletionDetails(path)
+                if (names or {}).get(path):
+                    details.name = names[path]
                 if details.layerTypeHint == QgsProcessingUtils.LayerHint.Raster:
                     layer = QgsRasterLayer(path, details.name, "gdal")  # its .qml read as it opens
                     if layer.isValid():
@@ -378,9 +397,11 @@ class LidarSigAlgorithm(QgsProcessingAlgorithm):
                                                     QgsProcessingUtils.LayerHint.PointCloud)
         context.addLayerToLoadOnCompletion(path, details)
 
-    def table(self, parameters, name, context, fields, rows):
+    def table(self, parameters, name, context, fields, rows, *, title=None, aliases=None, decimals=4):
         """Write ``rows`` (dicts) into the feature sink ``name`` with ``fields`` [(name, QVariant
-        type)]: a table without geometry. Returns its id."""
+        type)]: a table without geometry, its fields shown by ``aliases`` ({field: name}) and
+        its numbers with ``decimals`` decimals (kept whole in the file), loaded named ``title``.
+        Returns its id."""
         qfields = QgsFields()
         for field_name, kind in fields:
             qfields.append(QgsField(field_name, kind))
@@ -394,7 +415,32 @@ class LidarSigAlgorithm(QgsProcessingAlgorithm):
                 value = row.get(field_name)
                 feature[field_name] = value if value is not None else None
             sink.addFeature(feature)
+        del sink  # written and closed: its style can now be stored beside it
+        doubles = [field_name for field_name, kind in fields if kind == QVariant.Double]
+        save_display(dest, aliases or {}, {field_name: decimals for field_name in doubles})
+        self.styled([dest], context, {dest: title})
         return dest
+
+
+def save_display(source, aliases, decimals):
+    """Store in the layer ``source`` (a GeoPackage table) the default style that shows its fields
+    by ``aliases`` ({field: name}) and their numbers with ``decimals`` ({field: digits}: the
+    Range widget's precision, which the attribute table and the identify results use)."""
+    if not source or NOT_A_FILE.search(source.split("|")[0]):
+        return
+    layer = QgsVectorLayer(source, "table", "ogr")
+    if not layer.isValid() or not layer.dataProvider().isSaveAndLoadStyleToDatabaseSupported():
+        return
+    for field_name, alias in aliases.items():
+        index = layer.fields().indexOf(field_name)
+        if index >= 0:
+            layer.setFieldAlias(index, alias)
+    for field_name, digits in decimals.items():
+        index = layer.fields().indexOf(field_name)
+        if index >= 0:
+            layer.setEditorWidgetSetup(index, QgsEditorWidgetSetup("Range", {"Precision": digits, "Style": "SpinBox",
+                                                                            "AllowNull": True}))
+    layer.saveStyleToDatabase("default", "fields shown by name, numbers rounded (lidar_sig)", True, "")
 
 
 def _json(finished):
@@ -413,19 +459,22 @@ class SaliencyAlgorithm(LidarSigAlgorithm):
     help = ("<p>Per-point saliency: how line-like (Cl), surface-like (Cs) and point-like (Cp) each point's "
             "surroundings are, their entropy Egeom and the geometric class, written with every attribute of the "
             "input (LAS extra dimensions; PLY and CSV scalar fields, named for CloudCompare).</p>")
+    notes = ("<p><b>Descriptor</b>, <b>Scales combined by</b>: not set, lidar-sig's default. <b>Neighbourhood sizes "
+             "k</b>: e.g. 20,30,40; empty, the strategy's default. <b>CRS of clouds without one</b>: the CRS of a "
+             "cloud whose header carries none (--crs); a cloud in another CRS is refused.</p>")
 
     def parameters(self):
         self.add_file("INPUT", "Point cloud")
-        self.addParameter(choice("DESCRIPTOR", "Descriptor (not set: lidar-sig's default)", offered("descriptors")))
-        self.addParameter(choice("STRATEGY", "Scales combined by (not set: lidar-sig's default)",
-                                 offered("strategies")))
-        self.addParameter(QgsProcessingParameterString("K", "Neighbourhood sizes k, e.g. 20,30,40 (empty: the "
-                                                       "strategy's default)", optional=True))
+        self.addParameter(choice("DESCRIPTOR", "Descriptor", offered("descriptors")))
+        self.addParameter(choice("STRATEGY", "Scales combined by", offered("strategies")))
+        self.addParameter(QgsProcessingParameterString("K", "Neighbourhood sizes k", optional=True))
+        self.add_crs()
         self.addParameter(QgsProcessingParameterFileDestination("OUTPUT", "Point cloud with saliency",
                                                                 cloud_outputs()))
 
     def arguments(self, parameters, context, outputs):
-        args = ["saliency", self.path(parameters, "INPUT", context), "-o", outputs["OUTPUT"], "--overwrite"]
+        args = ["saliency", self.path(parameters, "INPUT", context), "-o", outputs["OUTPUT"], "--overwrite",
+                *self.crs_arguments(parameters, context)]
         for name, option in (("DESCRIPTOR", "--descriptor"), ("STRATEGY", "--strategy")):
             picked = self.parameterAsEnumString(parameters, name, context)
             args += [option, picked] if picked else []
@@ -444,16 +493,20 @@ class SignatureAlgorithm(LidarSigAlgorithm):
     help = ("<p>The cloud's signature: its points placed in the saliency triangle by (Cl, Cs, Cp) and counted per "
             "class, kept in an HDF5 archive (compared later without the cloud), with the picture Sas and a "
             "report on request.</p>")
+    notes = ("<p><b>CRS of clouds without one</b>: the CRS of a cloud whose header carries none (--crs), kept in "
+             "the archive; a cloud in another CRS is refused.</p>")
 
     def parameters(self):
         self.add_file("INPUT", "Point cloud")
+        self.add_crs()
         self.addParameter(QgsProcessingParameterFileDestination("OUTPUT", "Signature archive", archives()))
         self.addParameter(QgsProcessingParameterFileDestination("PNG", "Picture of Sas", "PNG files (*.png)",
                                                                 optional=True, createByDefault=False))
         self.add_report()
 
     def arguments(self, parameters, context, outputs):
-        args = ["signature", self.path(parameters, "INPUT", context), "-o", outputs["OUTPUT"], "--overwrite"]
+        args = ["signature", self.path(parameters, "INPUT", context), "-o", outputs["OUTPUT"], "--overwrite",
+                *self.crs_arguments(parameters, context)]
         for name, option in (("PNG", "--png"), ("REPORT", "--report")):
             args += [option, outputs[name]] if outputs[name] else []
         return args
@@ -472,15 +525,19 @@ class CompareAlgorithm(LidarSigAlgorithm):
                 "archives), each placed against the values the project measured between a tile and the same land "
                 "resampled, the adjacent tile and another city; as a table, and a report on request.</p>")
 
+    notes = ("<p><b>A</b>, <b>B</b>: a point cloud or a signature archive each. <b>CRS of clouds without one</b>: "
+             "the CRS of a cloud whose header carries none (--crs); a cloud in another CRS is refused.</p>")
+
     def parameters(self):
-        self.add_file("A", "A: point cloud or signature archive", clouds_or_archives())
-        self.add_file("B", "B: point cloud or signature archive", clouds_or_archives())
-        self.add_report()
+        self.add_file("A", "A: cloud or signature archive", clouds_or_archives())
+        self.add_file("B", "B: cloud or signature archive", clouds_or_archives())
+        self.add_crs()
         self.addParameter(QgsProcessingParameterFeatureSink("METRICS", "Metrics", QgsProcessing.TypeVector))
+        self.add_report()
 
     def arguments(self, parameters, context, outputs):
         args = ["compare", self.path(parameters, "A", context), self.path(parameters, "B", context), "--json",
-                "--overwrite"]
+                "--overwrite", *self.crs_arguments(parameters, context)]
         return args + (["--report", outputs["REPORT"]] if outputs["REPORT"] else [])
 
     def results(self, parameters, context, feedback, finished, outputs):
@@ -490,9 +547,12 @@ class CompareAlgorithm(LidarSigAlgorithm):
         scale = data.get("scale", {})
         rows = [{"key": k, "metric": scale.get(k, {}).get("name", k), "value": data.get(k),
                  "like": scale.get(k, {}).get("like"), "on_scale": scale.get(k, {}).get("says")} for k in scale]
+        names = " → ".join(Path(self.parameterAsString(parameters, k, context)).name for k in ("A", "B"))
         table = self.table(parameters, "METRICS", context, [("key", QVariant.String), ("metric", QVariant.String),
                                                              ("value", QVariant.Double), ("like", QVariant.String),
-                                                             ("on_scale", QVariant.String)], rows)
+                                                             ("on_scale", QVariant.String)], rows,
+                           title=f"Metrics {names}", aliases={"key": "key (the command's)", "like": "most like",
+                                                              "on_scale": "on the project's scale"})
         return {"METRICS": table, "REPORT": outputs["REPORT"]}
 
 
@@ -508,25 +568,31 @@ class ChangesAlgorithm(LidarSigAlgorithm):
             "detection, in the same colours on every map: greys below the level, yellow to dark red above it) "
             "and, above it, the cells (outlined where they changed significantly, hatched where only one epoch "
             "has points) are added to the project; the later epoch's points with their cell's change on "
-            "request.</p><p>An epoch is a point-cloud file; from a script, also a folder of tiles.</p>")
+            "request.</p><p>An epoch is a point-cloud file; from a script, also a folder of tiles. The layers are "
+            "named by the epochs (Change A → B, Cells A → B).</p>")
+    notes = ("<p><b>Cell size</b> (m): 0, chosen from the densities. <b>Fewest points per cell</b> (in each epoch): "
+             "0, chosen from the densities. <b>Ranking metric</b>: the metric that ranks the cells; not set, "
+             "delta_KL, or delta_FV without comparable classes. <b>CRS of clouds without one</b>: the CRS of epochs "
+             "whose header carries none (--crs), given to the change map and the cells; an epoch in another CRS is "
+             "refused. <b>Later epoch's points with change</b>: its points with their cell's score, level of "
+             "detection and significance.</p>")
 
     def parameters(self):
         self.add_file("EPOCH_A", "Earlier epoch")
         self.add_file("EPOCH_B", "Later epoch")
-        self.addParameter(QgsProcessingParameterNumber("CELL", "Cell size (m; 0: chosen from the densities)",
+        self.addParameter(QgsProcessingParameterNumber("CELL", "Cell size (m; 0: automatic)",
                                                        QgsProcessingParameterNumber.Double, 0.0, minValue=0.0))
-        self.addParameter(QgsProcessingParameterNumber("MIN_POINTS", "Fewest points per cell and epoch (0: chosen "
-                                                       "from the densities)", QgsProcessingParameterNumber.Integer,
-                                                       0, minValue=0))
-        self.addParameter(choice("SCORE", "Metric that ranks the cells (not set: delta_KL, or delta_FV without "
-                                 "comparable classes)", metric_names()))
+        self.addParameter(QgsProcessingParameterNumber("MIN_POINTS", "Fewest points per cell (0: automatic)",
+                                                       QgsProcessingParameterNumber.Integer, 0, minValue=0))
+        self.addParameter(choice("SCORE", "Ranking metric", metric_names()))
         self.addParameter(QgsProcessingParameterNumber("CONFIDENCE", "Confidence of the level of detection",
                                                        QgsProcessingParameterNumber.Double, 0.95, minValue=0.5,
                                                        maxValue=0.9999))
+        self.add_crs()
         self.addParameter(QgsProcessingParameterRasterDestination("OUTPUT", "Change map"))
         self.addParameter(QgsProcessingParameterVectorDestination("CELLS", "Cells", QgsProcessing.TypeVectorPolygon))
-        self.addParameter(QgsProcessingParameterFileDestination("POINTS", "Later epoch's points with their cell's "
-                                                                "change", cloud_outputs(), optional=True,
+        self.addParameter(QgsProcessingParameterFileDestination("POINTS", "Later epoch's points with change",
+                                                                cloud_outputs(), optional=True,
                                                                 createByDefault=False))
         self.add_report()
         self.addOutput(QgsProcessingOutputNumber("COMPARED", "Cells compared"))
@@ -537,7 +603,8 @@ class ChangesAlgorithm(LidarSigAlgorithm):
     def arguments(self, parameters, context, outputs):
         args = ["changes", self.path(parameters, "EPOCH_A", context), self.path(parameters, "EPOCH_B", context),
                 "-o", outputs["OUTPUT"], "--cells", outputs["CELLS"], "--json", "--top", "0", "--overwrite",
-                "--confidence", repr(self.parameterAsDouble(parameters, "CONFIDENCE", context))]
+                "--confidence", repr(self.parameterAsDouble(parameters, "CONFIDENCE", context)),
+                *self.crs_arguments(parameters, context)]
         cell = self.parameterAsDouble(parameters, "CELL", context)
         args += ["--cell", repr(cell)] if cell > 0 else []
         fewest = self.parameterAsInt(parameters, "MIN_POINTS", context)
@@ -552,7 +619,9 @@ class ChangesAlgorithm(LidarSigAlgorithm):
         data = _json(finished)
         for warning in data.get("warnings", []):
             feedback.pushWarning(warning)
-        self.styled([outputs["CELLS"], outputs["OUTPUT"]], context)  # the cells above the map
+        epochs = " → ".join(Path(str(data[k])).name for k in ("a", "b"))
+        self.styled([outputs["CELLS"], outputs["OUTPUT"]], context,  # the cells above the map
+                    {outputs["CELLS"]: f"Cells {epochs}", outputs["OUTPUT"]: f"Change {epochs}"})
         self.load_points(outputs["POINTS"], "later epoch with change", context, feedback)
         grid = data["grid"]
         feedback.pushInfo(f"{grid['valid']} cells compared, {grid['significant']} changed significantly "
@@ -574,17 +643,21 @@ class CatalogAlgorithm(LidarSigAlgorithm):
             "another (the same file, or the same points as COPC) are said in the log. A run cancelled or "
             "interrupted keeps the tiles it finished: run it again on the same catalogue file with Resume ticked "
             "to reuse them.</p>")
+    notes = ("<p><b>Resume an interrupted run</b>: reuse the tiles an interrupted run of the same catalogue "
+             "finished (--resume). <b>CRS of clouds without one</b>: the CRS of tiles whose header carries none "
+             "(--crs), kept in the catalogue; a tile in another CRS is refused.</p>")
 
     def parameters(self):
         self.add_file("INPUT", "Folder of LAS/LAZ tiles", folder=True)
         self.addParameter(QgsProcessingParameterFileDestination("OUTPUT", "Catalogue", archives()))
         self.addParameter(QgsProcessingParameterNumber("WORKERS", "Processes (0: every core)",
                                                        QgsProcessingParameterNumber.Integer, 0, minValue=0))
-        self.addParameter(QgsProcessingParameterBoolean("RESUME", "Resume: reuse the tiles an interrupted run of "
-                                                        "the same catalogue finished (--resume)", False))
+        self.addParameter(QgsProcessingParameterBoolean("RESUME", "Resume an interrupted run", False))
+        self.add_crs()
 
     def arguments(self, parameters, context, outputs):
-        args = ["catalog", self.path(parameters, "INPUT", context), "-o", outputs["OUTPUT"]]
+        args = ["catalog", self.path(parameters, "INPUT", context), "-o", outputs["OUTPUT"],
+                *self.crs_arguments(parameters, context)]
         workers = self.parameterAsInt(parameters, "WORKERS", context)
         args += ["--workers", str(workers)] if workers > 0 else []
         return args + (["--resume"] if self.parameterAsBool(parameters, "RESUME", context) else [])
@@ -595,25 +668,29 @@ class SimilarAlgorithm(LidarSigAlgorithm):
     label = "Similar tiles"
     group_name = "Survey catalogues"
     help = ("<p>The tiles of a catalogue most like a query (a tile of the catalogue, left out of the answer, or "
-            "another point cloud), best first, with every metric, as a table.</p>")
+            "another point cloud), best first, with every metric: their footprints (GeoPackage, numbered by "
+            "rank) added to the project.</p>")
+    notes = "<p><b>Query</b>: a tile of the catalogue (left out of the answer) or a point cloud.</p>"
     more_example = "--metric kl --shortlist 40"
 
     def parameters(self):
-        self.add_file("QUERY", "Query: a tile of the catalogue or a point cloud")
+        self.add_file("QUERY", "Query tile or point cloud")
         self.add_file("CATALOGUE", "Catalogue", archives())
         self.addParameter(QgsProcessingParameterNumber("TOP", "Tiles listed", QgsProcessingParameterNumber.Integer,
                                                        10, minValue=1))
-        self.addParameter(QgsProcessingParameterFeatureSink("OUTPUT", "Similar tiles", QgsProcessing.TypeVector))
+        self.addParameter(QgsProcessingParameterVectorDestination("OUTPUT", "Similar tiles",
+                                                                  QgsProcessing.TypeVectorPolygon))
 
     def arguments(self, parameters, context, outputs):
         return ["similar", self.path(parameters, "QUERY", context), self.path(parameters, "CATALOGUE", context),
-                "--top", str(self.parameterAsInt(parameters, "TOP", context)), "--json"]
+                "--top", str(self.parameterAsInt(parameters, "TOP", context)), "-o", outputs["OUTPUT"], "--json",
+                "--overwrite"]
 
     def results(self, parameters, context, feedback, finished, outputs):
         data = _json(finished)
-        fields = [("rank", QVariant.Int), ("name", QVariant.String), ("path", QVariant.String),
-                  ("distance", QVariant.Double)] + [(k, QVariant.Double) for k in offered("metrics")]
-        return {"OUTPUT": self.table(parameters, "OUTPUT", context, fields, data["results"])}
+        query = Path(str(data.get("query", {}).get("name") or self.parameterAsString(parameters, "QUERY", context)))
+        self.styled([outputs["OUTPUT"]], context, {outputs["OUTPUT"]: f"Tiles like {query.name}"})
+        return dict(outputs)
 
 
 class OutliersAlgorithm(LidarSigAlgorithm):
@@ -623,13 +700,13 @@ class OutliersAlgorithm(LidarSigAlgorithm):
     help = ("<p>Every tile of a catalogue scored by how unlike it is to its neighbours and the survey; a tile "
             "stands out from a score of 3.5. The footprints are added to the project, those that stand out in "
             "red and numbered.</p>")
+    notes = "<p><b>Neighbours within</b> (m): 0, a quarter of the median tile side.</p>"
     more_example = ""  # its one other option, --top, changes only what it prints
 
     def parameters(self):
         self.add_file("CATALOGUE", "Catalogue", archives())
-        self.addParameter(QgsProcessingParameterNumber("REACH", "Neighbours within (m; 0: a quarter of the median "
-                                                       "tile side)", QgsProcessingParameterNumber.Double, 0.0,
-                                                       minValue=0.0))
+        self.addParameter(QgsProcessingParameterNumber("REACH", "Neighbours within (m; 0: automatic)",
+                                                       QgsProcessingParameterNumber.Double, 0.0, minValue=0.0))
         self.addParameter(QgsProcessingParameterVectorDestination("OUTPUT", "Tiles", QgsProcessing.TypeVectorPolygon))
         self.add_report()
         self.addOutput(QgsProcessingOutputNumber("STANDING_OUT", "Tiles that stand out"))
@@ -644,7 +721,8 @@ class OutliersAlgorithm(LidarSigAlgorithm):
 
     def results(self, parameters, context, feedback, finished, outputs):
         data = _json(finished)
-        self.styled([outputs["OUTPUT"]], context)
+        name = Path(self.parameterAsString(parameters, "CATALOGUE", context)).name
+        self.styled([outputs["OUTPUT"]], context, {outputs["OUTPUT"]: f"Outlier scores of {name}"})
         feedback.pushInfo(data["verdict"])
         return {**outputs, "STANDING_OUT": data["standing_out"], "VERDICT": data["verdict"]}
 

@@ -142,8 +142,10 @@ def test_workers_paused_at_their_memory_limit_end_the_run_in_one_line(tmp_path, 
 def test_a_cluster_that_loses_its_workers_ends_the_run_in_one_line(tmp_path, quick, distributed):
     with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
                                   dashboard_address=None) as cluster:
-        def kill_workers():
-            time.sleep(4)
+        def kill_workers():  # once the run has sent its first tasks
+            deadline = time.monotonic() + 60
+            while not cluster.scheduler.tasks and time.monotonic() < deadline:
+                time.sleep(0.05)
             for worker in list(cluster.workers.values()):
                 with contextlib.suppress(Exception):
                     cluster.sync(worker.close)
