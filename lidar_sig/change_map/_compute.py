@@ -105,8 +105,7 @@ def changes(a: Any, b: Any, *more: Any, cell: float | str = AUTO, pipeline: Pipe
     -------
     ChangeMap, or ChangeSeries for three epochs or more
     """
-    clip = clip_inputs([a, b, *more], aoi)  # clipped to the area, or fetched from a web server
-    if clip.reading is not None:
+    if (clip := clip_inputs([a, b, *more], aoi)).reading is not None:  # clipped to the area, or fetched from a server
         return _clipped(clip, {k: v for k, v in locals().items() if k not in ("a", "b", "more", "aoi", "clip")})
     from ..pipeline.flow import pipeline_or_default
     from ..tiling.execution import as_execution
