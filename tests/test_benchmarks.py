@@ -204,3 +204,18 @@ def test_memory_budget_benchmark_samples_every_process_against_the_budget(tmp_pa
     assert rows and any(" main " in row for row in rows), proc.stdout
     for row in rows:  # each process's peak, against the budget
         assert row.rstrip().endswith(("yes", "OVER")) and "MiB" in row, row
+
+
+def test_the_copc_district_benchmark_runs_on_a_small_delivery(tmp_path):
+    # issue 49: the district's change map reads a share of the delivery's bytes, locally and by range
+    pytest.importorskip("copclib", reason="copclib is not installed (pip install copclib: the benchmark's own need)")
+    done = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "copc_district.py"), "--out", str(tmp_path),
+                           "--points", "100000", "--district", "40", "--repeats", "1", "--http"],
+                          capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    import json
+
+    out = json.loads(done.stdout)
+    assert out["points_per_epoch"][0] >= 99_000 and 0 < out["bytes_read"] < sum(out["file_bytes"])
+    assert out["district_points"] > 0 and out["copc_nodes"] > 0
+    assert 0 < out["http_bytes_sent"] == out["http_bytes_fetched"] < sum(out["file_bytes"])

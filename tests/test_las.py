@@ -10,7 +10,7 @@ import pytest
 
 import lidar_sig as ls
 from command_line import run
-from conftest import DATA, IGN, IGN_FILES, NOISY, airborne_like, need_data, noisy_las
+from conftest import DATA, IGN, IGN_FILES, NOISY, SAMPLES, airborne_like, need_data, noisy_las
 from lidar_sig.base.errors import LidarSigWarning
 from lidar_sig.io.fields import saliency_fields
 from lidar_sig.io.las import SALIENCY_DIMS, write_las
@@ -391,3 +391,15 @@ def test_a_run_replaces_its_own_outputs_and_keeps_the_other_runs(tmp_path, suffi
                  "ChangeSignificant"):
         assert plain.count(name) == 1, (name, names)
     assert not any(n.startswith("lidar_sig_") for n in plain), names
+
+
+def test_a_las_1_4_file_with_evlrs_streamed_from_tiles_keeps_them(tmp_path):
+    # the streamed writer gave laspy a plain list of EVLRs: "'list' object has no attribute 'write_to'"
+    las = laspy.read(SAMPLES / "epoch1.laz")
+    las.evlrs = laspy.vlrs.vlrlist.VLRList([laspy.VLR("lidar_sig_test", 7, "a note", b"kept")])
+    las.write(tmp_path / "evlr.laz")
+    ls.jobs.saliency(tmp_path / "evlr.laz", tmp_path / "out.laz", execution=ls.Execution(tile_size=30, workers=1),
+                     pipeline=ls.Pipeline(progress=False))
+    out = laspy.read(tmp_path / "out.laz")
+    assert [(v.user_id, v.record_id, v.record_data) for v in out.evlrs] == [("lidar_sig_test", 7, b"kept")]
+    assert len(out) == len(las)

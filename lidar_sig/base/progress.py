@@ -253,7 +253,8 @@ class Step:
         if how == "lines":
             self._lines = Lines(stage=name)
         elif how == "bars":
-            self._bar = _bar(total=None, desc=name, bar_format="{desc}: {elapsed}", leave=False, delay=STEP_DELAY)
+            self._bar = _bar(total=None, desc=name, bar_format="{desc}: {elapsed}{postfix}", leave=False,
+                             delay=STEP_DELAY)
             threading.Thread(target=self._refresh, daemon=True).start()
 
     def _refresh(self):
@@ -266,6 +267,11 @@ class Step:
     def note(self, **params):
         """Facts learnt during the step (e.g. the number of points read), for the log line."""
         self.params.update(params)
+
+    def postfix(self, text):
+        """A short text after the step's bar, e.g. the bytes read so far (plain lines show none)."""
+        if self._bar is not None:
+            self._bar.set_postfix_str(text, refresh=False)
 
     def track(self, iterable, *, total=None, unit="it"):
         """Iterate with a bar in place of the step's line, or its lines by percent (total from

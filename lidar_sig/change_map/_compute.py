@@ -17,6 +17,7 @@ from ..metrics import METRIC, METRIC_KEYS
 from ..base.progress import step
 from ..method.signature_raster import Frame, method_differences
 from ..numerics.bounds import bounds
+from ..io.clip import clip_inputs
 from ._cells import CELL_FRAME, SEED, bin_points, cell_table
 from ._cores import cell_values
 from ._density import AUTO, auto_cell, auto_min_points, density, fewer_points, no_defined_cell, sparse_note
@@ -36,7 +37,7 @@ if TYPE_CHECKING:
 def changes(a: Any, b: Any, /, *, cell: float | str = AUTO, pipeline: Pipeline | None = None,
             min_points: int | str = AUTO, score: str | None = None, render: str = "smooth", frame: Frame = CELL_FRAME,
             columns: Any = None, confidence: float = CONFIDENCE, class_map: Any = None, seed: int = SEED,
-            execution: Any = None, resume: bool = False, work: Any = None) -> ChangeMap:
+            execution: Any = None, resume: bool = False, work: Any = None, aoi: Any = None) -> ChangeMap:
     ...
 
 
@@ -44,7 +45,8 @@ def changes(a: Any, b: Any, /, *, cell: float | str = AUTO, pipeline: Pipeline |
 def changes(a: Any, b: Any, c: Any, /, *more: Any, cell: float | str = AUTO, pipeline: Pipeline | None = None,
             min_points: int | str = AUTO, score: str | None = None, render: str = "smooth", frame: Frame = CELL_FRAME,
             columns: Any = None, confidence: float = CONFIDENCE, class_map: Any = None,
-            seed: int = SEED, execution: Any = None, resume: bool = False, work: Any = None) -> ChangeSeries:
+            seed: int = SEED, execution: Any = None, resume: bool = False, work: Any = None,
+            aoi: Any = None) -> ChangeSeries:
     ...
 
 
@@ -52,7 +54,7 @@ def changes(a: Any, b: Any, *more: Any, cell: float | str = AUTO, pipeline: Pipe
             min_points: int | str = AUTO, score: str | None = None, render: str = "smooth", frame: Frame = CELL_FRAME,
             columns: Any = None, confidence: float = CONFIDENCE, class_map: Any = None,
             seed: int = SEED, execution: Any = None, resume: bool = False,
-            work: Any = None) -> ChangeMap | ChangeSeries:
+            work: Any = None, aoi: Any = None) -> ChangeMap | ChangeSeries:
     """Per-cell change map between epochs of the same area (registration-free), with a level of
     detection per cell and metric.
 
@@ -90,22 +92,23 @@ def changes(a: Any, b: Any, *more: Any, cell: float | str = AUTO, pipeline: Pipe
         Seed of the resampling behind the level of detection (each cell has its own stream).
     execution : Execution, optional
         Memory budget of each process, workers or a Dask scheduler (default: 1 GiB, all cores).
-        Two epochs of LAS/LAZ files whose one block would need more than the budget, or with a
-        tile size, workers or a scheduler asked, are mapped in work units
-        (docs/changes.md, "At survey scale"): the same map, in bounded memory.
+        Two epochs of LAS/LAZ files whose one block would need more than the budget, or with a tile size,
+        workers or a scheduler asked, are mapped in work units (docs/changes.md): the same map, in bounded memory.
     resume : bool
         Reuse what an interrupted run in work units finished in its work folder (``work``).
     work : str or Path, optional
-        Work folder of a run in work units (default: a new one in the execution's ``work_dir``
-        or the temporary folder, removed with the map's ``close()``).
+        Work folder of a run in work units (default: a new one in the execution's ``work_dir`` or the
+        temporary folder, removed with the map's ``close()``).
+    aoi : str, path or tuple, optional: an area of interest the epochs are clipped to first (docs/scale-out.md).
 
     Returns
     -------
     ChangeMap, or ChangeSeries for three epochs or more
     """
+    if (clip := clip_inputs([a, b, *more], aoi)).reading is not None:  # clipped to the area, or fetched from a server
+        return _clipped(clip, {k: v for k, v in locals().items() if k not in ("a", "b", "more", "aoi", "clip")})
     from ..pipeline.flow import pipeline_or_default
     from ..tiling.execution import as_execution
-
     sources = (a, b) + more
     s = _settings(cell, min_points, confidence, score, frame, seed)
     resume = _checked_flags(columns, resume)
@@ -127,6 +130,21 @@ def changes(a: Any, b: Any, *more: Any, cell: float | str = AUTO, pipeline: Pipe
     units, kept, densities, grid = _layout(clouds, given, names, pipeline, s, notes)
     return _maps(clouds, names, given, kept, pipeline, table_of_classes, labelled, grid, units, densities, s, render,
                  notes)
+
+
+def _clipped(clip, options):
+    """The map of the clipped epochs of ``clip`` (:class:`lidar_sig.io.clip.Clipped`), whose
+    copies last as long as the map does (its points are read again when written)."""
+    import weakref
+
+    try:
+        mapped = changes(*clip.inputs, **options)  # every other argument as given
+    except BaseException:
+        clip.cleanup()
+        raise
+    weakref.finalize(mapped, clip.cleanup)
+    mapped.reading = clip.reading
+    return mapped
 
 
 def _maps(clouds, names, given, kept, pipeline, table_of_classes, labelled, grid, units, densities, s, render, notes):

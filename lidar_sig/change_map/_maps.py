@@ -200,6 +200,8 @@ class ChangeMap:
     density: tuple = ()
     warnings: list = field(default_factory=list)
     timings: dict = field(default_factory=dict)
+    #: What was read when the epochs were clipped to an area of interest (lidar_sig.io.clip.Reading), or None.
+    reading: Any = None
 
     def __repr__(self):
         from ..base.views import one_line, short_name

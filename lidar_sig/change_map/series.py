@@ -34,6 +34,8 @@ class ChangeSeries:
 
     maps: list
     epochs: list
+    #: What was read when the epochs were clipped to an area of interest (lidar_sig.io.clip.Reading), or None.
+    reading: Any = None
 
     def __repr__(self):
         from ..base.views import one_line

@@ -1,7 +1,7 @@
 """`lidar-sig catalog`: one signature per tile of a survey, in a catalogue made or grown."""
 import click
 
-from .options import crs_option, execution_options, json_option, overwrite_option, pipeline_options, resume_option
+from .options import aoi_option, crs_option, execution_options, json_option, overwrite_option, pipeline_options, resume_option
 from .summaries import show
 
 
@@ -15,8 +15,9 @@ from .summaries import show
 @execution_options(tiles=False)
 @resume_option
 @json_option
+@aoi_option
 @pipeline_options
-def catalog(inputs, output, overwrite, crs, execution, resume, as_json, pipeline, method_given, quiet):
+def catalog(inputs, output, overwrite, crs, execution, resume, as_json, aoi, pipeline, method_given, quiet):
     """Compute the signature of every LAS/LAZ tile of INPUTS (files and folders) into a catalogue,
     for `lidar-sig similar` and `lidar-sig outliers`.
 
@@ -27,4 +28,4 @@ def catalog(inputs, output, overwrite, crs, execution, resume, as_json, pipeline
     from ..jobs import catalog as catalog_job
 
     show(catalog_job(inputs, output, crs=crs, pipeline=pipeline, execution=execution, resume=resume, overwrite=overwrite,
-                     method_given=method_given), quiet=quiet, as_json=as_json)
+                     method_given=method_given, aoi=aoi), quiet=quiet, as_json=as_json)

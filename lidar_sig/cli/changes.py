@@ -6,7 +6,7 @@ import click
 
 from ..base.errors import LidarSigError, counted
 from .group import cli
-from .options import (crs_option, Choice, Default, columns_option, execution_options, metric_keys, overwrite_option, pipeline_options,
+from .options import (aoi_option, crs_option, Choice, Default, columns_option, execution_options, metric_keys, overwrite_option, pipeline_options,
                       render_option, resume_option)
 from .summaries import say
 
@@ -53,9 +53,10 @@ def _confidence():
 @crs_option
 @execution_options
 @resume_option
+@aoi_option
 @pipeline_options
 def changes_command(epochs, output, cells, points, cell, min_points, score, confidence, class_map, top, png, report,
-                    as_json, render, overwrite, columns, crs, execution, resume, pipeline, method_given, quiet):
+                    as_json, render, overwrite, columns, crs, execution, resume, aoi, pipeline, method_given, quiet):
     """Map where epochs differ: per-cell signature metrics in a grid of the CRS, each with its
     level of detection, so that the cells that changed significantly stand out.
 
@@ -75,7 +76,7 @@ def changes_command(epochs, output, cells, points, cell, min_points, score, conf
     done = changes_job(epochs, crs=crs, output=output, cells=cells, points=points, png=png, report=report, overwrite=overwrite,
                        top=top, cell=cell, pipeline=pipeline, min_points=min_points, score=score,
                        render=render or "smooth", columns=columns, confidence=confidence,
-                       class_map=list(class_map) or None, execution=execution, resume=resume)
+                       class_map=list(class_map) or None, execution=execution, resume=resume, aoi=aoi)
     result, written = done.changes, done.lines
     if as_json:
         click.echo(json.dumps(done.to_dict()))

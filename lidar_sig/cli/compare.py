@@ -4,7 +4,7 @@ import json
 import click
 
 from ..base.errors import printable
-from .options import (crs_option, columns_option, execution_options, json_option, overwrite_option, pipeline_options,
+from .options import (aoi_option, crs_option, columns_option, execution_options, json_option, overwrite_option, pipeline_options,
                       render_option, report_options)
 from .summaries import archive_summary_line, say
 
@@ -19,8 +19,9 @@ from .summaries import archive_summary_line, say
 @columns_option
 @crs_option
 @execution_options(work_dir=False)
+@aoi_option
 @pipeline_options
-def compare(a, b, as_json, report, plots, render, overwrite, columns, crs, execution, pipeline, method_given,
+def compare(a, b, as_json, report, plots, render, overwrite, columns, crs, execution, aoi, pipeline, method_given,
             quiet):
     """Compare the signatures of A and B (point-cloud files, signature archives or folders of
     LAS/LAZ tiles, each folder one epoch processed in tiles; in any mix).
@@ -32,7 +33,7 @@ def compare(a, b, as_json, report, plots, render, overwrite, columns, crs, execu
     from ..metrics import METRICS
 
     done = compare_job(a, b, report=report, plots=plots, overwrite=overwrite, crs=crs, pipeline=pipeline, render=render,
-                       columns=columns, execution=execution, method_given=method_given)
+                       columns=columns, execution=execution, method_given=method_given, aoi=aoi)
     result = done.comparison
     for note in result.warnings:
         click.echo(printable(f"lidar-sig: warning: {note}"), err=True)

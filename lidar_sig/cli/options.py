@@ -269,3 +269,8 @@ resume_option = click.option("--resume", is_flag=True,
                              help="Reuse what an earlier run in tiles of the same files and method finished (kept "
                                   "in its work folder after a failure).")
 json_option = click.option("--json", "as_json", is_flag=True, help="Print one JSON object on stdout.")
+aoi_option = click.option(
+    "--aoi", default=None, metavar="XMIN,YMIN,XMAX,YMAX|FILE", callback=not_empty("bounds or a polygon file"),
+    help="Area of interest: bounds in the clouds' CRS (optionally followed by ' [EPSG:code]'), or a GeoPackage or "
+         "GeoJSON polygon file in any CRS. The inputs are clipped to it first, reading only what it needs (tiles "
+         "outside it are not opened; COPC files are queried by its bounds).")

@@ -5,7 +5,7 @@ import click
 
 from ..base.errors import counted
 from ..io import check_output, read
-from .options import (Default, columns_option, not_empty, number_list, overwrite_option, pipeline_options,
+from .options import (Default, aoi_option, columns_option, not_empty, number_list, overwrite_option, pipeline_options,
                       render_option)
 from .summaries import say
 
@@ -30,8 +30,9 @@ def _fractions():
 @render_option
 @overwrite_option
 @columns_option
+@aoi_option
 @pipeline_options
-def resilience_command(source, fractions, repeats, seed, as_json, plot, render, overwrite, columns, pipeline,
+def resilience_command(source, fractions, repeats, seed, as_json, plot, render, overwrite, columns, aoi, pipeline,
                        method_given, quiet):
     """Compare SOURCE with uniform random subsamples of itself, fraction by fraction."""
     from ..metrics import METRIC_KEYS, METRIC_NAMES
@@ -43,7 +44,7 @@ def resilience_command(source, fractions, repeats, seed, as_json, plot, render, 
 
         check_format(plot, IMAGE, said="the plot")
         check_output(plot, overwrite=overwrite)
-    result = resilience(read(source, columns=columns), pipeline, fractions=values, repeats=repeats, seed=seed,
+    result = resilience(read(source, columns=columns) if aoi is None else source, pipeline, aoi=aoi, fractions=values, repeats=repeats, seed=seed,
                         render=render or "smooth", progress=False if quiet else None)
     if plot:
         plot_resilience(result, plot, overwrite=overwrite)

@@ -1,7 +1,7 @@
 """`lidar-sig saliency`: per-point saliency written as LAS/LAZ extra dimensions (and other formats)."""
 import click
 
-from .options import crs_option, columns_option, execution_options, json_option, overwrite_option, pipeline_options, resume_option
+from .options import aoi_option, crs_option, columns_option, execution_options, json_option, overwrite_option, pipeline_options, resume_option
 from .summaries import show
 
 
@@ -16,8 +16,9 @@ from .summaries import show
 @execution_options
 @resume_option
 @json_option
+@aoi_option
 @pipeline_options
-def saliency(sources, output, overwrite, columns, crs, execution, resume, as_json, pipeline, method_given, quiet):
+def saliency(sources, output, overwrite, columns, crs, execution, resume, as_json, aoi, pipeline, method_given, quiet):
     """Write SOURCES with per-point Cl, Cs, Cp, Egeom, GeomClass (and OptimalScale).
 
     One file is processed as one block, or in tiles with halos when one block would need more
@@ -28,5 +29,5 @@ def saliency(sources, output, overwrite, columns, crs, execution, resume, as_jso
     """
     from ..jobs import saliency as saliency_job
 
-    show(saliency_job(sources, output, crs=crs, pipeline=pipeline, execution=execution, overwrite=overwrite, resume=resume,
+    show(saliency_job(sources, output, crs=crs, pipeline=pipeline, execution=execution, overwrite=overwrite, resume=resume, aoi=aoi,
                       columns=columns), quiet=quiet, as_json=as_json)

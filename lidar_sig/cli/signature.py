@@ -1,7 +1,7 @@
 """`lidar-sig signature`: the signature of a cloud, as an HDF5 archive, PNG images or a report."""
 import click
 
-from .options import (crs_option, columns_option, execution_options, json_option, not_empty, overwrite_option, pipeline_options,
+from .options import (aoi_option, crs_option, columns_option, execution_options, json_option, not_empty, overwrite_option, pipeline_options,
                       render_option, report_options, resume_option)
 from .summaries import show
 
@@ -23,9 +23,10 @@ from .summaries import show
 @execution_options
 @resume_option
 @json_option
+@aoi_option
 @pipeline_options
 def signature(sources, output, png_output, sg_output, no_points, report, plots, render, overwrite, columns, crs,
-              execution, resume, as_json, pipeline, method_given, quiet):
+              execution, resume, as_json, aoi, pipeline, method_given, quiet):
     """Compute the signature of SOURCES; write it as an archive (.h5), images (.png) and/or an
     HTML report (--report).
 
@@ -39,4 +40,4 @@ def signature(sources, output, png_output, sg_output, no_points, report, plots, 
 
     show(signature_job(sources, output, png=png_output, sg=sg_output, report=report, plots=plots,
                        points=not no_points, render=render, crs=crs, pipeline=pipeline, execution=execution,
-                       overwrite=overwrite, resume=resume, columns=columns), quiet=quiet, as_json=as_json)
+                       overwrite=overwrite, resume=resume, columns=columns, aoi=aoi), quiet=quiet, as_json=as_json)

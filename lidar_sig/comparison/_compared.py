@@ -40,6 +40,7 @@ class Comparison(dict):
         super().__init__(metrics)
         self.a, self.b, self.render, self.method = a, b, render, method
         self.warnings = list(warnings or [])
+        self.reading: Any = None  # what was read when the inputs were clipped (lidar_sig.io.clip.Reading)
 
     @property
     def metrics(self) -> dict:
@@ -86,7 +87,7 @@ class Comparison(dict):
 
 def compare(a: Any, b: Any, *, pipeline: Pipeline | None = None, render: str | None = None,
             columns: str | Sequence[str] | None = None, execution: Execution | None = None,
-            color_bins: int = 8) -> Comparison:
+            color_bins: int = 8, aoi: Any = None) -> Comparison:
     """Every metric between two clouds or their signatures (docs/method.md, "Comparison
     metrics"), both made the same way, as a :class:`Comparison` (a mapping of metric key to
     value).
@@ -107,6 +108,8 @@ def compare(a: Any, b: Any, *, pipeline: Pipeline | None = None, render: str | N
         Memory budget and tiles (see :func:`compare_sources`).
     color_bins : int
         Bins per RGB channel of the colour histograms (d_BD-Img, d_EMD-Img).
+    aoi : str, path or tuple, optional
+        An area of interest both inputs are clipped to (see :func:`compare_sources`).
 
     >>> import lidar_sig as ls                                                    # doctest: +SKIP
     >>> ls.compare("epoch1.laz", "epoch2.laz")["l1"]                              # doctest: +SKIP
@@ -115,7 +118,7 @@ def compare(a: Any, b: Any, *, pipeline: Pipeline | None = None, render: str | N
     # a pipeline given is the whole method the caller means: an archive made otherwise is refused
     given = ("pipeline",) if pipeline is not None else ()
     return compare_sources(a, b, pipeline, render=render, columns=columns, execution=execution,
-                           color_bins=color_bins, method_given=given)
+                           color_bins=color_bins, method_given=given, aoi=aoi)
 
 
 def metric_scales(values):
@@ -154,7 +157,7 @@ def report(a: Any, b: Any = None, pipeline: Pipeline | None = None, *, render: s
 
 def compare_sources(a: Any, b: Any, pipeline: Pipeline | None = None, *, render: str | None = None,
                     columns: str | Sequence[str] | None = None, method_given: Iterable[str] = (),
-                    execution: Execution | None = None, color_bins: int = 8) -> Comparison:
+                    execution: Execution | None = None, color_bins: int = 8, aoi: Any = None) -> Comparison:
     """Compare two point clouds or signature archives, in any mix (docs/method.md, "Metrics").
 
     Parameters
@@ -175,8 +178,24 @@ def compare_sources(a: Any, b: Any, pipeline: Pipeline | None = None, *, render:
         set, a LAS/LAZ file is processed in tiles too. Its memory budget (default 1 GiB per
         process): a LAS/LAZ file that needs more as one block is processed in tiles, as a set
         is (a worker process per core unless ``workers`` says otherwise).
+    aoi : str, path or tuple, optional
+        An area of interest: bounds ``"XMIN,YMIN,XMAX,YMAX"`` (or four numbers) in the clouds'
+        CRS, or a GeoPackage or GeoJSON polygon file in any CRS; both inputs (LAS/LAZ/COPC files,
+        folders, .vpc, URLs) are clipped to it first, reading only what it needs (the
+        comparison's ``reading`` says what was read).
     """
     from ..pipeline.flow import pipeline_or_default
+
+    from ..io.clip import clip_inputs
+
+    clip = clip_inputs([a, b], aoi)  # clipped to the area, or fetched from a web server
+    if clip.reading is not None:
+        with clip:
+            clipped_a, clipped_b = clip.inputs
+            compared = compare_sources(clipped_a, clipped_b, pipeline, render=render, columns=columns,
+                                       method_given=method_given, execution=execution, color_bins=color_bins)
+        compared.reading = clip.reading
+        return compared
     from ..tiling.execution import as_execution
 
     pipeline = pipeline_or_default(pipeline)

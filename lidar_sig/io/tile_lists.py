@@ -40,6 +40,7 @@ def tile_list(source: str | os.PathLike[str]) -> list[Path] | None:
 def _vpc_paths(path: Path) -> list[Path]:
     """The tiles a virtual point cloud file lists (:func:`tile_list`), each once."""
     from ..base.errors import special_file
+    from .remote import is_url
 
     if special_file(path):  # a FIFO or a device would be waited on: refused before it is opened
         raise LidarSigError(f"is {special_file(path)}, not a regular file; give a .vpc file", path=path)
@@ -65,6 +66,9 @@ def _vpc_paths(path: Path) -> list[Path]:
         if not isinstance(href, str) or not href:
             raise LidarSigError(f"gives tile {k + 1} an href that is not a path ({type(href).__name__}); give each "
                                 "tile's href as its path or file:// URL", path=path)
+        if is_url(href):  # read by the commands and jobs (lidar_sig.io.clip), not as a path
+            raise LidarSigError(f"lists {href}, a URL; give the .vpc to a command or job (they read URLs by range "
+                                "requests), or download the tiles", path=path)
         local = _local(href)
         p = local if local.is_absolute() else path.parent / local
         key = os.path.normpath(p)
@@ -81,6 +85,48 @@ def _vpc_paths(path: Path) -> list[Path]:
         raise LidarSigError(f"lists {missing[0]}, which does not exist ({len(missing)} of {len(paths)} tiles "
                             "missing); give the .vpc beside its tiles, as it was written", path=path)
     return paths
+
+
+def vpc_tiles(source: str) -> list[tuple[str, tuple | None]]:
+    """(href, bounds) of each tile a ``.vpc`` (a path or an ``http(s)://`` URL) lists: an href
+    that is a URL is kept, a relative one is resolved against the .vpc's own place (its folder,
+    or its URL); bounds are the feature's ``proj:bbox`` (x0, y0, x1, y1, CRS from ``proj:epsg``
+    or ``proj:wkt2``), None when it does not give them."""
+    from urllib.parse import urljoin
+
+    from .remote import fetch, is_url
+
+    try:
+        text = fetch(source).decode("utf-8-sig") if is_url(source) else Path(source).read_text(encoding="utf-8-sig")
+        features = json.loads(text)["features"]
+        found = []
+        for f in features:
+            href = next(a["href"] for a in f["assets"].values() if "data" in a.get("roles", ["data"]))
+            if not isinstance(href, str) or not href:
+                raise TypeError(f"an href is {type(href).__name__}, not a path or URL")
+            if not is_url(href) and not Path(href).is_absolute():
+                href = urljoin(source, href) if is_url(source) else str(Path(source).parent / href)
+            found.append((href, _proj_bounds(f.get("properties") or {})))
+    except FileNotFoundError:
+        raise LidarSigError("does not exist; give an existing .vpc file", path=source) from None
+    except (OSError, ValueError, KeyError, TypeError, StopIteration, AttributeError) as exc:
+        raise LidarSigError(f"cannot be read as a virtual point cloud ({type(exc).__name__}: {exc}); give a .vpc "
+                            "file as QGIS or PDAL write it (a STAC ItemCollection of the tiles)", path=source) from None
+    if not found:
+        raise LidarSigError("lists no tile; give a .vpc file that lists the epoch's tiles", path=source)
+    return found
+
+
+def _proj_bounds(props: dict) -> tuple | None:
+    """(x0, y0, x1, y1, CRS) of a STAC item's projection extension, or None."""
+    box = props.get("proj:bbox")
+    crs = f"EPSG:{props['proj:epsg']}" if isinstance(props.get("proj:epsg"), int) else props.get("proj:wkt2")
+    if not isinstance(box, list) or len(box) not in (4, 6) or not all(isinstance(v, (int, float)) for v in box):
+        return None
+    if crs is None:
+        return None
+    x0, y0, x1, y1 = (box[0], box[1], box[3], box[4]) if len(box) == 6 else box
+    return float(x0), float(y0), float(x1), float(y1), crs
 
 
 def _local(href: str) -> Path:

@@ -24,7 +24,7 @@ Columns: TypeAlias = "str | Sequence[str] | None"
 
 
 def as_sources(sources: Sources, what: str = "sources") -> list[str]:
-    """``sources`` as a list of paths: one path, or a list or tuple of them (not empty)."""
+    """``sources`` as a list of paths (or ``http(s)://`` URLs): one, or a list or tuple of them (not empty)."""
     if isinstance(sources, (str, os.PathLike)):
         sources = [sources]
     if not isinstance(sources, (list, tuple)) or not sources:
@@ -37,6 +37,12 @@ def as_sources(sources: Sources, what: str = "sources") -> list[str]:
         listed = tile_list(as_path(s, what))
         out += [str(s)] if listed is None else [str(p) for p in listed]
     return out
+
+
+def source_list(sources: Sources) -> list[Any]:
+    """``sources`` as a list, each as given (a pattern or .vpc not expanded: an area of interest
+    reads a .vpc's bounds first, :func:`lidar_sig.io.clip.clip_inputs`)."""
+    return list(sources) if isinstance(sources, (list, tuple)) else [sources]
 
 
 def is_set(sources: list[str], execution: Execution, resume: bool = False) -> bool:
@@ -52,6 +58,9 @@ def work_folder(execution: Execution, default: Path) -> Path:
     return Path(execution.work_dir) if execution.work_dir is not None else Path(default)
 
 
+Run = TypeVar("Run", bound="JobRun")
+
+
 @dataclass
 class JobRun:
     """What a job did: the outputs ``written``, those ``not_written`` (a line each, why), what is
@@ -65,6 +74,7 @@ class JobRun:
     work: str | None = None
     seconds: float = 0.0
     lines: list[str] = field(default_factory=list)
+    reading: Any = None
 
     @property
     def complete(self) -> bool:
@@ -85,7 +95,20 @@ class JobRun:
 
     def to_dict(self) -> dict[str, Any]:
         return {"written": list(self.written), "not_written": list(self.not_written), "missing": list(self.missing),
-                "complete": self.complete, "work": self.work, "seconds": round(self.seconds, 3)}
+                "complete": self.complete, "work": self.work, "seconds": round(self.seconds, 3), **self.area_dict()}
+
+    def area_dict(self) -> dict[str, Any]:
+        """What was read of the inputs (``"aoi"``: :class:`lidar_sig.io.clip.Reading`) when they
+        were clipped to an area or fetched from a web server."""
+        return {"aoi": self.reading.to_dict()} if self.reading is not None else {}
+
+    def with_reading(self: Run, clip: Any) -> Run:
+        """This run, saying what was read when its inputs were clipped (``clip``:
+        :class:`lidar_sig.io.clip.Clipped`) first among its lines."""
+        if clip.reading is not None:
+            self.reading = clip.reading
+            self.lines = [clip.reading.line()] + [clip.shown(line) for line in self.lines]
+        return self
 
     def __repr__(self) -> str:
         state = "complete" if self.complete else f"incomplete, {len(self.missing) + len(self.not_written)} problems"

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from ..base.errors import counted, yes_no
-from ._common import JobRun, PathLike, Sources, reads_clouds
+from ._common import JobRun, PathLike, Sources, reads_clouds, source_list
 
 if TYPE_CHECKING:
     from ..pipeline.flow import Pipeline
@@ -42,12 +42,23 @@ class CatalogJob(JobRun):
 @reads_clouds
 def catalog(inputs: Sources, output: PathLike, *, pipeline: Pipeline | None = None,
             execution: Execution | None = None, resume: bool = False, overwrite: bool = False,
-            method_given: Iterable[str] | None = None, crs: str | None = None) -> CatalogJob:
+            method_given: Iterable[str] | None = None, crs: str | None = None, aoi: Any = None) -> CatalogJob:
     """Make the catalogue ``output`` (.h5) of the LAS/LAZ tiles of ``inputs``, or grow it
     (:func:`lidar_sig.survey_catalog.build_catalog`), on the workers or cluster of ``execution``, its
     work folder the execution's ``work_dir`` (default ``OUTPUT.work``).
     ``crs``: the CRS of clouds whose header carries none (``--crs``; :func:`._common.reads_clouds`).
+    ``aoi``: an area of interest the tiles are clipped to first (:func:`lidar_sig.jobs.saliency`): the
+    catalogue then holds the clipped tiles of the area, under their own names.
     """
+    from ..io.clip import clip_inputs
+
+    with clip_inputs([source_list(inputs)], aoi) as clip:
+        done = _catalog(clip.inputs[0], output, pipeline, execution, resume, overwrite, method_given)
+        return done.with_reading(clip)
+
+
+def _catalog(inputs: Sources, output: PathLike, pipeline: Pipeline | None, execution: Execution | None, resume: bool,
+             overwrite: bool, method_given: Iterable[str] | None) -> CatalogJob:
     from ..survey_catalog import build_catalog
     from ..method.crs import crs_name
     from ..reporting.sections import scales_text

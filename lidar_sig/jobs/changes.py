@@ -20,13 +20,13 @@ class ChangesRun(JobRun):
     top: int = 10
 
     def to_dict(self) -> dict[str, Any]:
-        return {**self.changes.to_dict(self.top), "written": list(self.written)}
+        return {**self.changes.to_dict(self.top), "written": list(self.written), **self.area_dict()}
 
 
 @reads_clouds
 def changes(epochs: Any, *, output: Any = None, cells: Any = None, points: Any = None, png: Any = None,
             report: Any = None, overwrite: bool = False, top: int = 10, execution: Any = None, resume: bool = False,
-            crs: str | None = None, **options: Any) -> ChangesRun:
+            crs: str | None = None, aoi: Any = None, **options: Any) -> ChangesRun:
     """The change map of ``epochs`` (two or more, in time order; :func:`lidar_sig.changes`, which
     takes ``options``: cell, min_points, score, confidence, class_map, pipeline, render,
     columns) written as the GeoTIFF ``output`` (with its QGIS style beside it), the cells'
@@ -37,15 +37,10 @@ def changes(epochs: Any, *, output: Any = None, cells: Any = None, points: Any =
     (or ``execution.work_dir``), kept after an interruption for ``resume`` and removed once the
     outputs are written.
     ``crs``: the CRS of clouds whose header carries none (``--crs``; :func:`._common.reads_clouds`).
+    ``aoi``: an area of interest every epoch is clipped to first (reading only what it needs;
+    :func:`lidar_sig.jobs.saliency`).
     """
-    from ..change_map import changes as change_map
-    from ..change_map import in_units
-    from ..change_map import check_streamed
-    from ..pipeline.flow import pipeline_or_default
-    from ..io import output_group
-    from ..io.styles import style_path
-    from ..tiling.execution import as_execution
-    from ..tiling.work import work_scope
+    from ..io.clip import clip_inputs
 
     overwrite, resume = yes_no(overwrite, "overwrite"), yes_no(resume, "resume")
     top = whole_number(top, "top (the cells listed)")
@@ -57,6 +52,22 @@ def changes(epochs: Any, *, output: Any = None, cells: Any = None, points: Any =
 
         raise LidarSigError(POINTS_OF_TWO, path=points)
     check_outputs(output, png, report, overwrite, cells, points, inputs=epochs)
+    with clip_inputs(epochs, aoi) as clip:
+        done = _changes(clip.inputs, output, cells, points, png, report, overwrite, top, execution, resume, options)
+        return done.with_reading(clip)
+
+
+def _changes(epochs: list[Any], output: Any, cells: Any, points: Any, png: Any, report: Any, overwrite: bool,
+             top: int, execution: Any, resume: bool, options: dict[str, Any]) -> ChangesRun:
+    from ..change_map import changes as change_map
+    from ..change_map import in_units
+    from ..change_map import check_streamed
+    from ..pipeline.flow import pipeline_or_default
+    from ..io import output_group
+    from ..io.styles import style_path
+    from ..tiling.execution import as_execution
+    from ..tiling.work import work_scope
+
     execution = as_execution(execution)
     files = in_units(epochs, execution, pipeline_or_default(options.get("pipeline")), resume)
     if files is not None:

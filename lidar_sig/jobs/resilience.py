@@ -40,6 +40,7 @@ class Resilience:
     render: str
     method: dict[str, Any]
     values: dict[str, NDArray[np.float64]]
+    area: str | None = None  # the area of interest the cloud was clipped to
 
     def __repr__(self) -> str:
         from ..base.views import one_line, short_name
@@ -58,7 +59,7 @@ class Resilience:
         metrics: dict[str, dict[str, list[float]] | None] = {}
         out = {"source": self.source, "fractions": list(self.fractions), "points": list(self.points),
                "repeats": self.repeats, "seed": self.seed, "render": self.render, "method": self.method,
-               "metrics": metrics}
+               "metrics": metrics, **({"aoi": self.area} if self.area else {})}
         for key in METRIC_KEYS:
             if np.isnan(self.values[key]).all():
                 metrics[key] = None
@@ -85,17 +86,25 @@ def check_fractions(fractions: Iterable[float], what: str = "fractions") -> tupl
 
 
 def resilience(cloud: Any, pipeline: Pipeline | None = None, *, fractions: Iterable[float] = DEFAULT_FRACTIONS,
-               repeats: int = 3, seed: int = 0, render: str = "smooth", progress: bool | None = None) -> Resilience:
+               repeats: int = 3, seed: int = 0, render: str = "smooth", progress: bool | None = None,
+               aoi: Any = None) -> Resilience:
     """Compare ``cloud`` with ``repeats`` uniform random subsamples at each of ``fractions``.
 
     A subsample at fraction f keeps round(f N) points drawn without replacement (seeded by
     ``seed``, so a run can be repeated); its signature is made with the same ``pipeline``
-    (default ``Pipeline()``) and compared with the full cloud's under ``render``.
+    (default ``Pipeline()``) and compared with the full cloud's under ``render``. ``aoi``: an
+    area of interest (bounds ``"XMIN,YMIN,XMAX,YMAX"`` in the cloud's CRS, or a GeoPackage or
+    GeoJSON polygon file) the cloud is clipped to first.
     """
     from ..pipeline.flow import as_point_cloud, pipeline_or_default
 
     repeats = whole_number(repeats, "repeats", low=1)  # 2.7 ran twice, 'abc' raised a ValueError
     pipeline = pipeline_or_default(pipeline)
+    area = None
+    if aoi is not None:
+        from ..io.clip import clip_cloud
+
+        cloud, area = clip_cloud(cloud, aoi)
     cloud = as_point_cloud(cloud)
     fractions = check_fractions(fractions)
     seed = whole_number(seed, "the seed")
@@ -119,7 +128,7 @@ def resilience(cloud: Any, pipeline: Pipeline | None = None, *, fractions: Itera
             if metrics[key] is not None:
                 values[key][i, r] = metrics[key]
     return Resilience(str(cloud.path or "(in memory)"), fractions, points, repeats, int(seed), render,
-                      pipeline.method(), values)
+                      pipeline.method(), values, area)
 
 
 def plot_resilience(result: Resilience, path: str | os.PathLike[str], *, overwrite: bool = False) -> None:

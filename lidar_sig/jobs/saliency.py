@@ -17,7 +17,7 @@ from ..base.errors import LidarSigError, arg, as_path, yes_no
 from ..io import CLOUD_EXTENSIONS, check_cloud_output, check_output, read
 from ..io.formats import POINTS, format_of, holds
 from ..io.tile_lists import check_apart
-from ._common import Columns, JobRun, PathLike, Sources, as_sources, is_set, work_folder, reads_clouds
+from ._common import Columns, JobRun, PathLike, Sources, as_sources, source_list, is_set, work_folder, reads_clouds
 
 if TYPE_CHECKING:
     from ..pipeline.flow import Pipeline
@@ -42,7 +42,7 @@ class SaliencyRun(JobRun):
 @reads_clouds
 def saliency(sources: Sources, output: PathLike, *, pipeline: Pipeline | None = None,
              execution: Execution | None = None, overwrite: bool = False, resume: bool = False,
-             columns: Columns = None, crs: str | None = None) -> SaliencyRun:
+             columns: Columns = None, crs: str | None = None, aoi: Any = None) -> SaliencyRun:
     """Write each of ``sources`` with its per-point Cl, Cs, Cp, Egeom, GeomClass (and
     OptimalScale) to ``output``.
 
@@ -66,7 +66,19 @@ def saliency(sources: Sources, output: PathLike, *, pipeline: Pipeline | None = 
         Columns of a text cloud.
     crs : str, optional
         The CRS of clouds whose header carries none (``--crs``; :func:`._common.reads_clouds`).
+    aoi : str, path or tuple, optional
+        An area of interest: bounds ``"XMIN,YMIN,XMAX,YMAX"`` (or four numbers) in the clouds'
+        CRS, or a GeoPackage or GeoJSON polygon file in any CRS; the inputs are clipped to it
+        first, reading only what it needs (docs/scale-out.md#an-area-of-interest).
     """
+    from ..io.clip import clip_inputs
+
+    with clip_inputs([source_list(sources)], aoi) as clip:
+        return _saliency(clip.inputs[0], output, pipeline, execution, overwrite, resume, columns).with_reading(clip)
+
+
+def _saliency(sources: Sources, output: PathLike, pipeline: Pipeline | None, execution: Execution | None,
+              overwrite: bool, resume: bool, columns: Columns) -> SaliencyRun:
     from ..pipeline.flow import pipeline_or_default
     from ..tiling.execution import as_execution
 

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 
 from ..base.errors import LidarSigError, arg, yes_no
 from ..io import check_outputs, output_group, read
-from ._common import Columns, JobRun, PathLike, Sources, as_sources, is_set, work_folder, reads_clouds
+from ._common import Columns, JobRun, PathLike, Sources, as_sources, source_list, is_set, work_folder, reads_clouds
 
 if TYPE_CHECKING:
     from ..method.signature_raster import Signature
@@ -46,7 +46,7 @@ def signature(sources: Sources, output: PathLike | None = None, *, png: PathLike
               sg: PathLike | None = None, report: PathLike | None = None, plots: PathLike | None = None,
               points: bool = True, render: str | None = None, pipeline: Pipeline | None = None,
               execution: Execution | None = None, overwrite: bool = False, resume: bool = False,
-              columns: Columns = None, crs: str | None = None) -> SignatureRun:
+              columns: Columns = None, crs: str | None = None, aoi: Any = None) -> SignatureRun:
     """Compute the signature of ``sources`` and write it: an archive (``output`` .h5) or an image
     of Sas (``output`` .png), Sas as PNG (``png``), Sg as PNG (``sg``), one cloud's HTML report
     (``report``) and its figures (``plots``, a folder).
@@ -55,9 +55,21 @@ def signature(sources: Sources, output: PathLike | None = None, *, png: PathLike
     several files, folders, or tiles asked for make a set processed in tiles, whose archive
     records the tiling and every file with its SHA-256 (no per-point datasets). ``points``:
     per-point datasets in the archive of one cloud run as one block. A report needs the whole
-    cloud in memory. Other parameters as for :func:`lidar_sig.jobs.saliency`.
+    cloud in memory. Other parameters as for :func:`lidar_sig.jobs.saliency` (``aoi``: an area
+    of interest the inputs are clipped to).
     ``crs``: the CRS of clouds whose header carries none (``--crs``; :func:`._common.reads_clouds`).
     """
+    from ..io.clip import clip_inputs
+
+    with clip_inputs([source_list(sources)], aoi) as clip:
+        return _signature(clip.inputs[0], output, png, sg, report, plots, points, render, pipeline, execution,
+                          overwrite, resume, columns).with_reading(clip)
+
+
+def _signature(sources: Sources, output: PathLike | None, png: PathLike | None, sg: PathLike | None,
+               report: PathLike | None, plots: PathLike | None, points: bool, render: str | None,
+               pipeline: Pipeline | None, execution: Execution | None, overwrite: bool, resume: bool,
+               columns: Columns) -> SignatureRun:
     from ..pipeline.flow import pipeline_or_default
     from ..method.signature_raster import RENDERINGS
     from ..tiling.execution import as_execution

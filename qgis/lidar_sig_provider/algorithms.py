@@ -11,6 +11,7 @@ from qgis.core import (QgsCoordinateReferenceSystem, QgsEditorWidgetSetup, QgsFe
                        QgsLayerTree, QgsProcessing, QgsProcessingAlgorithm, QgsProcessingContext, QgsProcessingException,
                        QgsProcessingLayerPostProcessorInterface, QgsProcessingOutputNumber, QgsProcessingOutputString,
                        QgsProcessingParameterBoolean, QgsProcessingParameterCrs, QgsProcessingParameterEnum,
+                       QgsProcessingParameterExtent,
                        QgsProcessingParameterFeatureSink,
                        QgsProcessingParameterFile, QgsProcessingParameterFileDestination, QgsProcessingParameterNumber,
                        QgsProcessingParameterRasterDestination, QgsProcessingParameterString,
@@ -31,6 +32,9 @@ ALL_FILES = "All files (*.*)"
 NOT_A_FILE = re.compile(r"^[A-Za-z]{2,}:|dbname=")
 #: Where the executable is set, for messages.
 SETTING = "Settings > Options > Processing > Providers > lidar_sig"
+
+#: The jobs that read clouds, which take an area of interest (--aoi).
+AREA_JOBS = ("saliency", "signature", "compare", "changes", "catalog", "resilience")
 
 
 def offered(kind):
@@ -213,6 +217,9 @@ class LidarSigAlgorithm(QgsProcessingAlgorithm):
 
     def initAlgorithm(self, config=None):
         self.parameters()
+        if self.job in AREA_JOBS:  # --aoi: the clouds clipped to the extent (in its CRS) first
+            self.addParameter(QgsProcessingParameterExtent("AOI", "Area of interest (not set: the whole clouds)",
+                                                           optional=True))
         options = QgsProcessingParameterString("OPTIONS", "More options (as on the command line)", optional=True)
         options.setFlags(options.flags() | options.FlagAdvanced)
         self.addParameter(options)
@@ -231,7 +238,8 @@ class LidarSigAlgorithm(QgsProcessingAlgorithm):
 
     def processAlgorithm(self, parameters, context, feedback):
         outputs = self.destinations(parameters, context)
-        argv = [str(a) for a in self.arguments(parameters, context, outputs)] + self.more_options(parameters, context)
+        argv = [str(a) for a in self.arguments(parameters, context, outputs)] + self.area(parameters, context) \
+            + self.more_options(parameters, context)
         try:
             executable = command.find_executable(executable_setting())
         except command.CommandError as exc:
@@ -262,6 +270,17 @@ class LidarSigAlgorithm(QgsProcessingAlgorithm):
         return results
 
     # -- helpers -------------------------------------------------------------------------------
+
+    def area(self, parameters, context):
+        """``--aoi "XMIN,YMIN,XMAX,YMAX [CRS]"`` from the extent parameter, or nothing."""
+        if self.job not in AREA_JOBS or not parameters.get("AOI"):
+            return []
+        rect = self.parameterAsExtent(parameters, "AOI", context)
+        if rect.isNull():
+            return []
+        crs = self.parameterAsExtentCrs(parameters, "AOI", context)
+        text = f"{rect.xMinimum()!r},{rect.yMinimum()!r},{rect.xMaximum()!r},{rect.yMaximum()!r}"
+        return ["--aoi", text + (f" [{crs.authid() or crs.toWkt()}]" if crs.isValid() else "")]
 
     def destinations(self, parameters, context):
         """{name: path, or None where an optional output is not asked for} of every file the

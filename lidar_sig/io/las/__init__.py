@@ -14,7 +14,8 @@ from ._dims import SALIENCY_DIMS, is_ours, lidar_sig_dims, set_extra_bytes_range
 from ._read import LAS_EXTENSIONS, read_las
 from ._upgrade import upgrade_to_14
 from ._write import write_las, write_las_chunks
+from ._copc import drop_copc, without_copc
 
-__all__ = ["LAS_EXTENSIONS", "SALIENCY_DIMS", "check_las_output", "is_ours", "las_scaling", "lidar_sig_dims",
-           "read_las", "saliency_fields", "set_extra_bytes_ranges", "to_lasdata", "upgrade_to_14", "write_las",
+__all__ = ["LAS_EXTENSIONS", "SALIENCY_DIMS", "check_las_output", "drop_copc", "is_ours", "las_scaling", "lidar_sig_dims",
+           "read_las", "saliency_fields", "set_extra_bytes_ranges", "to_lasdata", "upgrade_to_14", "without_copc", "write_las",
            "write_las_chunks"]

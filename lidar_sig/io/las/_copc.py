@@ -7,8 +7,10 @@ COPC_USER_ID = "copc"
 
 
 def without_copc(records):
-    """``records`` (VLRs or EVLRs) but the COPC ones."""
-    return [v for v in records if v.user_id != COPC_USER_ID]
+    """``records`` (VLRs or EVLRs) but the COPC ones, as the VLRList laspy's writer takes."""
+    from laspy.vlrs.vlrlist import VLRList
+
+    return VLRList([v for v in records if v.user_id != COPC_USER_ID])
 
 
 def drop_copc(header):
