@@ -99,18 +99,24 @@ class ChangeSeries:
         return f"interval {k + 1} ({a} -> {b})"
 
     def when(self) -> np.ndarray:
-        """(cells,) float: the interval (1-based) in which each cell changed most, i.e. the one
-        of largest z among the intervals where it changed significantly; :data:`NEVER` (0)
-        where it was compared but never significant; NaN where it was never compared."""
+        """(rows, cols) float, row 0 north: the interval (1-based) in which each cell changed
+        most, i.e. the one where it lies farthest above its level of detection (largest
+        ``lod_ratio``, the quantity the cells are ranked and coloured by) among the intervals
+        where it changed significantly; :data:`NEVER` (0) where it was compared but never
+        significant; NaN where it was never compared."""
+        return self._when().reshape(self.grid.rows, self.grid.cols)
+
+    def _when(self) -> np.ndarray:
+        """(cells,) :meth:`when` in the table's (row-major) order."""
         valid = np.array([m.table["valid"] for m in self.maps])
         significant = np.array([m.table["significant"] for m in self.maps])
-        z = np.array([np.where(s, m.table["z"], -np.inf) for m, s in zip(self.maps, significant)])
-        out = np.where(significant.any(axis=0), np.argmax(z, axis=0) + 1.0, float(NEVER))
+        ratio = np.array([np.where(s, m.table["lod_ratio"], -np.inf) for m, s in zip(self.maps, significant)])
+        out = np.where(significant.any(axis=0), np.argmax(ratio, axis=0) + 1.0, float(NEVER))
         return np.where(valid.any(axis=0), out, np.nan)
 
     def raster(self) -> np.ndarray:
-        """(rows, cols) raster of :meth:`when`, row 0 north."""
-        return self.when().reshape(self.grid.rows, self.grid.cols)
+        """(rows, cols) raster of :meth:`when`, row 0 north (the same array)."""
+        return self.when()
 
     def to_dict(self, n: int = 10) -> dict[str, Any]:
         """One entry per interval (its settings, survey parts and ``n`` top cells, as
