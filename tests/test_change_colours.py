@@ -186,3 +186,35 @@ def test_the_ranking_orders_the_cells_by_the_quantity_they_are_coloured_by(maps)
     ratio = cm.table[CHANGE_SCALE.quantity][order]
     for part in (ratio[significant], ratio[~significant]):
         assert (np.diff(part) <= 0).all()  # then by lod_ratio, largest first: the class never rises
+
+
+def test_the_report_shows_the_map_at_its_own_size_with_text_of_11_px_or_more(tmp_path):
+    # the map's text (ticks, CRS line, legend) was 8 to 9 px on screen: a 740 px picture shrunk
+    # into one of two columns
+    from browser import Browser, missing
+    from conftest import SAMPLES
+
+    import lidar_sig as ls
+
+    cm = ls.changes(SAMPLES / "epoch1.laz", SAMPLES / "epoch2_aligned.laz", cell=8,
+                    pipeline=ls.Pipeline(progress=False))
+    html = cm.report().html()
+    found = re.search(r'<img src="data:image/png;base64,([^"]+)" alt="change map"', html)
+    picture = _png(base64.b64decode(found.group(1)))
+    # the CRS line: the last band of ink between the map's foot and the legend
+    from lidar_sig.reporting.map_image import layout
+
+    lay = layout(cm.grid)
+    ink = (picture[lay.legend_y:lay.legend_y + 60, :400].max(axis=2) < 100).any(axis=1)
+    bands = np.split(np.arange(len(ink)), np.flatnonzero(np.diff(ink.astype(int))) + 1)
+    heights = [len(b) for b in bands if ink[b[0]]]
+    assert heights and max(heights) >= 11, heights
+    why = missing()
+    if why:
+        pytest.skip(f"no headless browser to show the report ({why})")
+    (tmp_path / "report.html").write_text(html, encoding="utf-8")
+    with Browser(width=1280) as browser:
+        browser.open(tmp_path / "report.html")
+        shown, natural = browser.driver.execute_script(
+            "const i = document.querySelector('img[alt=\"change map\"]'); return [i.clientWidth, i.naturalWidth];")
+    assert natural == picture.shape[1] and shown == natural, (shown, natural)  # shown at its size: 1 px a px

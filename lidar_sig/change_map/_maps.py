@@ -228,8 +228,8 @@ class ChangeMap:
         rows = [(item["rank"], f"{item['bounds'][0]:.1f}, {item['bounds'][1]:.1f}", item["points_a"], item["points_b"],
                  f"{item['score']:.4f}", "yes" if item["significant"] else "no") for item in self.top(5)]
         facts = [f"{self.a.name} -> {self.b.name}", f"{self.grid.rows} x {self.grid.cols} cells of {self.cell:g} m, "
-                 f"{int(self.table['valid'].sum())} compared, {self.n_significant} significant "
-                 f"({self.confidence:.0%} level of detection of {self.score}); {self.n_changed} changed with the "
+                 f"{int(self.table['valid'].sum()):,} compared, {self.n_significant:,} significant "
+                 f"({self.confidence:.0%} level of detection of {self.score}); {self.n_changed:,} changed with the "
                  "appeared and vanished land inside the other epoch's footprint"]
         return card(title, facts + [f"warning: {w}" for w in self.warnings],
                     header=("rank", "x, y min", "points A", "points B", "score", "significant"), rows=rows,

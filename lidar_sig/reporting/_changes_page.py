@@ -70,7 +70,9 @@ def settings_text(cm):
             f"{density} points/m²) and are compared. Ranked by <b>{page.esc(ranking)}</b>: "
             f"<b>{cm.n_significant} of {valid} cells changed significantly</b> (their score or their height "
             f"component exceeds its level of detection, at {cm.confidence:.0%} confidence together), listed "
-            f"first, each by how far it lies from its level of detection (lod_ratio); per-cell signatures in a {cm.frame.size} px frame, {page.esc(cm.render)} rendering; saliency {page.esc(_method(cm.method))}, "
+            f"first, each by how far it lies from its level of detection (lod_ratio, the map's colour); per-cell "
+            f"signatures in a {cm.frame.size} px frame, {page.esc(cm.render)} rendering; saliency "
+            f"{page.esc(_method(cm.method))}, "
             "computed on each whole epoch.</p>" + coverage_text(cm))
 
 

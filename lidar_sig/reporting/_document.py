@@ -65,9 +65,9 @@ class Report:
         html = card(f"Report: {self.title}", [f for f in facts if f], image=_small(self.figures), width=200,
                     note=f"{where}the full page here: report.show(); as a file: report.save('report.html')")
         if self.path is not None:  # a link JupyterLab opens beside the notebook
-            link = (f'<div style="font-family:sans-serif;font-size:13px;padding:0 4px 4px"><a href="'
-                    f'{page.esc(Path(self.path).as_posix())}" target="_blank">open {page.esc(Path(self.path).name)}</a></div>')
-            html += link
+            target, name = page.esc(Path(self.path).as_posix()), page.esc(Path(self.path).name)
+            html += (f'<div style="font-family:sans-serif;font-size:13px;padding:0 4px 4px">'
+                     f'<a href="{target}" target="_blank">open {name}</a></div>')
         return html
 
     def show(self) -> Page:
