@@ -115,7 +115,8 @@ def cells_table(cm, top):
     note = ("<p>* changed significantly: the score or the height component delta_H exceeds its level of "
             "detection, the value unchanged land would reach between these two epochs (sampled as this cell is, "
             f"surveyed as these two surveys differ everywhere), the two tests together at {cm.confidence:.0%}. "
-            "Significant cells first, then by z, the larger of the two tests' (spreads above the level).</p>")
+            "Significant cells first, then by how far the cell lies from its level of detection (lod_ratio: the "
+            "larger of score / lod and delta_H / its level), the quantity the map is coloured by.</p>")
     return note + page.table(("rank", "cell x, y", "points A / B", "score", "level of detection",
                               f"{height} / level (m)", "z", "other metrics", "classes A &rarr; B"), rows,
                              numeric=(0, 2, 3, 4, 5, 6))
