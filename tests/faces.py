@@ -10,6 +10,7 @@ Needs the IGN data beside the project, Chromium with its driver and selenium (te
 """
 from __future__ import annotations
 
+import os
 import sys
 import tempfile
 from pathlib import Path
@@ -21,8 +22,9 @@ from browser import Browser  # noqa: E402
 from conftest import IGN, ROOT  # noqa: E402
 
 TILES = ("test_data_77055_627755_LA93_IGN69.laz", "test_data_77060_627755_LA93_IGN69.laz")
-#: Height of each panel in the combined picture (px), and the gap between panels.
-HEIGHT, GAP = 620, 16
+#: Scale of each panel in the combined picture (QGIS's picture is drawn at 150 dpi), and the gap
+#: between panels (px).
+SCALES, GAP = (0.55, 1.0, 0.85), 24
 
 
 def change_map(folder):
@@ -37,28 +39,29 @@ def change_map(folder):
     two, _ = edit(one)
     write_las(one, folder / "epoch1.laz")
     write_las(two, folder / "epoch2.laz")
-    return changes(folder / "epoch1.laz", folder / "epoch2.laz", cell=10)
+    os.chdir(folder)  # the card names the files as given: epoch1.laz -> epoch2.laz
+    return changes("epoch1.laz", "epoch2.laz", cell=10)
 
 
 def shots(cm, folder):
-    """(the notebook card's picture, the report's map section) as Chromium draws them."""
+    """(the notebook card, the report's map figure) as Chromium draws them, each cropped to its
+    element."""
+    from selenium.webdriver.common.by import By
+
     card = folder / "card.html"
     card.write_text("<!DOCTYPE html><html><body style='margin:8px;background:#fff'>"
                     f"{cm._repr_html_()}</body></html>", encoding="utf-8")
     report = folder / "report.html"
     cm.report().save(report)
-    with Browser(900, 900) as browser:
+    with Browser(760, 1400) as browser:
         browser.open(card)
-        height = browser.driver.execute_script(
-            "return document.querySelector('.lidar-sig-card').getBoundingClientRect().bottom + 8")
-        card_png = browser.screenshot(folder / "card.png", max_height=int(height))
-    with Browser(1000, 900) as browser:
+        card_png = folder / "card.png"
+        browser.driver.find_element(By.CSS_SELECTOR, ".lidar-sig-card").screenshot(str(card_png))
+    with Browser(1000, 1600) as browser:
         browser.open(report)
-        top = browser.driver.execute_script(
-            "const f = document.querySelector('img[alt=\"change map\"]').closest('section');"
-            "f.scrollIntoView(); return window.scrollY;")
-        browser.driver.execute_script("document.body.style.marginTop = '-' + arguments[0] + 'px'", top)
-        report_png = browser.screenshot(folder / "report.png", max_height=1150)
+        report_png = folder / "report.png"
+        figure = browser.driver.execute_script("return document.querySelector('img[alt=\"change map\"]').closest('figure')")
+        figure.screenshot(str(report_png))
     return card_png, report_png
 
 
@@ -68,12 +71,12 @@ def _read(path):
     return cv2.imread(str(path))
 
 
-def _panel(image, title):
-    """``image`` scaled to :data:`HEIGHT` px tall, a title above it."""
+def _panel(image, title, scale):
+    """``image`` scaled by ``scale``, a title above it."""
     import cv2
 
-    scale = HEIGHT / image.shape[0]
-    scaled = cv2.resize(image, (max(1, round(image.shape[1] * scale)), HEIGHT), interpolation=cv2.INTER_AREA)
+    scaled = cv2.resize(image, (round(image.shape[1] * scale), round(image.shape[0] * scale)),
+                        interpolation=cv2.INTER_AREA)
     head = np.full((34, scaled.shape[1], 3), 255, np.uint8)
     cv2.putText(head, title, (6, 24), cv2.FONT_HERSHEY_SIMPLEX, 0.65, (20, 20, 20), 1, cv2.LINE_AA)
     return np.vstack([head, scaled])
@@ -85,12 +88,17 @@ def main(argv):
     if len(argv) != 2:
         sys.exit(__doc__)
     qgis, out = Path(argv[0]), Path(argv[1])
+    qgis, out = qgis.resolve(), out.resolve()
+    here = Path.cwd()
     with tempfile.TemporaryDirectory() as tmp:
         card, report = shots(change_map(Path(tmp)), Path(tmp))
-        panels = [_panel(_read(qgis), "QGIS 3.22: the GeoTIFF and the cells in their styles"),
-                  _panel(_read(card), "JupyterLab: the ChangeMap card"),
-                  _panel(_read(report), "the HTML report's map")]
-    gap = np.full((panels[0].shape[0], GAP, 3), 255, np.uint8)
+        titles = ("QGIS 3.22: the GeoTIFF and the cells in their styles", "JupyterLab: the ChangeMap card",
+                  "the HTML report's map")
+        panels = [_panel(_read(path), title, scale) for path, title, scale in zip((qgis, card, report), titles, SCALES)]
+        os.chdir(here)
+    height = max(p.shape[0] for p in panels)
+    panels = [np.vstack([p, np.full((height - p.shape[0], p.shape[1], 3), 255, np.uint8)]) for p in panels]
+    gap = np.full((height, GAP, 3), 255, np.uint8)
     joined = np.hstack([p if k == 0 else np.hstack([gap, p]) for k, p in enumerate(panels)])
     cv2.imwrite(str(out), joined, [cv2.IMWRITE_PNG_COMPRESSION, 9])
     print(f"wrote {out} ({out.stat().st_size / 1e3:.0f} kB)")

@@ -184,14 +184,16 @@ def _paint_cells(rgb, grid, edges, colours, outlined, scale):
     for y in edges[1]:
         cv2.line(out, (0, min(y, h - 1)), (w - 1, min(y, h - 1)), _GRID, 1)
     side = min(edges[0][1] - edges[0][0], edges[1][1] - edges[1][0]) if grid.n_cells else 0
-    wide = side >= 14  # room for a halo on both sides of the outline
+    # halo, outline, halo (px) as the cells allow: a halo on both sides of the outline from 12 px
+    line = 2 if side >= 30 else 1
     for c in np.flatnonzero(outlined):
         r, k = divmod(int(c), grid.cols)
         x0, y0, x1, y1 = edges[0][k], edges[1][r], min(edges[0][k + 1], w) - 1, min(edges[1][r + 1], h) - 1
-        if wide:
+        if side >= 12:
             cv2.rectangle(out, (x0 + 1, y0 + 1), (x1 - 1, y1 - 1), scale.halo, 1)
-            cv2.rectangle(out, (x0 + 2, y0 + 2), (x1 - 2, y1 - 2), scale.outline, 2)
-            cv2.rectangle(out, (x0 + 4, y0 + 4), (x1 - 4, y1 - 4), scale.halo, 1)
+            for d in range(2, 2 + line):
+                cv2.rectangle(out, (x0 + d, y0 + d), (x1 - d, y1 - d), scale.outline, 1)
+            cv2.rectangle(out, (x0 + 2 + line, y0 + 2 + line), (x1 - 2 - line, y1 - 2 - line), scale.halo, 1)
         else:
             cv2.rectangle(out, (x0, y0), (x1, y1), scale.outline, 1)
     return out
