@@ -107,7 +107,7 @@ def cells_style():
     survey's edge); no fill where compared, so that the map's colours show through."""
     from ..io.styles import Rule, polygon_qml
 
-    def hatched(state, changed, pattern, colour):
+    def uncompared(state, changed, pattern, colour):
         rule = f"\"coverage\" = '{state}' AND \"changed\" = {int(changed)}"
         means = COVERAGE_MEANS[state] + ("; changed: inside the other epoch's footprint" if changed
                                          else "; at a survey's edge, not counted as changed")
@@ -120,10 +120,10 @@ def cells_style():
              halo=CHANGE_SCALE.halo),
         Rule("compared, not significantly changed", "\"coverage\" = 'compared' AND \"significant\" = 0",
              (110, 110, 110), 0.2),
-        hatched("appeared", True, "solid", state_colour("appeared")),
-        hatched("vanished", True, "solid", state_colour("vanished")),
-        hatched("appeared", False, "solid", state_colour("appeared")),
-        hatched("vanished", False, "solid", state_colour("vanished")),
+        uncompared("appeared", True, "solid", state_colour("appeared")),
+        uncompared("vanished", True, "solid", state_colour("vanished")),
+        uncompared("appeared", False, "solid", state_colour("appeared")),
+        uncompared("vanished", False, "solid", state_colour("vanished")),
         Rule(COVERAGE_MEANS["too few points"], "\"coverage\" = 'too few points'", (110, 110, 110), 0.3, line="dash",
              fill=state_colour("too few points"), fill_alpha=255, pattern="solid"),
     ], label_expression='if("significant" = 1, "rank", NULL)')

@@ -399,7 +399,7 @@ class ChangeMap:
 
     def top(self, n: int = 10) -> TopCells:
         """The ``n`` most changed cells as plain dicts (rank, bounds, counts, score, its level
-        of detection and significance, metrics, the metrics in which the cell changed
+        of detection, z, lod_ratio and significance, metrics, the metrics in which the cell changed
         significantly, classes), in a :class:`TopCells` list."""
         out = []
         for rank, flat in enumerate(self.ranked(n), 1):
@@ -409,8 +409,8 @@ class ChangeMap:
                     "points_a": int(rec["points_a"]), "points_b": int(rec["points_b"]),
                     "undefined_a": float(rec["undefined_a"]), "undefined_b": float(rec["undefined_b"]),
                     "score": float(rec["score"]), "lod": _plain(rec["lod"]), "height_lod": _plain(rec["height_lod"]),
-                    "z": _plain(rec["z"]), "p": _plain(rec["p"]), "q": _plain(rec["q"]),
-                    "significant": bool(rec["significant"])}
+                    "z": _plain(rec["z"]), "lod_ratio": _plain(rec["lod_ratio"]), "p": _plain(rec["p"]),
+                    "q": _plain(rec["q"]), "significant": bool(rec["significant"])}
             item.update({k: _plain(rec[k]) for k in CHANGE_KEYS})
             item["significant_metrics"] = [k for k in CHANGE_KEYS if k in self.levels
                                            and self.levels[k].significant[flat]]

@@ -138,9 +138,7 @@ def _backdrop(grid, xyz, saliency, display):
     y_off = round((grid.y0 + grid.rows * grid.size - hi_y) * factor)
     h, w = min(scaled.shape[0], lay.map_h - y_off), min(scaled.shape[1], lay.map_w - x_off)
     canvas[y_off:y_off + h, x_off:x_off + w] = scaled[:h, :w]
-    edges = (np.rint(np.arange(grid.cols + 1) * grid.size * factor).astype(int),
-             np.rint(np.arange(grid.rows + 1) * grid.size * factor).astype(int))
-    return np.repeat(canvas[..., None], 3, axis=2).astype(np.float64), edges
+    return np.repeat(canvas[..., None], 3, axis=2).astype(np.float64), cell_edges(grid, display)
 
 
 def _paint(rgb, grid, edges, colours, alpha, coloured, outlined, nodata):
