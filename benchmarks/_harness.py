@@ -62,6 +62,20 @@ def file_runs_args(doc):
     return parser.parse_args()
 
 
+def lidar_sig_command():
+    """The `lidar-sig` command of this Python: the script beside its interpreter (a virtual
+    environment that is not activated), else the one on PATH."""
+    import shutil
+    from pathlib import Path
+
+    beside = Path(sys.executable).with_name("lidar-sig")
+    exe = str(beside) if beside.is_file() else shutil.which("lidar-sig")
+    if exe is None:
+        sys.exit(f"lidar-sig is neither beside {sys.executable} nor on PATH: install the package first "
+                 "(pip install -e .)")
+    return exe
+
+
 def cli_runs(file, variants, runs):
     """Median-ready wall times and peak RSS of `lidar-sig saliency FILE` per variant.
 
@@ -69,13 +83,10 @@ def cli_runs(file, variants, runs):
     cache, compiled kernels), then ``runs`` rounds with the variants alternating.
     Returns ({label: [seconds]}, {label: [MiB]}).
     """
-    import shutil
     import tempfile
     from pathlib import Path
 
-    exe = shutil.which("lidar-sig")
-    if exe is None:
-        sys.exit("lidar-sig is not on PATH: install the package first (pip install -e .)")
+    exe = lidar_sig_command()
     walls = {v: [] for v in variants}
     mem = {v: [] for v in variants}
     with tempfile.TemporaryDirectory() as tmp:

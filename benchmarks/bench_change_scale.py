@@ -2,7 +2,7 @@
 its peak memory per process, its time per point, and the known edits it finds.
 
     python benchmarks/bench_change_scale.py [--sizes 1000000,20000000] [--density 20] [--dir DIR]
-        [--memory SIZE]
+        [--memory SIZE] [--m3c2] [--runs N]
 
 For each size, epoch A is the LAZ file of benchmarks/bench_tiles.py (blocks of one million points
 of an airborne-like scene side by side, 20 points/m² by default) and epoch B a copy of it written
@@ -17,11 +17,18 @@ option (``--memory`` passed on when given) runs as one process tree sampled ever
 resident set size of the main process and of the largest worker, wall seconds, microseconds per
 point of both epochs and that figure relative to the smallest size's (the issue's bound: 1.2),
 the work units and the edited cells found (changed) out of those edited.
+
+With ``--m3c2``, py4dgeo's M3C2 runs on the same two files in the same run, as
+benchmarks/bench_m3c2_time.py runs it (a whole process: reading, core points at most one per m²
+of A, its distances and levels written to an .npz), sampled the same way, and the change map's
+time over M3C2's is printed; with ``--runs N`` both run N times, alternating which goes first,
+and the medians are printed. The generated files are kept in ``--dir`` between runs.
 """
 from __future__ import annotations
 
 import argparse
 import json
+import statistics
 import sys
 import tempfile
 from pathlib import Path
@@ -87,12 +94,14 @@ def main():
     parser.add_argument("--density", type=float, default=DENSITY)
     parser.add_argument("--dir", default=None, help="folder for the generated files (default: a temporary one)")
     parser.add_argument("--memory", default=None, help="--memory passed on to the command")
+    parser.add_argument("--m3c2", action="store_true", help="time M3C2 on the same files in the same run")
+    parser.add_argument("--runs", type=int, default=1, help="runs of each tool, alternating (medians printed)")
     args = parser.parse_args()
     folder = Path(args.dir or tempfile.mkdtemp(prefix="bench-change-scale-"))
     folder.mkdir(parents=True, exist_ok=True)
     base = None
     print(f"{'points/epoch':>13} {'wall s':>8} {'us/point':>9} {'ratio':>6} {'main MiB':>9} {'worker MiB':>11} "
-          f"{'units':>6} {'edits found':>12}")
+          f"{'units':>6} {'edits found':>12}" + (f" {'M3C2 s':>8} {'M3C2 MiB':>9} {'map/M3C2':>9}" if args.m3c2 else ""))
     for n in (int(s) for s in args.sizes.split(",")):
         a, b = folder / f"a_{n}.laz", folder / f"b_{n}.laz"
         squares = edit_squares(n, args.density)
@@ -104,14 +113,29 @@ def main():
         out.mkdir(exist_ok=True)
         cmd = ["changes", a, b, "-o", out / "map.tif", "--cells", out / "cells.gpkg", "--points", out / "b.laz",
                "--json", "--top", "100000", "--overwrite"] + (["--memory", args.memory] if args.memory else [])
-        wall, main_mib, worker_mib, stdout = measure(cmd)
+        m3c2_cmd = [sys.executable, str(Path(__file__).resolve().parent / "bench_m3c2_time.py"), "--m3c2", str(a),
+                    str(b), str(out / "m3c2.npz")]
+        walls, m3c2 = [], []
+        for r in range(args.runs):  # alternating which goes first
+            if args.m3c2 and r % 2:
+                m3c2.append(measure(None, command=m3c2_cmd))
+            wall, main_mib, worker_mib, stdout = measure(cmd)
+            walls.append(wall)
+            if args.m3c2 and not r % 2:
+                m3c2.append(measure(None, command=m3c2_cmd))
+        wall = statistics.median(walls)
         report = json.loads(stdout)
         us = wall / (2 * n) * 1e6
         base = base or us
         hits, edited = found(report, squares)
         units = (report.get("work_units") or {}).get("units", "-")
-        print(f"{n:>13,} {wall:>8.1f} {us:>9.3f} {us / base:>6.2f} {main_mib:>9.0f} {worker_mib:>11.0f} {units!s:>6} "
-              f"{hits:>5} of {edited:<5}", flush=True)
+        line = (f"{n:>13,} {wall:>8.1f} {us:>9.3f} {us / base:>6.2f} {main_mib:>9.0f} {worker_mib:>11.0f} {units!s:>6} "
+                f"{hits:>5} of {edited:<5}")
+        if args.m3c2:
+            m3c2_wall = statistics.median(w for w, *_ in m3c2)
+            m3c2_mib = max(max(main, other) for _, main, other, _ in m3c2)
+            line += f" {m3c2_wall:>8.1f} {m3c2_mib:>9.0f} {wall / m3c2_wall:>9.2f}"
+        print(line, flush=True)
 
 
 if __name__ == "__main__":

@@ -60,8 +60,11 @@ def m3c2(a_path, b_path, out):
     py4dgeo.set_py4dgeo_logfile(os.devnull)
     logging.getLogger("py4dgeo").setLevel(logging.WARNING)
     a, b = read_xyz(a_path), read_xyz(b_path)
-    pixels = np.unique(np.floor((a[:, :2] - a[:, :2].min(axis=0)) / 10.0), axis=0)
-    density = len(a) / (len(pixels) * 100.0)  # points per m² over the occupied 10 m pixels
+    # points per m² over the occupied 10 m pixels, each pixel an int64 key: np.unique over rows
+    # (axis=0) took 1 s of the AHN3 pair where a 1-D unique takes 0.05 s, set-up M3C2 does not need
+    ij = np.floor((a[:, :2] - a[:, :2].min(axis=0)) / 10.0).astype(np.int64)
+    pixels = np.unique(ij[:, 0] * (int(ij[:, 1].max()) + 1) + ij[:, 1])
+    density = len(a) / (len(pixels) * 100.0)
     core = a[np.random.default_rng(0).random(len(a)) < min(1.0, 1.0 / density)]
     radius = max(1.0, float(np.sqrt(10.0 / (np.pi * density))))
     run = py4dgeo.M3C2(epochs=(py4dgeo.Epoch(a), py4dgeo.Epoch(b)), corepoints=core, cyl_radius=radius,

@@ -9,13 +9,32 @@ The public names, listed in ``__init__.pyi`` (which editors and type checkers re
 on first use (PEP 562; the stub is read with ``ast``), so that ``import lidar_sig`` and the start of
 the command line are quick and a Ctrl-C at that moment is handled like any other.
 """
-__version__ = "0.1.0"
-
 # When this package is the command line starting, Ctrl-C and SIGTERM wait from here until it
-# handles them (lidar_sig/base/start.py); a program that imports lidar_sig is left alone
-from .base import start
+# handles them (lidar_sig/base/start.py); a program that imports lidar_sig is left alone. A
+# Ctrl-C that came while Python read this file is raised at the first call of Python code here:
+# that first call installs a handler that records it (said later, or given back to the handler
+# it replaced); then both signals are held, and lidar_sig.base.start decides (a Ctrl-C inside
+# `from .base import start` was a traceback). Only the C module, loaded with the interpreter.
+import _signal
 
-start.hold()
+
+def _received(signum, frame):
+    _RECEIVED.append(signum)
+
+
+_RECEIVED: list = []
+try:
+    _HANDLER_BEFORE = _signal.signal(_signal.SIGINT, _received)
+except ValueError:  # imported in another thread than the main one, which alone takes handlers
+    _HANDLER_BEFORE = _received
+_HELD_BEFORE = (_signal.pthread_sigmask(_signal.SIG_BLOCK, {_signal.SIGINT, _signal.SIGTERM})
+                if hasattr(_signal, "pthread_sigmask") else None)
+
+from .base import start  # noqa: E402
+
+start.hold(_HELD_BEFORE, handler=(_received, _HANDLER_BEFORE), received=_RECEIVED)
+
+__version__ = "0.1.0"
 
 import ast  # noqa: E402
 import importlib  # noqa: E402

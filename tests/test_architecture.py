@@ -157,10 +157,10 @@ def test_a_private_module_is_imported_only_inside_its_own_package():
 
 def test_no_two_modules_share_a_name_but_a_command_and_its_job():
     # a reader never meets two `result.py`: a name (its leading underscore aside) is one module's,
-    # except a command of cli/ and the job of jobs/ it asks for
+    # except a command of cli/ and the job of jobs/ it asks for (and an old path kept for user code)
     by_name = {}
     for module in MODULES:
-        if module == "lidar_sig":
+        if module == "lidar_sig" or module in DEPRECATED_PATHS:
             continue
         by_name.setdefault(module.rpartition(".")[2].lstrip("_"), []).append(module)
     shared = {name: found for name, found in by_name.items()
@@ -170,9 +170,26 @@ def test_no_two_modules_share_a_name_but_a_command_and_its_job():
     assert not shared, shared
 
 
+#: Old public module paths kept for user code, each with a DeprecationWarning: the module it
+#: moved to. Such a module stands in its target's layer and imports nothing but its target.
+DEPRECATED_PATHS = {"lidar_sig.errors": "lidar_sig.base.errors"}
+
+
+def _top(module):
+    """The top-level name of ``module`` whose layer it is in (a deprecated path: its target's)."""
+    return DEPRECATED_PATHS.get(module, module).split(".")[1]
+
+
 def test_the_root_holds_the_public_entry_the_command_entry_and_subpackages():
     root = sorted(p.name for p in PACKAGE.glob("*.py"))
-    assert root == ["__init__.py", "__main__.py"], root
+    kept = sorted(m.split(".")[1] + ".py" for m in DEPRECATED_PATHS)
+    assert root == sorted(["__init__.py", "__main__.py", *kept]), root
+
+
+def test_a_deprecated_module_path_imports_only_its_new_module_and_warns():
+    for old, new in DEPRECATED_PATHS.items():
+        assert graph()[old] == {new}, old
+        assert "DeprecationWarning" in MODULES[old].read_text(encoding="utf-8"), old
 
 
 def test_the_architecture_page_names_every_module():
@@ -192,7 +209,7 @@ def layers():
     alone, or before a line's words) separates two layers, wherever it stands."""
     text = PAGE.read_text(encoding="utf-8")
     diagram = text.split("```\n", 2)[1]
-    tops = {m.split(".")[1] for m in MODULES if "." in m}
+    tops = {_top(m) for m in MODULES if "." in m}
     out = [set()]
     for line in diagram.splitlines():
         for word in line.split():
@@ -214,17 +231,17 @@ def test_the_layers_are_read_as_the_page_draws_them():
     assert len(found) >= 7
     index = {name: i for i, layer in enumerate(found) for name in layer}
     assert index["cli"] < index["jobs"] < index["change_map"] < index["pipeline"] < index["tiling"] < index["io"]
-    assert index["io"] < index["method"]
+    assert index["reporting"] < index["io"] < index["method"]  # io writes a signature's picture: no arrow up
     assert index["method"] < index["numerics"] < index["base"]
 
 
 def test_every_import_goes_to_the_same_layer_or_below():
     found = layers()
     level = {name: i for i, layer in enumerate(found) for name in layer}
-    tops = {m.split(".")[1] for m in MODULES if "." in m}
+    tops = {_top(m) for m in MODULES if "." in m}
     assert set(level) == tops and sum(map(len, found)) == len(tops), "each module in one layer of the diagram"
     up = [f"{m} -> {t}" for m, targets in graph().items() for t in targets
-          if t != "lidar_sig" and m != "lidar_sig" and level[t.split(".")[1]] < level[m.split(".")[1]]]
+          if t != "lidar_sig" and m != "lidar_sig" and level[_top(t)] < level[_top(m)]]
     assert not up, "imports of a higher layer: " + ", ".join(up)
 
 
@@ -284,9 +301,6 @@ def test_no_module_decides_by_comparing_a_metric_or_plugin_name_to_a_text():
 #: may compare anything to them; elsewhere the objects say (``scales.by_count``,
 #: ``pipeline.weights.by_area``, ``recorded_kind(metadata)``).
 KIND_TEXTS = {"knn", "radius", "area"}
-#: Modules another engineer is rewriting (the change map at survey scale), where a comparison of
-#: the weights to a text is still left; that engineer empties this set.
-KIND_TEXT_EXCEPTIONS_BEING_REWRITTEN = {"lidar_sig.tiling.run_set"}
 
 
 def kind_text_decisions(source):
@@ -315,11 +329,9 @@ def test_the_check_of_kind_texts_sees_what_it_refuses():
 
 def test_no_module_decides_a_scale_kind_or_the_weights_by_comparing_a_text():
     found = [f"{module}, line {line}: {text}" for module, path in MODULES.items()
-             if module != "lidar_sig.method.scales" and module not in KIND_TEXT_EXCEPTIONS_BEING_REWRITTEN
+             if module != "lidar_sig.method.scales"
              for line, text in kind_text_decisions(path.read_text(encoding="utf-8"))]
     assert not found, "\n".join(found)
-    for module in KIND_TEXT_EXCEPTIONS_BEING_REWRITTEN:  # an exception that is no longer needed goes
-        assert kind_text_decisions(MODULES[module].read_text(encoding="utf-8")), f"{module}: empty the set"
 
 
 def test_no_module_lists_metric_keys_or_counts_the_metrics_by_hand():
@@ -399,3 +411,18 @@ def test_no_function_is_longer_than_80_lines_but_numba_kernels_that_say_why():
     assert not found, "\n".join(found)
     assert still == LONG_FUNCTIONS_BEING_REWRITTEN, "no longer long: empty the set of " + \
         ", ".join(sorted(LONG_FUNCTIONS_BEING_REWRITTEN - still))
+
+
+def test_the_old_errors_path_still_imports_with_a_deprecation_warning():
+    # user code written against `lidar_sig.errors` keeps working, told where the names went
+    import importlib
+    import sys
+
+    import pytest
+
+    from lidar_sig.base import errors
+
+    sys.modules.pop("lidar_sig.errors", None)
+    with pytest.warns(DeprecationWarning, match="lidar_sig.base.errors"):
+        old = importlib.import_module("lidar_sig.errors")
+    assert old.LidarSigError is errors.LidarSigError and old.arg is errors.arg

@@ -1,7 +1,9 @@
 """The benchmark scripts run (their figures are measured by hand, never asserted on timing)."""
 import importlib.util
+import os
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -30,8 +32,13 @@ def test_peer_benchmark_and_pgeof_cross_check_on_real_tile():
 
 def test_descriptor_benchmark_runs_on_real_tile():
     path = need_data(IGN / "test_data_77060_627760_LA93_IGN69.laz")
+    # the venv's bin need not be on PATH (python -m pytest from a venv not activated): the
+    # script is found beside the interpreter
+    if not Path(sys.executable).with_name("lidar-sig").is_file():
+        pytest.skip(f"the lidar-sig script is not beside {sys.executable} (the package is not installed there)")
+    env = {**os.environ, "PATH": "/usr/bin:/bin"}
     proc = subprocess.run([sys.executable, str(BENCH / "bench_descriptors.py"), str(path), "--runs", "1"],
-                          capture_output=True, text=True, timeout=900)
+                          capture_output=True, text=True, timeout=900, env=env)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     for name in ("c3dcm", "t3dvt", "t3dvt-get"):
         assert name in proc.stdout
@@ -185,3 +192,15 @@ def test_at_equal_false_flags_the_change_map_s_confidence_is_the_lowest_that_fla
     # every cell at p 0: not even 99% flags 5% or fewer; no compared cell: nothing matched
     assert matched_confidence([{"compared": True, "p": 0.0}] * 10) is None
     assert matched_confidence([{"compared": False, "p": 0.5}]) is None
+
+
+def test_memory_budget_benchmark_samples_every_process_against_the_budget(tmp_path):
+    need_data(ROOT.parent / "shared" / "data" / "ahn3_delft" / "ahn3_cropped_1.laz")
+    proc = subprocess.run([sys.executable, str(BENCH / "bench_memory_budget.py"), "--memory", "410MiB",
+                           "--cases", "one-block", "--dir", str(tmp_path)],
+                          capture_output=True, text=True, timeout=1200)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    rows = [line for line in proc.stdout.splitlines() if "one block: AHN3 crop" in line]
+    assert rows and any(" main " in row for row in rows), proc.stdout
+    for row in rows:  # each process's peak, against the budget
+        assert row.rstrip().endswith(("yes", "OVER")) and "MiB" in row, row

@@ -133,6 +133,14 @@ def never(path, cloud, fields, *, overwrite=False):
 
 BAD = Format("Bad", (".bad",), (POINTS,), reader=unreadable, writer=never)
 NOT_A_COMMAND = "a text, not a click command"
+NAN = Metric("nan", "d_NaN", "any", 0.0, True, "a metric that returns NaN", "nothing", of=lambda a, b: float("nan"))
+INF = Metric("inf", "d_Inf", "any", 0.0, True, "a metric that returns inf", "nothing", of=lambda a, b: np.inf)
+
+
+@click.command()
+def boom():
+    """A command that fails."""
+    raise RuntimeError("the command's own failure")
 '''
 
 
@@ -177,14 +185,72 @@ def test_a_format_whose_reader_raises_is_one_line_naming_it(tmp_path):
     assert not out.exists()
 
 
+def notes(done):
+    return [ln for ln in done.stderr.splitlines() if ln.startswith("lidar-sig: note: ")]
+
+
+def assert_help_lists_the_others_with_one_note(site, *words):
+    for help_ in (["--help"], []):  # the list of commands, asked for or shown for no command
+        done = lidar_sig(site, *help_)
+        assert done.returncode in (0, 2) and "Traceback" not in done.stderr, done.stderr  # click: 2 for no command
+        assert re.search(r"^  saliency +", done.stdout + done.stderr, re.M), done.stdout + done.stderr
+        said = notes(done)
+        assert len(said) == 1 and all(w in said[0] for w in words), done.stderr
+
+
 def test_a_command_that_is_not_one_is_one_line_naming_it_and_the_others_run(tmp_path):
     site = broken_distribution(tmp_path, "lidar_sig.commands", "odd = lidar_sig_broken:NOT_A_COMMAND")
     ok, said = one_line_naming(lidar_sig(site, "odd"), "command 'odd' of lidar-sig-broken", "not a click command")
     assert ok, said
-    for help_ in (["--help"], []):  # the list of commands, asked for or shown for no command
-        ok, said = one_line_naming(lidar_sig(site, *help_), "command 'odd' of lidar-sig-broken")
-        assert ok, said
+    assert_help_lists_the_others_with_one_note(site, "command 'odd' of lidar-sig-broken")
     assert lidar_sig(site, "saliency", "--help").returncode == 0  # the other commands are not loaded
+    listed = lidar_sig(site, "plugins")
+    assert listed.returncode == 0 and "lidar-sig-broken" in listed.stdout, listed.stderr
+
+
+def test_a_command_that_cannot_be_loaded_leaves_the_others_and_the_help(tmp_path):
+    site = broken_distribution(tmp_path, "lidar_sig.commands", "gone = lidar_sig_broken_missing:GONE")
+    assert_help_lists_the_others_with_one_note(site, "command 'gone' of lidar-sig-broken", "cannot be loaded")
+    ok, said = one_line_naming(lidar_sig(site, "gone"), "command 'gone' of lidar-sig-broken", "ModuleNotFoundError")
+    assert ok, said
+    shown = lidar_sig(site, "info", EPOCH1)
+    assert shown.returncode == 0 and shown.stderr == "", shown.stderr
+
+
+def test_a_command_named_like_a_built_in_leaves_every_command_and_the_help_with_a_note(tmp_path):
+    site = broken_distribution(tmp_path, "lidar_sig.commands", "info = lidar_sig_broken:boom")
+    assert_help_lists_the_others_with_one_note(site, "command 'info' of lidar-sig-broken", "rename")
+    shown = lidar_sig(site, "info", EPOCH1)  # lidar_sig's own, with the note
+    assert shown.returncode == 0 and f"{EPOCH1}:" in shown.stdout, shown.stderr
+    assert len(notes(shown)) == 1 and "lidar-sig-broken" in notes(shown)[0]
+    assert lidar_sig(site, "plugins").returncode == 0
+
+
+def test_a_plugin_command_that_raises_is_one_line_naming_its_package(tmp_path):
+    site = broken_distribution(tmp_path, "lidar_sig.commands", "boom = lidar_sig_broken:boom")
+    ok, said = one_line_naming(lidar_sig(site, "boom"), "command 'boom' of lidar-sig-broken",
+                               "RuntimeError: the command's own failure", "pip uninstall lidar-sig-broken")
+    assert ok, said
+
+
+@pytest.mark.parametrize("group, line, ask", [
+    ("lidar_sig.commands", "quits = lidar_sig_quits:anything", ["quits"]),
+    ("lidar_sig.metrics", "quits = lidar_sig_quits:anything", ["compare", EPOCH1, EPOCH2, "-q"]),
+])
+def test_a_plugin_that_calls_sys_exit_at_import_is_one_line_naming_it(tmp_path, group, line, ask):
+    site = broken_distribution(tmp_path, group, line)
+    (site / "lidar_sig_quits.py").write_text("import sys\nsys.exit(3)\n")
+    ok, said = one_line_naming(lidar_sig(site, *ask), "'quits' of lidar-sig-broken", "SystemExit: 3")
+    assert ok, said
+
+
+@pytest.mark.parametrize("name, shown", [("nan", "nan"), ("inf", "inf")])
+def test_a_metric_returning_nan_or_inf_is_one_line_naming_it_and_no_json_is_printed(tmp_path, name, shown):
+    site = broken_distribution(tmp_path, "lidar_sig.metrics", f"{name} = lidar_sig_broken:{name.upper()}")
+    done = lidar_sig(site, "compare", EPOCH1, EPOCH2, "-q", "--json")
+    ok, said = one_line_naming(done, f"metric '{name}' of lidar-sig-broken", f"returned {shown}, not a finite number")
+    assert ok, said
+    assert done.stdout == ""  # no JSON with NaN in it, no ranking by it
 
 
 def test_the_page_shows_the_example_as_it_is():

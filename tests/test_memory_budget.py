@@ -36,10 +36,42 @@ def saliency_of(path):
 
 @pytest.mark.parametrize("text, expected", [
     ("1GiB", GIB), ("800MiB", 800 * MIB), ("1.5GiB", 3 * GIB // 2), ("2G", 2 * GIB), ("2GB", 2 * GIB),
-    ("1", GIB), ("0.5", GIB // 2), ("900m", 900 * MIB), (" 4 GiB ", 4 * GIB), ("1t", 2**40),
+    ("1073741824", GIB), ("1073741824B", GIB), ("900m", 900 * MIB), (" 4 GiB ", 4 * GIB), ("2.5g", 5 * GIB // 2),
 ])
-def test_memory_sizes_are_read_in_binary_units_a_bare_number_in_gib(text, expected):
+def test_memory_sizes_are_read_in_binary_units_a_bare_number_in_bytes(text, expected):
     assert budget_bytes(text) == expected
+
+
+@pytest.mark.parametrize("value", ["500B", "1B", "2", "1", 500, np.int64(500)])
+def test_a_budget_in_bytes_is_bytes_and_refused_as_too_small_naming_the_least(value):
+    with pytest.raises(LidarSigError, match=r"give at least \d+MiB") as err:
+        budget_bytes(value)
+    assert "bytes" in str(err.value) or "1 byte" in str(err.value)
+
+
+def test_numpy_integers_are_taken_as_memory_and_workers_alike():
+    assert ls.Execution(memory=np.int64(GIB)).memory == GIB == ls.Execution(memory="1073741824").memory
+    assert ls.Execution(workers=np.int64(1)).workers == 1
+
+
+def test_a_budget_above_the_machine_s_memory_is_taken_with_a_note():
+    from lidar_sig.tiling.memory import machine_bytes
+
+    machine = machine_bytes()
+    if machine is None:
+        pytest.skip("this system does not tell its physical memory")
+    above = 2 ** math.ceil(math.log2(machine) + 1)
+    with pytest.warns(ls.LidarSigWarning, match="more than this machine's memory"):
+        assert ls.Execution(memory=above).memory == above
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        ls.Execution(memory="1GiB")
+
+
+def test_a_scheduler_address_is_taken_without_its_surrounding_spaces():
+    assert ls.Execution(scheduler=" tcp://127.0.0.1:1 ").scheduler == "tcp://127.0.0.1:1"
 
 
 @pytest.mark.parametrize("text", ["", "abc", "-1", "0", "1.5.2", "1XB", "nan", "inf", "1,5G", "G"])
@@ -242,3 +274,19 @@ def test_the_median_of_sorted_files_is_numpys(tmp_path, sizes):
         np.save(paths[-1], a)
     # the same value, not a close one: the set's cap must be the single block's
     assert sorted_median(paths) == float(np.median(np.concatenate(arrays)))
+
+
+def test_a_change_map_in_one_block_counts_the_base_of_its_process():
+    # issue 46: the one-block rule of `changes` left out the memory a process holds before any
+    # point, so that a pair within the budget by its points alone ran as one block above it
+    from lidar_sig.change_map._in_units import ONE_BLOCK_BYTES_PER_POINT, in_units
+    from lidar_sig.tiling.memory import BASE_BYTES, header_points
+
+    epochs = [str(EPOCH1), str(SAMPLES / "epoch2.laz")]
+    n = sum(header_points(p) for p in epochs)
+    pipe = ls.Pipeline(progress=False)
+    points_alone = n * ONE_BLOCK_BYTES_PER_POINT
+    below = ls.Execution(memory=max(BASE_BYTES + points_alone - 1, budget_bytes("366MiB")))
+    assert points_alone < below.memory < BASE_BYTES + points_alone
+    assert in_units(epochs, below, pipe) is not None  # in work units, within the budget
+    assert in_units(epochs, ls.Execution(memory=BASE_BYTES + points_alone), pipe) is None  # one block fits

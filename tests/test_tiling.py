@@ -283,7 +283,9 @@ def test_a_work_folder_that_is_or_holds_an_output_is_refused_before_any_work(tmp
 
 def test_a_set_never_writes_over_its_inputs_nor_two_outputs_on_one_file(tmp_path):
     tiles = _copies(tmp_path / "tiles", SAMPLES / "epoch1.laz")
-    other = _copies(tmp_path / "other", SAMPLES / "epoch1.laz")
+    other = tmp_path / "other"
+    other.mkdir()
+    shutil.copyfile(SAMPLES / "epoch2.laz", other / "epoch1.laz")  # another tile of the same name
     before = (tiles / "epoch1.laz").read_bytes()
     proc = lidar_sig_cli("saliency", tiles, "-o", tiles, "--overwrite", "--workers", "1")
     assert proc.returncode == 2 and "over its input" in proc.stderr, proc.stderr

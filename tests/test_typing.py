@@ -47,7 +47,7 @@ def test_every_python_example_of_the_docs_type_checks_strictly(tmp_path):
 
 #: Jobs another engineer is rewriting (the change map at survey scale), not yet typed; that engineer
 #: empties this set.
-UNTYPED_JOBS_BEING_REWRITTEN = {"changes.py"}
+UNTYPED_JOBS_BEING_REWRITTEN: set[str] = set()
 
 
 def test_the_extension_points_and_the_jobs_type_check_strictly(tmp_path):

@@ -79,6 +79,16 @@ def whole_number(value: Any, what: str, *, low: int = 0, high: int | None = None
     return int(value)
 
 
+def yes_no(value: Any, what: str) -> bool:
+    """``value`` as a bool if it is one (numpy's too); else a LidarSigError naming ``what`` and
+    the value: ``overwrite="no"`` is a non-empty text, true to Python, and would overwrite."""
+    import numpy as np
+
+    if not isinstance(value, (bool, np.bool_)):
+        raise LidarSigError(f"{what} must be True or False, got {value!r}")
+    return bool(value)
+
+
 def positive_metres(value: Any, what: str) -> float:
     """``value`` as a float if it is a positive finite number (not a bool); else a
     LidarSigError saying that ``what`` must be a positive number of metres (a whole number too

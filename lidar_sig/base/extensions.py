@@ -11,13 +11,14 @@ the package it came from (:meth:`Extension.fault`): the command line's one line 
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import lru_cache
 from importlib import import_module
 from importlib.metadata import entry_points
 from typing import Any
 
-from .errors import LidarSigError
+from .errors import LidarSigError, printable
 
 #: The entry-point group of each kind of extension, in the order ``lidar-sig plugins`` lists them.
 GROUPS = {"descriptor": "lidar_sig.descriptors", "strategy": "lidar_sig.strategies",
@@ -54,12 +55,22 @@ class Extension:
         """The object the entry point names, its module imported now; a LidarSigError naming the
         extension when another package's cannot be loaded (a built-in that cannot is a fault of
         this installation, and keeps its traceback)."""
+        return self.run("cannot be loaded", self._resolve)
+
+    def run(self, failed: str, function: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
+        """``function(*args, **kwargs)``, code of this extension: the one error path of everything
+        a plugin does. Another package's failure of any kind, ``sys.exit`` included, is a
+        LidarSigError naming it (``failed``: "failed", "cannot be loaded", ...) and its package;
+        its own LidarSigError and an interrupt (Ctrl-C) pass as they are. A built-in's failure is
+        a bug of lidar_sig and keeps its traceback."""
         if self.built_in:
-            return self._resolve()
+            return function(*args, **kwargs)
         try:
-            return self._resolve()
-        except Exception as exc:  # the package's own import, or a name it does not define
-            raise self.fault("cannot be loaded", exc) from None
+            return function(*args, **kwargs)
+        except (LidarSigError, KeyboardInterrupt):
+            raise
+        except BaseException as exc:  # noqa: BLE001 - the package's code: SystemExit too is its failure
+            raise self.fault(failed, exc) from None
 
     def _resolve(self) -> Any:
         module, _, attribute = self.value.partition(":")
@@ -72,7 +83,7 @@ class Extension:
         """The error of this extension, which ``what`` ("cannot be loaded", "returned a list, not
         a number"), with the exception that said so: one line naming the extension, its package
         and the fix."""
-        cause = f" ({type(exc).__name__}: {exc})" if exc is not None else ""
+        cause = f" ({type(exc).__name__}: {printable(str(exc))[:300]})" if exc is not None else ""
         fix = ("reinstall lidar_sig" if self.built_in
                else f"fix it in {self.distribution}, or uninstall that package (pip uninstall {self.distribution})")
         return LidarSigError(f"{self.who} {what}{cause}; {fix}")
@@ -84,6 +95,18 @@ def registered(kind: str) -> dict[str, Extension]:
     the order its metadata declares them (the order of every table of metrics), then those of
     other packages by package and name. Nothing is imported. A LidarSigError when lidar_sig's own
     are missing (a source tree never installed) or two packages declare one name."""
+    found, clashes = registered_apart(kind)
+    if clashes:
+        raise clashes[0]
+    return found
+
+
+@lru_cache(maxsize=None)
+def registered_apart(kind: str) -> tuple[dict[str, Extension], list[LidarSigError]]:
+    """The extensions of ``kind`` by name as :func:`registered` gives them, each name kept by its
+    first declaration (lidar_sig's own before another package's), and the errors of the others
+    that declare a name again, set apart (the command group runs the other commands and notes
+    them). A LidarSigError when lidar_sig's own are missing."""
     group = GROUPS[kind]
     own: list[Extension] = []
     others: list[Extension] = []
@@ -97,16 +120,19 @@ def registered(kind: str) -> dict[str, Extension]:
         raise LidarSigError(f"lidar_sig's own {TITLES[kind]} ({group}) are not registered: install it "
                             "(pip install -e . in its source tree, or pip install lidar-sig)")
     found: dict[str, Extension] = {}
+    clashes: list[LidarSigError] = []
     for extension in own + sorted(others, key=lambda e: (e.distribution, e.name)):
         if extension.name in found:
             first = found[extension.name]
-            raise extension.fault(f"has the name of the {kind} of {first.distribution}: each name is one "
-                                  f"{kind}'s; rename one of them")
-        found[extension.name] = extension
-    return found
+            clashes.append(extension.fault(f"has the name of the {kind} of {first.distribution}: each name is one "
+                                           f"{kind}'s; rename one of them"))
+        else:
+            found[extension.name] = extension
+    return found, clashes
 
 
 def forget() -> None:
     """Forget what :func:`registered` found: the next call reads the installed packages again
     (after installing one in the running process, or in a test)."""
     registered.cache_clear()
+    registered_apart.cache_clear()

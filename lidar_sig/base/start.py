@@ -3,8 +3,11 @@
 that comes waits) from the first line of ``lidar_sig/__init__.py`` until the command line
 handles them (:mod:`lidar_sig.__main__`): one that comes while Python loads the package and
 the command line is then said in one line, where it was a KeyboardInterrupt traceback or a
-silent end (status -15). A program that only imports lidar_sig is left alone. (Before the
-package's first line, while Python itself starts, a signal acts as on any program.)
+silent end (status -15). A program that only imports lidar_sig is left alone. A Ctrl-C that
+came while Python read the package's first file is raised at its first call: that call installs
+a handler that records it, so that it too is said in one line (or given back, in a program that
+only imports lidar_sig, to the handler it replaced). (Before that, while Python itself starts, a
+signal acts as on any program.)
 """
 from __future__ import annotations
 
@@ -44,14 +47,40 @@ def is_the_program() -> bool:
     return os.path.basename(argv[0]) in SCRIPT_NAMES and os.path.basename(main) in SCRIPT_NAMES
 
 
-def hold() -> None:
+def hold(blocked_before: set[int] | None = None, *, handler: tuple = (None, None),
+         received: list[int] | None = None) -> None:
     """Hold SIGINT and SIGTERM (those not held already) when this process is the command line
-    starting (:func:`is_the_program`); nothing otherwise."""
+    starting (:func:`is_the_program`); nothing otherwise. ``blocked_before``: the signals that
+    were blocked before the package's first line blocked both (the mask it returned);
+    ``handler``: (the SIGINT handler it installed, the one it replaced), and ``received``: what
+    that handler recorded meanwhile. The replaced handler is put back; in the program a Ctrl-C
+    recorded is delivered with those held (:func:`let_go`), elsewhere to that handler at once."""
     global held
-    if held is not None or not hasattr(_signal, "pthread_sigmask") or not is_the_program():
+    installed, before = handler
+    if before is _signal.SIG_IGN:  # a background job ignores Ctrl-C: one that came meanwhile too
+        received = []
+    if installed is not None and before is not installed and _signal.getsignal(_signal.SIGINT) is installed:
+        _signal.signal(_signal.SIGINT, _signal.default_int_handler if before is None else before)
+    if not hasattr(_signal, "pthread_sigmask"):  # nothing can be held (Windows): a Ctrl-C recorded comes now
+        for signum in received or ():
+            _signal.raise_signal(signum)
         return
     signals = {_signal.SIGINT, _signal.SIGTERM}
-    held = signals - set(_signal.pthread_sigmask(_signal.SIG_BLOCK, signals))
+    if blocked_before is None:  # not blocked yet
+        blocked_before = set(_signal.pthread_sigmask(_signal.SIG_BLOCK, signals))
+    ours = signals - set(blocked_before)
+    if held is None and is_the_program():
+        held = ours
+        _early.extend(received or ())
+        return
+    if ours:  # not the program (or held already): the mask as it was
+        _signal.pthread_sigmask(_signal.SIG_UNBLOCK, ours)
+    for signum in received or ():
+        _signal.raise_signal(signum)  # as if the package had not been there
+
+
+#: Signals recorded before they were held, delivered by :func:`let_go`.
+_early: list[int] = []
 
 
 def let_go() -> None:
@@ -61,3 +90,5 @@ def let_go() -> None:
     if held:
         _signal.pthread_sigmask(_signal.SIG_UNBLOCK, held)
     held = None
+    while _early:
+        _signal.raise_signal(_early.pop(0))

@@ -62,7 +62,8 @@ class Binned:
     ``order[starts[c]:starts[c + 1]]``; ``classes`` (cells, C) counts its points per class and
     ``undefined`` (cells,) those with undefined saliency; ``pixel``, ``egeom_bin`` and
     ``class_index`` (N,) code each point for a signature (:func:`lidar_sig.method.signature_raster.point_codes`);
-    ``height`` (N,) is each point's z in metres (:mod:`.heights`)."""
+    ``height`` (N,) is each point's z in metres (:mod:`.heights`); ``keys`` (N,) each point's
+    :func:`point_keys`, which order a cell's points (None: ``order`` does already)."""
 
     order: np.ndarray
     starts: np.ndarray
@@ -72,15 +73,46 @@ class Binned:
     egeom_bin: np.ndarray
     class_index: np.ndarray
     height: np.ndarray
+    keys: np.ndarray | None = None
 
     def points(self, c):
-        """Indices of the epoch's points in cell ``c``."""
-        return self.order[self.starts[c]:self.starts[c + 1]]
+        """Indices of the epoch's points in cell ``c``, ordered by their :func:`point_keys`: the
+        order the resamples draw from, whatever the order of the points in their files."""
+        idx = self.order[self.starts[c]:self.starts[c + 1]]
+        return idx if self.keys is None else idx[np.argsort(self.keys[idx], kind="stable")]
 
     def signature(self, idx, classes, frame):
         """The signature of the epoch's points ``idx`` (repeats allowed: a resample)."""
         return Signature.from_codes(self.pixel[idx], self.egeom_bin[idx], self.class_index[idx], classes=classes,
                                     frame=frame)
+
+
+#: Coordinates are rounded to this step of the CRS unit (0.1 mm in metres) before they key a point
+#: (:func:`point_keys`): the same point read from files cut on other grids, with other offsets,
+#: may differ in its last bits, never by this much (surveys store centimetres or millimetres).
+KEY_STEP = 1e-4
+
+
+def point_keys(xyz, labels=None):
+    """(N,) uint64 key of each point from its coordinates (CRS units, rounded to
+    :data:`KEY_STEP`) and class code (None: all 0): the order of a cell's points for its resamples, so that the map is a function of the points,
+    not of the files that carry them nor of their order in them (docs/changes.md, "The level of
+    detection"). Points with equal keys are the same point (up to a hash collision, about one in
+    2^64 per pair): their order among themselves changes nothing."""
+    q = np.rint(np.asarray(xyz, dtype=np.float64) / KEY_STEP).astype(np.int64).view(np.uint64)
+    with np.errstate(over="ignore"):
+        key = _mix(q[:, 0]) ^ _mix(q[:, 1] + np.uint64(0x9E3779B97F4A7C15))
+        key = _mix(key ^ q[:, 2])
+        if labels is not None:  # an unlabelled cloud's points are class 0, as its staged records are
+            key ^= np.asarray(labels).astype(np.int64).view(np.uint64)
+        return _mix(key)
+
+
+def _mix(x):
+    """splitmix64's finaliser: every bit of ``x`` (uint64) moves about half of the output's."""
+    x = (x ^ (x >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+    x = (x ^ (x >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+    return x ^ (x >> np.uint64(31))
 
 
 def stable_order(keys, n_keys):
@@ -111,7 +143,8 @@ def bin_points(epoch, grid, classes, labelled, frame=CELL_FRAME):
     undefined = np.bincount(cells[~epoch.saliency.defined], minlength=n_cells + 1)[:n_cells]
     pixel, egeom_bin = point_codes(epoch.saliency.values, index, frame, egeom=epoch.saliency.egeom)
     height = epoch.cloud.xyz[:, 2] * epoch.cloud.units.vertical
-    return Binned(order, starts, counts.reshape(n_cells, n_classes), undefined, pixel, egeom_bin, index, height)
+    return Binned(order, starts, counts.reshape(n_cells, n_classes), undefined, pixel, egeom_bin, index, height,
+                  point_keys(epoch.cloud.xyz, epoch.cloud.labels))
 
 
 def cell_signature(epoch, idx, classes, labelled, frame):

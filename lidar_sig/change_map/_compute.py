@@ -12,7 +12,7 @@ import numpy as np
 
 from ..method.class_maps import merge_classes
 from ..method.classes import UNLABELED
-from ..base.errors import LidarSigError, LidarSigWarning, amount, counted, whole_number
+from ..base.errors import LidarSigError, LidarSigWarning, amount, counted, whole_number, yes_no
 from ..metrics import METRIC, METRIC_KEYS
 from ..base.progress import step
 from ..method.signature_raster import Frame, method_differences
@@ -21,7 +21,7 @@ from ._cells import CELL_FRAME, SEED, bin_points, cell_table
 from ._cores import cell_values
 from ._density import AUTO, auto_cell, auto_min_points, density, fewer_points, no_defined_cell, sparse_note
 from ._epochs import Epoch, check_same_crs, epoch_name, read_epoch
-from ._grid import Grid, check_cell, check_cells, check_overlap
+from ._grid import Grid, check_cell, check_cells, check_overlap, check_span
 from ._lod import CONFIDENCE, REPLICATES, few_cells_note
 from ._maps import LABEL_FREE_SCORE, SCORE, ChangeMap, geometry_only_note, metric_levels, scheme_warnings
 from .series import ChangeSeries
@@ -108,6 +108,7 @@ def changes(a: Any, b: Any, *more: Any, cell: float | str = AUTO, pipeline: Pipe
 
     sources = (a, b) + more
     s = _settings(cell, min_points, confidence, score, frame, seed)
+    resume = _checked_flags(columns, resume)
     pipeline = pipeline_or_default(pipeline)
     table_of_classes = merge_classes(pipeline.classes, class_map)  # a bad map is refused before reading
     execution = as_execution(execution)
@@ -158,6 +159,16 @@ def _maps(clouds, names, given, kept, pipeline, table_of_classes, labelled, grid
     for text in dict.fromkeys(w for m in maps for w in m.warnings):  # each once
         warnings.warn(text, LidarSigWarning, stacklevel=3)
     return maps[0] if len(maps) == 1 else ChangeSeries(maps, epochs)
+
+
+def _checked_flags(columns, resume):
+    """``resume`` as a bool, and ``columns`` checked: both refused at the call, before any file is
+    read (a text is no flag: ``resume="no"`` is true to Python)."""
+    if columns is not None:
+        from ..io import parse_columns
+
+        parse_columns(columns)
+    return yes_no(resume, "resume")
 
 
 def _settings(cell, min_points, confidence, score, frame, seed):
@@ -222,6 +233,7 @@ def _layout(clouds, given, names, pipeline, s, notes):
     for k in range(len(clouds) - 1):  # before the grid: disjoint epochs would span a needless one
         check_overlap(used[k], used[k + 1], names[k], names[k + 1])
     corners = np.vstack([np.vstack(bounds(xy)) for xy in used])  # not every point stacked
+    check_span(corners, s.cell / units.horizontal, s.cell)
     grid = Grid.covering(corners, s.cell / units.horizontal)
     check_cells(grid, s.cell)
     counts = [np.bincount(grid.cell_of(xy), minlength=grid.n_cells) for xy in used]

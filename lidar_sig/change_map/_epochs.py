@@ -12,7 +12,7 @@ import numpy as np
 from ..method.cloud import PointCloud
 from ..method.crs import crs_name, same_crs
 from ..base.errors import LidarSigError, a_kind, as_path
-from ..io.tile_lists import tile_list
+from ..io.tile_lists import check_distinct, tile_list
 
 
 @dataclass
@@ -101,6 +101,7 @@ def read_epoch(source, *, columns=None):
     else:
         raise LidarSigError(f"cannot read an epoch from {a_kind(source)}; give a file, a folder of "
                             "tiles, a list of files or a PointCloud")
+    check_distinct([Path(p) for p in paths if isinstance(p, (str, Path))])  # a tile twice would count twice
     clouds = [read(p, columns=columns) for p in paths]
     if len(clouds) == 1:
         return clouds[0]

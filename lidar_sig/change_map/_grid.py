@@ -96,6 +96,33 @@ def check_overlap(xy_a, xy_b, name_a, name_b):
                             "overlap; give epochs of the same area")
 
 
+def check_span(corners, size, cell):
+    """Refuse, before the grid is made, epochs whose extent (the (N, 2) ``corners``, from their
+    headers or points) spans more than :data:`MAX_CELLS` cells of ``size`` CRS units (``cell``
+    metres): counted in floats, which a cell of 1e-300 m takes (the grid's whole numbers do not)."""
+    from ..base.errors import LidarSigError, amount
+
+    lo, hi = bounds(np.asarray(corners, float))
+    with np.errstate(over="ignore", invalid="ignore"):
+        spans = (hi - lo) / size
+        cells = float(np.prod(np.maximum(spans, 1.0)))
+    if not np.all(np.isfinite(spans)) or cells > MAX_CELLS:
+        shown = [amount(math.ceil(v)) if np.isfinite(v) else "more than 1e+308" for v in spans]
+        raise LidarSigError(f"the epochs span {shown[0]} x {shown[1]} cells of {cell:g} m, more than {MAX_CELLS:,}; "
+                            "use a larger cell size (--cell) or remove far outlying points")
+
+
+#: Largest cell side in metres (1,000 km: more than any survey in one projected CRS; a cell's
+#: area and its fewest points must stay numbers).
+MAX_CELL = 1e6
+
+
 def check_cell(cell):
     """The cell side as a float of metres, or LidarSigError naming the value."""
-    return positive_metres(cell, "the cell size")
+    from ..base.errors import LidarSigError
+
+    cell = positive_metres(cell, "the cell size")
+    if cell > MAX_CELL:
+        raise LidarSigError(f"the cell size must be at most {MAX_CELL:g} m (1,000 km), got {cell:g}; give the cell "
+                            "side in metres, e.g. --cell 10")
+    return cell

@@ -9,11 +9,13 @@ the report's top view and the per-point change, streamed."""
 from __future__ import annotations
 
 import math
+import os
 import warnings
 import time
 import weakref
 from pathlib import Path
 from types import SimpleNamespace
+from typing import Any
 
 import numpy as np
 
@@ -24,13 +26,14 @@ from ..method.signature_raster import Signature
 from ._cells import CHANGE_KEYS, counts_table
 from ._lod import few_cells_note
 from ._density import auto_cell, auto_min_points, no_defined_cell, sparse_note
-from ._grid import Grid, check_cells, check_overlap
+from ._grid import Grid, check_cells, check_overlap, check_span
 from ._units import (UNIT_BYTES_PER_POINT, VIEW_POINTS, UnitPlan, code_task, density_pixel, density_task,
                      unit_points, unit_task, view_path)
 
 #: Bytes a change map computed in one block holds per point of both epochs (the clouds, their
-#: saliency, the binned codes; docs/changes.md, "Memory"): above the memory budget, the map is
-#: made in work units.
+#: saliency, the binned codes; docs/changes.md, "Memory"), above the base of a process
+#: (:data:`lidar_sig.tiling.memory.BASE_BYTES`): above the memory budget, the map is made in
+#: work units.
 ONE_BLOCK_BYTES_PER_POINT = 330
 #: Work units per worker at least, so that every worker has work while the last ones finish.
 UNITS_PER_WORKER = 2
@@ -39,9 +42,8 @@ UNITS_PER_WORKER = 2
 def epoch_files(source):
     """The LAS/LAZ files of an epoch given as a file, folder, list, glob pattern or ``.vpc``
     (in the order in which one block joins them), or None when it is anything else."""
-    import os
 
-    from ..tiling.sources import expand
+    from ..tiling.sources import NotLasSet, expand
 
     if isinstance(source, (str, os.PathLike)):
         given = [source]
@@ -51,16 +53,16 @@ def epoch_files(source):
         return None
     try:
         return expand(given)
-    except LidarSigError:  # not all LAS/LAZ, or not there: one block reads it and says why
+    except NotLasSet:  # other formats: one block reads them (a refusal of the set itself is the user's)
         return None
 
 
-def in_units(sources, execution, pipeline, resume=False):
+def in_units(sources: list[Any], execution: Any, pipeline: Any, resume: bool = False) -> list[list[Path]] | None:
     """The LAS/LAZ files of each of two epochs when their change map runs in work units: a
     tile size, workers, a scheduler or ``resume`` asked for it (as they ask a set's saliency to
     run in tiles), or one block of both epochs would need more than the memory budget (then
     with a descriptor that runs in tiles; another runs as one block, with a note); else None."""
-    from ..tiling.memory import header_points, one_block_note
+    from ..tiling.memory import BASE_BYTES, header_points, one_block_note
 
     if len(sources) != 2:
         return None
@@ -73,7 +75,7 @@ def in_units(sources, execution, pipeline, resume=False):
         n = sum(header_points(p) or 0 for f in files for p in f)
     except Exception:  # a damaged header: one block reads it and says why
         return None
-    if n * ONE_BLOCK_BYTES_PER_POINT <= int(execution.memory):
+    if BASE_BYTES + n * ONE_BLOCK_BYTES_PER_POINT <= int(execution.memory):  # the process's own memory too
         return None
     if not pipeline.descriptor.tileable:
         warnings.warn(one_block_note(f"{sources[0]} and {sources[1]}", n, int(execution.memory),
@@ -176,8 +178,9 @@ def changes_in_units(files, names, *, pipeline, execution, work, resume, setting
     from ..tiling.work import prepare_work, work_scope
     from ._epochs import check_same_crs
 
-    crs = [next((s.crs for s in scan(f) if s.error is None), None) for f in files]  # before any work
-    check_same_crs([SimpleNamespace(crs=c) for c in crs], names)
+    scanned = [[s for s in scan(f) if s.error is None] for f in files]  # before any work
+    check_same_crs([SimpleNamespace(crs=next((s.crs for s in good), None)) for good in scanned], names)
+    _check_headers(scanned, names, execution, settings)
     with work_scope(work):
         work = prepare_work(work, resume, keep=[p for f in files for p in f] + list(settings.get("keep", ())))
         with execution.backend() as backend:
@@ -194,9 +197,34 @@ def changes_in_units(files, names, *, pipeline, execution, work, resume, setting
                 runs.append(run)
                 seconds.append(time.perf_counter() - t0)
             cm = _map(runs, names, files, pipeline, backend, work, settings, classes_table, WorkHolder(work, remove, own))
+            if resume:
+                from ..tiling.run_set import resumed_note
+
+                units = cm.timings["units"]
+                resumed_note(work, [f"{units['reused']} of {counted(units['units'], 'work unit')}"])
             cm.timings["saliency"] = seconds
             cm.timings["all"] = time.perf_counter() - start
             return cm
+
+
+def _check_headers(scanned, names, execution, settings):
+    """What the epochs' headers (``scanned``: each epoch's readable :class:`Source` files) tell
+    before any saliency: epochs that share no land, a given cell size whose grid is too large, a
+    tile size too small for either epoch (found then after both saliencies, with a work folder
+    kept that no resumed run could finish)."""
+    from ..tiling.run_set import header_tile_size, least_tile_size
+
+    if not all(scanned):
+        return  # a file that cannot be read is named by its epoch's run
+    corners = [np.array([np.min([s.lo for s in good], axis=0)[:2], np.max([s.hi for s in good], axis=0)[:2]])
+               for good in scanned]
+    check_overlap(*corners, *names)
+    if settings.get("cell") is not None:
+        check_span(np.vstack(corners), settings["cell"] / scanned[0][0].factors[0], settings["cell"])
+    if execution.tile_size is not None:
+        least = max(least_tile_size(good) for good in scanned)  # the advice passes for both epochs
+        for good in scanned:
+            header_tile_size(good, execution.tile_size, execution.memory, execution.workers or 1, advise=least)
 
 
 def _frame(runs, names, s, backend, work):
@@ -265,7 +293,7 @@ def _map(runs, names, files, pipeline, backend, work, settings, classes_table, h
                    warnings=notes + schemes + few, timings={"lod": time.perf_counter() - t0, "replicates": 2 * REPLICATES})
     cm.rank_by(score)
     cm.cell_rule, cm.min_points_rule, cm.density = s.cell_rule, s.min_points_rule, tuple(densities)
-    cm.timings["units"] = {"units": len(unit_ids), "side_cells": side}
+    cm.timings["units"] = {"units": len(unit_ids), "side_cells": side, "reused": gathered["reused"]}
     cm.timings.update({f"{k}_seconds": v for k, v in seconds.items()})
     return cm
 
@@ -323,7 +351,8 @@ def _gather(uplan, units, tiles_of, backend, n_classes):
     n, k = uplan.grid.n_cells, len(CHANGE_KEYS)
     out = {"points": np.zeros((2, n), np.int64), "undefined": np.zeros((2, n), np.int64),
            "classes": np.zeros((2, n, n_classes), np.int64), "metrics": np.full((n, k), np.nan),
-           "mu0": np.full((n, k), np.nan), "sigma": np.full((n, k), np.nan), "defined": np.zeros((n, k), bool)}
+           "mu0": np.full((n, k), np.nan), "sigma": np.full((n, k), np.nan), "defined": np.zeros((n, k), bool),
+           "reused": 0}
     items = [(uplan, u, (tiles_of[0].get(u, []), tiles_of[1].get(u, []))) for u in units]
     with step("work units", units=len(items), side=f"{uplan.side} cells"):
         for (_, u, _), res, err in progress(backend.run(unit_task, items), total=len(items), desc="cells",
@@ -331,6 +360,7 @@ def _gather(uplan, units, tiles_of, backend, n_classes):
             if err is not None:
                 raise _failed(err, f"work unit {u}", uplan.work)
             cells = res["cells"]
+            out["reused"] += bool(res.get("resumed"))
             for name in ("points", "undefined", "classes"):
                 out[name][:, cells] = res[name]
             for name in ("metrics", "mu0", "sigma", "defined"):
@@ -350,7 +380,7 @@ def _failed(err, what, work):
                          f"work folder, then {again}", path=work)
 
 
-def check_streamed(path, n_files, name):
+def check_streamed(path: str | os.PathLike[str], n_files: int, name: object) -> None:
     """Refuse a per-point change that a map in work units cannot stream: not LAS/LAZ, or a later
     epoch ``name`` of several files (the per-point change of one file is written)."""
     from ..io.formats import format_of

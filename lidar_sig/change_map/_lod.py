@@ -28,6 +28,8 @@ from statistics import NormalDist
 
 import numpy as np
 
+from ..base.errors import LidarSigError
+
 #: Default confidence of the significance test (one-sided).
 CONFIDENCE = 0.95
 #: Bootstrap replicates drawn from each epoch per cell (2 x REPLICATES comparisons).
@@ -90,7 +92,11 @@ class Level:
                 f"significant; {self.survey_text()}>")
 
     def lod_at(self, confidence):
-        """(cells,) the level of detection at another ``confidence`` (NaN where not compared)."""
+        """(cells,) the level of detection at another ``confidence`` (a number between 0 and 1,
+        one-sided; NaN where not compared)."""
+        if (isinstance(confidence, bool) or not isinstance(confidence, (int, float, np.floating))
+                or not 0 < confidence < 1):
+            raise LidarSigError(f"the confidence must be a number between 0 and 1 (e.g. 0.95), got {confidence!r}")
         spread = np.sqrt(self.tau ** 2 + self.sigma ** 2)
         return self.mu0 * np.exp(self.beta + quantile(confidence) * spread)
 

@@ -247,6 +247,8 @@ class ChangeMap:
         (:func:`~lidar_sig.change_map._lod.p_values`, :func:`~lidar_sig.change_map._lod.q_values`);
         ``changed`` the significant cells and the appeared or vanished ones inside the other
         epoch's footprint (``in_footprint``): the map's one answer to "what changed?"."""
+        if score not in self.levels or score == HEIGHT:
+            raise LidarSigError(f"unknown score {score!r}; rank by one of {', '.join(k for k in self.levels if k != HEIGHT)}")
         self.score = score
         each = pooled_confidence(self.confidence, len(self.tests))
         t = self.table
@@ -428,7 +430,9 @@ class ChangeMap:
         """The cells in coverage ``state`` ("appeared", "vanished", ...) as plain dicts: row,
         col, bounds, the points of each epoch, and whether it counts as changed (inside the
         other epoch's footprint)."""
-        code = next(k for k, v in COVERAGE.items() if v == state)
+        code = next((k for k, v in COVERAGE.items() if v == state), None)
+        if code is None:
+            raise LidarSigError(f"unknown coverage state {state!r}; use one of {', '.join(map(repr, COVERAGE.values()))}")
         t = self.table
         return [{"row": int(t["row"][c]), "col": int(t["col"][c]),
                  "bounds": [float(t[k][c]) for k in ("x_min", "y_min", "x_max", "y_max")],

@@ -5,12 +5,12 @@ of the points.
 
 1. :func:`density_task`, per processing tile: the 10 m pixels its points occupy, from which
    each epoch's density (and so the cell size and the fewest points) follows as in one block.
-2. :func:`code_task`, per processing tile: each core point coded once (its cell, identifier,
+2. :func:`code_task`, per processing tile: each core point coded once (its cell, key,
    pixel in the cell frame, Egeom bin, class and height) and filed by work unit, a square block
    of cells; a thinned sample of its points is kept for the report's top view.
 3. :func:`unit_task`, per work unit: its cells' points of both epochs, ordered by cell and then
-   by identifier (the order of the one-block run, whose epochs join the same files in the same
-   order), the signatures' metrics and the resamples, each cell drawing from its own random
+   by key (:func:`~lidar_sig.change_map._cells.point_keys`: the order of a cell's points in the
+   one-block run, whatever the files), the signatures' metrics and the resamples, each cell drawing from its own random
    stream; what it returns depends only on the points of its cells, so the cells of a unit
    get the values of the one-block run.
 
@@ -30,15 +30,18 @@ import numpy as np
 
 from ..method.saliency_map import geometric_entropy
 from ..method.signature_raster import Frame, point_codes
-from ..tiling.work import UNITS, save_whole
-from ._cells import CHANGE_KEYS, Binned, null_metrics, observed_metrics, stable_order
+from ..tiling.work import UNITS, load_done, save_whole
+from ._cells import CHANGE_KEYS, Binned, null_metrics, observed_metrics, point_keys, stable_order
 from ._density import DENSITY_PIXEL, occupied_pixels
 
-#: One coded point of a work unit: its flat cell on the map's grid, its identifier in its
-#: epoch's set (file number and point number: the one-block run's order), its codes in a
+#: One coded point of a work unit: its flat cell on the map's grid, its key
+#: (:func:`~lidar_sig.change_map._cells.point_keys`: the order of a cell's points), its codes in a
 #: cell's signature (:func:`lidar_sig.method.signature_raster.point_codes`) and its height in
 #: metres.
-CODED = np.dtype([("cell", "i8"), ("id", "i8"), ("pixel", "i8"), ("egeom", "i8"), ("cls", "i8"),
+#: 32 bytes (48 when every field was 64-bit): a grid holds at most
+#: :data:`~lidar_sig.change_map._grid.MAX_CELLS` cells (32 bits), an Egeom bin and a class index
+#: fit 16 bits; a pixel code of a large frame and class table needs 64.
+CODED = np.dtype([("cell", "i4"), ("key", "u8"), ("pixel", "i8"), ("egeom", "i2"), ("cls", "i2"),
                   ("height", "f8")])
 #: Bytes a work unit holds per point of its cells (both epochs): the coded records, their
 #: order, the binned arrays and the drawn resamples (docs/performance.md has the measurement).
@@ -96,15 +99,6 @@ class UnitPlan:
                            self.labelled, self.min_points, self.render, self.seed, self.stream], default=str)
 
 
-def _done(path, key):
-    """The arrays of ``path`` when it was written from ``key``, else None (and it goes)."""
-    if not path.is_file():
-        return None
-    with np.load(path) as done:
-        if str(done["key"]) == key:
-            return {k: done[k] for k in done.files}
-    path.unlink()
-    return None
 
 
 def density_task(run, ij, lo, pixel):
@@ -142,7 +136,7 @@ def code_task(uplan, epoch, ij, view_step):
     point for the top view. Returns {unit: points} of the tile."""
     path = coded_path(uplan.work, epoch, ij)
     key = uplan.key(epoch)
-    done = _done(path, key)
+    done = load_done(path, key, uplan.work, extra=(points_path(path), view_path(uplan.work, epoch, ij)))
     if done is not None:
         return dict(zip(done["units"].tolist(), np.diff(done["starts"]).tolist()))
     run = uplan.epochs[epoch]
@@ -152,7 +146,8 @@ def code_task(uplan, epoch, ij, view_step):
     pixel, egeom_bin = point_codes(values, cls, uplan.frame, egeom=geometric_entropy(values))
     rec = np.empty(len(ids), CODED)
     rec["cell"] = uplan.grid.cell_of(raw[:, :2])
-    rec["id"], rec["pixel"], rec["egeom"], rec["cls"] = ids, pixel, egeom_bin, cls
+    rec["key"] = point_keys(raw, labels)
+    rec["pixel"], rec["egeom"], rec["cls"] = pixel, egeom_bin, cls
     rec["height"] = raw[:, 2] * run.ctx.factors[2]
     unit = uplan.unit_of(rec["cell"])
     order = stable_order(unit, uplan.shape[0] * uplan.shape[1])
@@ -172,7 +167,7 @@ def code_task(uplan, epoch, ij, view_step):
 
 def unit_points(uplan, epoch, unit, tiles):
     """The coded points of ``epoch`` in work ``unit`` from the coded ``tiles`` that reach it,
-    ordered by cell and then identifier."""
+    ordered by cell and then key."""
     parts = []
     for ij in tiles:
         path = coded_path(uplan.work, epoch, ij)
@@ -184,7 +179,7 @@ def unit_points(uplan, epoch, unit, tiles):
             parts.append(np.array(mapped[starts[k]:starts[k + 1]]))
             del mapped  # unmapped: the pages read leave the process
     rec = np.concatenate(parts) if parts else np.empty(0, CODED)
-    return rec[np.lexsort((rec["id"], rec["cell"]))]
+    return rec[np.lexsort((rec["key"], rec["cell"]))]
 
 
 def binned_unit(rec, cells, n_classes):
@@ -213,9 +208,9 @@ def unit_task(uplan, unit, tiles):
 
     path = unit_path(uplan.work, unit)
     key = uplan.key()
-    done = _done(path, key)
+    done = load_done(path, key, uplan.work)
     if done is not None:
-        return done
+        return {**done, "resumed": True}
     cells = uplan.cells_of(unit)
     n_classes = len(uplan.classes)
     pair = [binned_unit(unit_points(uplan, e, unit, tiles[e]), cells, n_classes) for e in (0, 1)]

@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..base.errors import LidarSigError, as_path
+from ..base.errors import LidarSigError, as_path, whole_number
 from ..base.progress import step
 
 if TYPE_CHECKING:
@@ -97,6 +97,7 @@ class ChangeSeries:
 
     def interval_name(self, k: int) -> str:
         """``"interval 1 (E1 -> E2)"`` for ``k`` = 0, with the epochs' file names."""
+        k = whole_number(k, "the interval (counted from 0)", high=len(self.maps) - 1)
         a, b = (Path(e.name).name for e in (self.epochs[k], self.epochs[k + 1]))
         return f"interval {k + 1} ({a} -> {b})"
 

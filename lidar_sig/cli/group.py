@@ -16,7 +16,7 @@ import warnings
 import click
 
 from ..base.errors import Interrupted, LidarSigError, LidarSigWarning, printable, speaking
-from ..base.extensions import registered
+from ..base.extensions import registered_apart
 from ..io.atomic import recording_outputs
 from ..base.progress import environment_setting, say
 
@@ -30,19 +30,56 @@ def show_note(message, category, filename, lineno, file=None, line=None, _shown=
 
 
 class _Group(click.Group):
-    """The commands found through entry points, each loaded when first needed."""
+    """The commands found through entry points, each loaded when first needed. Another package's
+    command that cannot be loaded, or that is named like another command, leaves the others and
+    the help working: the help lists it not, with one note naming its package, and running it
+    is its one error line."""
+
+    _listing = False  # while the help lists the commands
+    _noted: frozenset[str] = frozenset()  # the notes said in this run: each once
+
+    def main(self, *args, **kwargs):
+        self._noted = frozenset()  # a new run (the command line called again in one process) says them again
+        return super().main(*args, **kwargs)
+
+    def _commands(self) -> dict:
+        found, clashes = registered_apart("command")
+        for clash in clashes:
+            self._note(str(clash))
+        return found
+
+    def _note(self, text):
+        if text not in self._noted:
+            self._noted = self._noted | {text}
+            click.echo(printable(f"lidar-sig: note: {text}"), err=True)
 
     def list_commands(self, ctx: click.Context) -> list[str]:
-        return sorted(set(registered("command")) | set(self.commands))
+        return sorted(set(self._commands()) | set(self.commands))
 
     def get_command(self, ctx: click.Context, cmd_name: str) -> click.Command | None:
-        extension = registered("command").get(cmd_name)
+        extension = self._commands().get(cmd_name)
         if extension is None:
             return self.commands.get(cmd_name)
-        command = extension.load()
-        if not isinstance(command, click.Command):
-            raise extension.fault(f"is {command!r}, not a click command (decorate its function with @click.command())")
+        try:
+            command = extension.load()
+            if not isinstance(command, click.Command):
+                raise extension.fault(f"is {command!r}, not a click command (decorate its function with "
+                                      "@click.command())")
+        except LidarSigError as exc:
+            if not self._listing:
+                raise  # the command asked for: its one error line
+            self._note(f"{exc} (left out of this list)")
+            return None
+        if not extension.built_in:
+            ctx.meta["lidar_sig.plugin_command"] = extension  # its failures name its package
         return command
+
+    def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
+        self._listing = True
+        try:
+            super().format_commands(ctx, formatter)
+        finally:
+            self._listing = False
 
     def invoke(self, ctx):
         written = []
@@ -54,6 +91,15 @@ class _Group(click.Group):
                 return super().invoke(ctx)
         except LidarSigError as exc:
             click.echo(f"lidar-sig: error: {exc}", err=True)
+            ctx.exit(2)
+        except (click.exceptions.ClickException, click.exceptions.Exit, click.exceptions.Abort, SystemExit,
+                GeneratorExit):
+            raise  # click's own endings, and a command's chosen exit status
+        except Exception as exc:
+            plugin = ctx.meta.get("lidar_sig.plugin_command")
+            if plugin is None:
+                raise  # lidar_sig's own command: a bug, with its traceback
+            click.echo(printable(f"lidar-sig: error: {plugin.fault('failed', exc)}"), err=True)
             ctx.exit(2)
         except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM as Interrupted
             signum = exc.signum if isinstance(exc, Interrupted) else signal.SIGINT

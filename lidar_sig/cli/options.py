@@ -226,7 +226,7 @@ def execution_options(func=None, *, tiles=True, work_dir=True):
                               help="Side of the square processing tiles of a set, in metres [default: as many points "
                                    "as a process holds within --memory, from the files' density]."),
                  click.option("--memory", default=None, metavar="SIZE",
-                              help="Memory budget of each process, e.g. 1GiB, 800MiB, 1.5G (a bare number is GiB): "
+                              help="Memory budget of each process, e.g. 1GiB, 800MiB, 1.5G (B or a bare number is bytes): "
                                    "a LAS/LAZ file that needs more as one block is processed in tiles sized to it "
                                    "[default: 1GiB]."),
                  click.option("--workers", type=click.IntRange(min=1), default=None,

@@ -82,6 +82,7 @@ def load_input(x: Any, columns: str | Sequence[str] | None = None, as_set: bool 
     loaded, a cloud file read (``columns`` of a text file), a folder of tiles (or, with
     ``as_set``, a LAS/LAZ file) as a Path to process as one set."""
     from ..io import HDF5_EXTENSIONS, LAS_EXTENSIONS, load_signature, read
+    from ..io.tile_lists import tile_list
 
     from ..pipeline.result import Result
 
@@ -90,7 +91,8 @@ def load_input(x: Any, columns: str | Sequence[str] | None = None, as_set: bool 
     if isinstance(x, Result):  # computed already: its signature
         return x.signature
     if isinstance(x, (str, Path)):
-        if Path(x).is_dir() or (as_set and Path(x).suffix.lower() in LAS_EXTENSIONS):
+        listed = tile_list(x)  # a glob pattern or .vpc of several tiles is a set, as a folder is
+        if Path(x).is_dir() or (as_set and Path(x).suffix.lower() in LAS_EXTENSIONS) or (listed and len(listed) > 1):
             return Path(x)  # processed as a set of tiles
         if Path(x).suffix.lower() in HDF5_EXTENSIONS:
             return load_signature(x)

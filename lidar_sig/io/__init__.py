@@ -61,12 +61,19 @@ def read(path: str | os.PathLike[str], *, columns: str | Sequence[str] | None = 
     if columns is not None:  # refused here whatever the file, though only text files take them
         from ._text import parse_columns
 
-        columns = parse_columns(columns if isinstance(columns, str) else ",".join(map(str, columns)))
-    path = Path(path)
+        columns = parse_columns(columns)
+    from .tile_lists import tile_list
+
+    listed = tile_list(path)  # a glob pattern or a .vpc: the one file it names is read
+    if listed is not None and len(listed) != 1:
+        raise LidarSigError(f"names {len(listed)} tiles, and one point cloud is read here; give one of them (a set of "
+                            f"tiles is taken by signature, saliency, compare, changes and catalog)", path=path)
+    path = Path(path) if listed is None else listed[0]
     if not path.exists():
         raise LidarSigError("no such file; check the path", path=path)
     if path.is_dir():
-        raise LidarSigError("is a folder, not a point-cloud file", path=path)
+        raise LidarSigError("is a folder, not a point-cloud file (a folder of tiles is taken by signature, saliency, "
+                            "compare, changes and catalog)", path=path)
     if special_file(path):  # reading it would wait for a writer, maybe forever
         raise LidarSigError(f"is {special_file(path)}, not a regular file; give a point-cloud file", path=path)
     if not os.access(path, os.R_OK):

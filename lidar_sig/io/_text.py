@@ -18,7 +18,7 @@ import warnings
 import numpy as np
 
 from ..method.cloud import PointCloud
-from ..base.errors import LidarSigError, LidarSigWarning, arg, counted
+from ..base.errors import LidarSigError, LidarSigWarning, a_kind, arg, counted
 from .atomic import atomic_output
 from .fields import marker, parse_marker
 from .formats import TEXT_EXTENSIONS  # noqa: F401 (a name of this module too)
@@ -32,8 +32,13 @@ LAYOUTS = {
 
 
 def parse_columns(text):
-    """``"x,y,z,-,label"`` -> a tuple of column names; must hold x, y and z, and name every
-    column (an empty item would shift the columns after it)."""
+    """``"x,y,z,-,label"`` (or a list of the names) -> a tuple of column names; must hold x, y
+    and z, and name every column (an empty item would shift the columns after it)."""
+    if isinstance(text, (list, tuple)) and all(isinstance(c, str) for c in text):
+        text = ",".join(text)
+    if not isinstance(text, str):
+        raise LidarSigError(f"columns must be a text such as 'x,y,z,-,label' or a list of column names, got "
+                            f"{a_kind(text)}")
     items = [c.strip() for c in str(text).split(",")]
     if "" in items:
         raise LidarSigError(f"columns has an empty item in {text!r}; name every column, - for one to skip "
@@ -49,7 +54,7 @@ def read_text(path, columns=None):
     that is not numeric is a header, a ``.pts`` point-count line is skipped. ``columns`` names
     the columns (``"x,y,z,-,label"`` or a list of names: :func:`parse_columns`)."""
     if columns is not None:
-        columns = parse_columns(columns if isinstance(columns, str) else ",".join(map(str, columns)))
+        columns = parse_columns(columns)
     try:
         with open(path, encoding="utf-8") as fh:
             raw = [(number, ln) for number, ln in enumerate(fh, 1) if ln.strip()]

@@ -33,7 +33,7 @@ import time
 from collections.abc import Iterable
 from pathlib import Path
 
-from ..base.errors import Interrupted, LidarSigError, arg, check_name_lengths
+from ..base.errors import Interrupted, LidarSigError, arg, check_name_lengths, yes_no
 
 _HOST = socket.gethostname().replace(".", "-")[:32] or "host"
 # Outputs written inside an output_group, waiting to be renamed: [(tmp, path, overwrite)]
@@ -59,6 +59,7 @@ def check_output(path: str | os.PathLike[str], *, overwrite: bool = False) -> Pa
     """Refuse an output path that exists (unless ``overwrite``), is a folder, whose folder is
     missing or not writable, or whose name leaves no room for the temporary file named after it
     (:func:`temp_name`); return it as a Path."""
+    overwrite = yes_no(overwrite, "overwrite")  # "no" is true to Python: it would overwrite
     path = Path(path)
     check_name_lengths(path, room=TEMP_ROOM + len(path.suffix.encode()))
     if path.is_dir():
@@ -169,7 +170,7 @@ def exclusive_output(path, doing):
         release(path, fd)
 
 
-def hold(path, doing, errors=None):
+def hold(path, doing, errors=None, fix="wait for that run to end, then run this command again"):
     """Lock ``path`` for this run (:func:`exclusive_output`) until :func:`release`: the file
     descriptor of its lock ``.NAME.lock`` beside it; a run holding it already is named in a
     LidarSigError (``doing``: what that run does with it). ``errors``: the context that turns
@@ -189,8 +190,7 @@ def hold(path, doing, errors=None):
         except BlockingIOError:
             holder = os.read(fd, 200).decode(errors="replace").strip() or "a process not yet named"
             os.close(fd)
-            raise LidarSigError(f"another lidar-sig run is {doing} it ({holder}); wait for that run to end, "
-                                "then run this command again", path=path) from None
+            raise LidarSigError(f"another lidar-sig run is {doing} it ({holder}); {fix}", path=path) from None
         except OSError as exc:  # a file system without locks
             os.close(fd)
             raise LidarSigError(f"cannot be locked for this run ({exc.strerror or exc}); write it on a local "
@@ -303,8 +303,9 @@ def keeping_work(folder, kept=True):
     if work is None:
         return
     folder = str(folder)
-    if kept and folder not in work:
-        work.append(folder)
+    inside = [w for w in work if Path(w) in Path(folder).parents]
+    if kept and folder not in work and not inside:  # a run's folder inside its job's is said as the job's
+        work[:] = [w for w in work if Path(folder) not in Path(w).parents] + [folder]
     elif not kept and folder in work:
         work.remove(folder)
 

@@ -68,14 +68,8 @@ class Format:
         if callable(where):
             return where
         module, _, name = where.partition(":")
-        found: Callable[..., Any]
-        if self.built_in:
-            found = getattr(importlib.import_module(module), name)
-            return found
-        try:
-            found = getattr(importlib.import_module(module), name)
-        except Exception as exc:
-            raise self._fault(f"cannot load its {which} {where!r}", exc) from None
+        found: Callable[..., Any] = self._run(f"cannot load its {which} {where!r}",
+                                              lambda: getattr(importlib.import_module(module), name), failed="")
         return found
 
     def read(self, path: str | os.PathLike[str], **options: Any) -> PointCloud:
@@ -94,15 +88,11 @@ class Format:
         """Write ``cloud`` with the per-point ``fields`` to ``path`` by this format's writer."""
         self._run(f"writing {Path(path).name}", self.load("writer"), path, cloud, fields, overwrite=overwrite)
 
-    def _run(self, doing: str, function: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
-        if self.built_in:
+    def _run(self, doing: str, function: Callable[..., Any], *args: Any, failed: str = "failed ",
+             **kwargs: Any) -> Any:
+        if self.extension is None or self.built_in:
             return function(*args, **kwargs)  # lidar_sig's own: a failure is a bug, with its traceback
-        try:
-            return function(*args, **kwargs)
-        except LidarSigError:
-            raise
-        except Exception as exc:  # another package's code: named, in one line
-            raise self._fault(f"failed {doing}", exc) from None
+        return self.extension.run(f"{failed}{doing}", function, *args, **kwargs)  # another package's: one line
 
     def _fault(self, what: str, exc: BaseException | None = None) -> LidarSigError:
         if self.extension is None:

@@ -11,6 +11,9 @@ A viewer then reads any part at any zoom without reading the whole file, also ov
 """
 from __future__ import annotations
 
+import errno
+import os
+import sys
 
 import numpy as np
 
@@ -32,7 +35,7 @@ def rasterio_module():
     return rasterio
 
 
-def check_geotiff_output(path, *, overwrite=False):
+def check_geotiff_output(path: str | os.PathLike[str], *, overwrite: bool = False) -> None:
     """Refuse, before any work, a GeoTIFF output that cannot be written: wrong extension, no
     rasterio, existing file (unless ``overwrite``), missing or read-only folder."""
     from .formats import RASTER, check_format
@@ -61,17 +64,32 @@ def write_geotiff(path, bands, descriptions, transform, crs, *, overwrite=False,
                "nodata": NODATA, "transform": Affine(*transform)}
     if crs is not None:
         profile["crs"] = rasterio.crs.CRS.from_user_input(crs)
+    from rasterio._err import CPLE_BaseError  # what GDAL's errors are raised as (no public name)
+
+    from .open3d import c_output
+
     with atomic_output(path, overwrite=overwrite) as tmp:
-        try:
-            # the bands, descriptions and tags in memory, then copied as a COG: GDAL lays out a
-            # COG (directories first, then overviews, then the image) only when it copies
-            with MemoryFile() as memory, memory.open(**profile) as src:
-                src.write(data)
-                if tags:
-                    src.update_tags(**{str(k): str(v) for k, v in tags.items()})
-                for k, text in enumerate(descriptions, 1):
-                    src.set_band_description(k, text)
-                copy(src, tmp, driver="COG", COMPRESS="DEFLATE", PREDICTOR="YES", BLOCKSIZE=str(TILE),
-                     OVERVIEWS="AUTO", OVERVIEW_RESAMPLING="NEAREST")
-        except rasterio.errors.RasterioIOError as exc:
-            raise LidarSigError(f"could not be written: {str(exc).splitlines()[0]}", path=path) from None
+        failed = None
+        # libtiff prints a failed write (a full disk) on the standard error and may go on: what
+        # it prints is caught, and any error ends the write, so that no half-written map is kept
+        with c_output() as printed:
+            try:
+                # the bands, descriptions and tags in memory, then copied as a COG: GDAL lays out a
+                # COG (directories first, then overviews, then the image) only when it copies
+                with MemoryFile() as memory, memory.open(**profile) as src:
+                    src.write(data)
+                    if tags:
+                        src.update_tags(**{str(k): str(v) for k, v in tags.items()})
+                    for k, text in enumerate(descriptions, 1):
+                        src.set_band_description(k, text)
+                    copy(src, tmp, driver="COG", COMPRESS="DEFLATE", PREDICTOR="YES", BLOCKSIZE=str(TILE),
+                         OVERVIEWS="AUTO", OVERVIEW_RESAMPLING="NEAREST")
+            except (rasterio.errors.RasterioIOError, CPLE_BaseError) as exc:
+                failed = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        said = [ln.strip() for ln in printed[0].splitlines() if "error" in ln.lower() or "no space" in ln.lower()]
+        if any("no space left" in ln.lower() for ln in [*said, failed or ""]):
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path))  # said as every full disk is
+        if failed or said:
+            raise LidarSigError(f"could not be written: {failed or said[0]}", path=path)
+        if printed[0].strip():  # what is not an error (a warning of Python's) is shown as it was
+            sys.stderr.write(printed[0])

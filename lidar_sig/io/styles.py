@@ -10,7 +10,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 from xml.sax.saxutils import quoteattr
+
+if TYPE_CHECKING:
+    import os
+    from pathlib import Path
 
 _HEAD = "<!DOCTYPE qgis PUBLIC 'http://mrcc.com/qgis.dtd' 'SYSTEM'>\n"
 
@@ -104,7 +109,7 @@ def _fill_layer(fill, fill_alpha, pattern, outline, line, width):
     return f'<layer class="SimpleFill" enabled="1" pass="0" locked="0"><Option type="Map">{props}</Option></layer>'
 
 
-def style_path(path):
+def style_path(path: str | os.PathLike[str]) -> Path:
     """Where QGIS looks for the default style of the file ``path``: beside it, named alike,
     ending in ``.qml`` (``changes.tif`` -> ``changes.qml``)."""
     from pathlib import Path

@@ -28,7 +28,13 @@ def as_sources(sources: Sources, what: str = "sources") -> list[str]:
     if not isinstance(sources, (list, tuple)) or not sources:
         raise LidarSigError(f"{what} must be a file or folder path or a list of them, got "
                             + ("an empty list" if isinstance(sources, (list, tuple)) else a_kind(sources)))
-    return [str(as_path(s, what)) for s in sources]
+    from ..io.tile_lists import tile_list
+
+    out: list[str] = []
+    for s in sources:  # a glob pattern or .vpc stands for its tiles, as in changes and catalog
+        listed = tile_list(as_path(s, what))
+        out += [str(s)] if listed is None else [str(p) for p in listed]
+    return out
 
 
 def is_set(sources: list[str], execution: Execution, resume: bool = False) -> bool:

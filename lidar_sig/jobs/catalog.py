@@ -5,7 +5,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
-from ..base.errors import counted
+from ..base.errors import counted, yes_no
 from ._common import JobRun, PathLike, Sources
 
 if TYPE_CHECKING:
@@ -50,6 +50,7 @@ def catalog(inputs: Sources, output: PathLike, *, pipeline: Pipeline | None = No
     from ..reporting.sections import scales_text
     from ..tiling.execution import as_execution
 
+    resume = yes_no(resume, "resume")
     execution = as_execution(execution)
     with execution.backend() as backend:
         run = build_catalog(inputs, output, pipeline, backend=backend, work=execution.work_dir, resume=resume,

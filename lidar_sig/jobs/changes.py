@@ -2,10 +2,12 @@
 checked before any work, then all written together or none."""
 from __future__ import annotations
 
+import contextlib
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
-from ..base.errors import LidarSigError
+from ..base.errors import LidarSigError, whole_number, yes_no
 from ._common import JobRun
 
 
@@ -40,7 +42,10 @@ def changes(epochs: Any, *, output: Any = None, cells: Any = None, points: Any =
     from ..io import output_group
     from ..io.styles import style_path
     from ..tiling.execution import as_execution
+    from ..tiling.work import work_scope
 
+    overwrite, resume = yes_no(overwrite, "overwrite"), yes_no(resume, "resume")
+    top = whole_number(top, "top (the cells listed)")
     epochs = list(epochs) if isinstance(epochs, (list, tuple)) else [epochs]
     if len(epochs) < 2:
         raise LidarSigError("give at least two epochs (A B), in time order")
@@ -48,7 +53,7 @@ def changes(epochs: Any, *, output: Any = None, cells: Any = None, points: Any =
         from ..change_map.series import POINTS_OF_TWO
 
         raise LidarSigError(POINTS_OF_TWO, path=points)
-    check_outputs(output, png, report, overwrite, cells, points)
+    check_outputs(output, png, report, overwrite, cells, points, inputs=epochs)
     execution = as_execution(execution)
     files = in_units(epochs, execution, pipeline_or_default(options.get("pipeline")), resume)
     if files is not None:
@@ -56,26 +61,27 @@ def changes(epochs: Any, *, output: Any = None, cells: Any = None, points: Any =
         options.update(work=_work(execution, outputs))
         if points:
             check_streamed(points, len(files[1]), epochs[1])
-    result = change_map(*epochs, execution=execution, resume=resume, **options)
-    done = ChangesRun(changes=result, top=top)
-    with output_group():  # all or none
-        for path in (output, cells, points, png, report):
-            if path:
-                result.save(path, overwrite=overwrite)
-                done.written.append(str(path))
-                style = style_path(path) if str(path).lower().endswith((".tif", ".tiff")) else None
-                done.lines.append(f"wrote {path}" + (f" (style {style})" if style else ""))
-    if files is not None:
-        result.close()  # written: the work folder goes
+    # in work units, the outputs are written within the work folder's scope: an output that
+    # cannot be written (a full disk) leaves the folder as any failure does, named for --resume
+    with work_scope(options["work"]) if files is not None else contextlib.nullcontext():
+        result = change_map(*epochs, execution=execution, resume=resume, **options)
+        done = ChangesRun(changes=result, top=top)
+        with output_group():  # all or none
+            for path in (output, cells, points, png, report):
+                if path:
+                    result.save(path, overwrite=overwrite)
+                    done.written.append(str(path))
+                    style = style_path(path) if str(path).lower().endswith((".tif", ".tiff")) else None
+                    done.lines.append(f"wrote {path}" + (f" (style {style})" if style else ""))
+        if files is not None:
+            result.close()  # written: the work folder goes
     return done
 
 
-def _work(execution, outputs):
+def _work(execution: Any, outputs: list[Any]) -> Path:
     """The work folder of a change map in work units: the execution's ``work_dir``, else beside
     the first output (on its file system), else in the working folder (where a resumed run
     finds it again); refused when it would hold an output, as it goes once they are written."""
-    from pathlib import Path
-
     from ..base.errors import arg
     from ._common import work_folder
 
@@ -89,16 +95,25 @@ def _work(execution, outputs):
     return work
 
 
-def check_outputs(output, png, report, overwrite, cells=None, points=None):
-    """Refuse every output of a change map that cannot be written, before anything is computed."""
+def check_outputs(output: Any, png: Any, report: Any, overwrite: bool, cells: Any = None, points: Any = None,
+                  inputs: Any = ()) -> None:
+    """Refuse every output of a change map that cannot be written, before anything is computed,
+    and one that is an epoch's file or that an epoch's folder or pattern would read (``inputs``)."""
+    from ..base.errors import as_path
     from ..io import check_outputs as check_paths
     from ..io.formats import IMAGE, POINTS, VECTOR, check_format
     from ..io.geotiff import check_geotiff_output
     from ..io.styles import style_path
+    from ..io.tile_lists import check_apart
     from ..reporting import check_report_path
 
+    said = {"output": output, "cells": cells, "points": points, "png": png, "report": report}
+    for what, path in said.items():
+        if path is not None:
+            as_path(path, what)  # output=5 is named at this call
     paths = [p for p in (output, output and style_path(output), cells, points, png, report) if p]
     check_paths(paths, overwrite=overwrite)
+    check_apart(paths, list(inputs))
     if output:
         check_geotiff_output(output, overwrite=overwrite)
     if cells:

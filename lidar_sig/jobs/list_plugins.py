@@ -6,7 +6,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-from ..base.extensions import TITLES, registered
+from ..base.errors import LidarSigError, LidarSigWarning
+from ..base.extensions import TITLES, registered_apart
 from ._common import JobRun
 
 
@@ -46,9 +47,28 @@ def plugins() -> Plugins:
     found[TITLES["format"]] = {f.extension.name if f.extension else f.name: {
         "package": _package(f.extension), "summary": f.name, "extensions": list(f.extensions), "holds": list(f.holds),
         "reads": f.reader is not None, "writes": f.writer is not None} for f in formats()}
-    found[TITLES["command"]] = {name: {"package": extension.distribution, "summary": _short_help(extension.load())}
-                                for name, extension in registered("command").items()}
+    found[TITLES["command"]] = _commands()
     return Plugins(found=found, lines=_lines(found))
+
+
+def _commands() -> dict[str, dict[str, Any]]:
+    """The commands with their package and short help; one that cannot be loaded, or that is named
+    like another, is left out with a note naming its package (the others still run, as
+    ``lidar-sig --help`` lists them)."""
+    import warnings
+
+    found, clashes = registered_apart("command")
+    out = {}
+    for clash in clashes:
+        warnings.warn(str(clash), LidarSigWarning, stacklevel=3)
+    for name, extension in found.items():
+        try:
+            command = extension.load()
+        except LidarSigError as exc:
+            warnings.warn(f"{exc} (left out of this list)", LidarSigWarning, stacklevel=3)
+            continue
+        out[name] = {"package": extension.distribution, "summary": _short_help(command)}
+    return out
 
 
 def _package(extension: Any) -> str:

@@ -13,9 +13,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ..base.errors import LidarSigError, arg, as_path
+from ..base.errors import LidarSigError, arg, as_path, yes_no
 from ..io import CLOUD_EXTENSIONS, check_cloud_output, check_output, read
 from ..io.formats import POINTS, format_of, holds
+from ..io.tile_lists import check_apart
 from ._common import Columns, JobRun, PathLike, Sources, as_sources, is_set, work_folder
 
 if TYPE_CHECKING:
@@ -66,6 +67,7 @@ def saliency(sources: Sources, output: PathLike, *, pipeline: Pipeline | None = 
     from ..pipeline.flow import pipeline_or_default
     from ..tiling.execution import as_execution
 
+    resume = yes_no(resume, "resume")
     pipeline = pipeline_or_default(pipeline)
     execution = as_execution(execution)
     sources = as_sources(sources)
@@ -81,6 +83,7 @@ def saliency(sources: Sources, output: PathLike, *, pipeline: Pipeline | None = 
     if not holds(output, POINTS):
         raise LidarSigError(f"output must be a point cloud: {', '.join(CLOUD_EXTENSIONS)}", path=output)
     check_output(output, overwrite=overwrite)
+    check_apart([output], [source])
     start = time.perf_counter()
     over = execution.over_budget(source, pipeline)
     result: Result

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ..base.errors import LidarSigError, arg
+from ..base.errors import LidarSigError, arg, yes_no
 from ..io import check_outputs, output_group, read
 from ._common import Columns, JobRun, PathLike, Sources, as_sources, is_set, work_folder
 
@@ -60,6 +60,7 @@ def signature(sources: Sources, output: PathLike | None = None, *, png: PathLike
     from ..method.signature_raster import RENDERINGS
     from ..tiling.execution import as_execution
 
+    resume = yes_no(resume, "resume")
     pipeline = pipeline_or_default(pipeline)
     execution = as_execution(execution)
     sources = as_sources(sources)

@@ -3,6 +3,7 @@ signatures and its direction, whether it needs labels, how it is computed from t
 :class:`Operand`, and where a value stands among the values the project measured."""
 from __future__ import annotations
 
+import math
 import numbers
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -119,6 +120,8 @@ class Metric:
         out = self._run(self.of, a, b)
         if isinstance(out, (bool, np.bool_)) or not isinstance(out, (numbers.Real, np.number)):
             raise self._fault(f"returned {a_kind(out)}, not a number")
+        if not self.built_in and not math.isfinite(float(out)):  # NaN is not JSON, and ranks nothing
+            raise self._fault(f"returned {float(out)}, not a finite number")
         return float(out)
 
     def between_rows(self, a: Any, b: Any) -> NDArray[np.float64]:
@@ -128,17 +131,16 @@ class Metric:
         out = self._run(self.rows, a, b)
         if not isinstance(out, np.ndarray) or out.dtype.kind not in "iuf":
             raise self._fault(f"returned {a_kind(out)} from its rows, not an array of numbers")
-        return out.astype(np.float64, copy=False)
+        out = out.astype(np.float64, copy=False)
+        if not self.built_in and not np.isfinite(out).all():
+            raise self._fault(f"returned {np.count_nonzero(~np.isfinite(out)):,} values that are not finite (NaN or "
+                              "inf) from its rows")
+        return out
 
     def _run(self, compute: Callable[[Any, Any], Any], a: Any, b: Any) -> Any:
-        if self.built_in:
+        if self.extension is None or self.built_in:
             return compute(a, b)  # lidar_sig's own: a failure is a bug, with its traceback
-        try:
-            return compute(a, b)
-        except LidarSigError:
-            raise
-        except Exception as exc:  # another package's code: named, in one line
-            raise self._fault("failed", exc) from None
+        return self.extension.run("failed", compute, a, b)  # another package's code: named, in one line
 
     def _fault(self, what: str, exc: BaseException | None = None) -> LidarSigError:
         if self.extension is None:

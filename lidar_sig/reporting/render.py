@@ -1,19 +1,19 @@
 """Images for people, drawn with OpenCV: Sas and Sg in their triangle (docs/method.md, "Signatures"), the difference
 of two signatures, a top view of a cloud coloured by its saliency, PNG encoding.
 
-Every picture is an (H, W, 3) uint8 RGB array; :func:`encode_png` makes it PNG bytes and
-:mod:`lidar_sig.io.png` writes it. OpenCV is imported on first use, so computing saliency alone
+Every picture is an (H, W, 3) uint8 RGB array; :mod:`lidar_sig.io.png` encodes it as PNG
+(``encode_png``) and writes it, and draws a signature in its triangle (``signature_image``, which
+a signature's PNG file needs below the reports). OpenCV is imported on first use, so computing saliency alone
 never loads it.
 """
 from __future__ import annotations
 
 import numpy as np
 
+# a signature's picture and PNG bytes are made in io.png, below the reports, which take them from here too
+from ..io.png import VERTEX_LABELS, draw_triangle, encode_png, signature_image  # noqa: F401
 from ..method.signature_raster import RENDERINGS, smooth_counts, to_uint8
 from ..numerics.bounds import bounds, nan_rows
-
-#: Names of the triangle's vertices V_l, V_s, V_p as the pictures label them.
-VERTEX_LABELS = ("line", "surface", "point")
 #: ColorBrewer RdBu, blue (negative) to red (positive), for signed differences.
 DIVERGING = np.array([(5, 48, 97), (33, 102, 172), (67, 147, 195), (146, 197, 222), (209, 229, 240),
                       (247, 247, 247), (253, 219, 199), (244, 165, 130), (214, 96, 77), (178, 24, 43),
@@ -31,44 +31,6 @@ def _cv2():
     import cv2
 
     return cv2
-
-
-def signature_image(signature, kind="sas", mode="smooth", *, scale=1):
-    """(H, W, 3) uint8 picture of Sas or Sg: white outside the triangle, vertices labelled.
-
-    Sg is drawn dark on white (1 - Sg), like Sas. A whole ``scale`` > 1 enlarges the pixels
-    (each a ``scale`` x ``scale`` square) before the triangle and labels are drawn, for small
-    frames.
-    """
-    sg, sas = signature.render(mode)
-    img = sas if kind == "sas" else np.repeat(1.0 - sg[..., None], 3, axis=2)
-    rgb = to_uint8(img)
-    rgb[~signature.frame.mask()] = 255
-    if scale > 1:
-        rgb = np.ascontiguousarray(np.repeat(np.repeat(rgb, scale, axis=0), scale, axis=1))
-    return draw_triangle(rgb, signature.frame, scale=scale)
-
-
-def draw_triangle(rgb, frame, *, labels=VERTEX_LABELS, scale=1.0):
-    """Draw the frame's triangle (anti-aliased) and its vertex labels on ``rgb``, in place and
-    returned; ``scale`` is the picture's size over the frame's."""
-    cv2 = _cv2()
-    v = frame.vertices * scale
-    shift = 4  # sub-pixel vertices: OpenCV takes fixed-point coordinates with 4 fractional bits
-    pts = np.rint(v * (1 << shift)).astype(np.int32).reshape(-1, 1, 2)
-    cv2.polylines(rgb, [pts], True, _EDGE, 1, cv2.LINE_AA, shift)
-    font = max(0.45 * frame.size * scale / 512, 0.4)
-    for (x, y), label, where in zip(v, labels, ("top", "right", "left")):
-        (w, h), _ = cv2.getTextSize(label, _FONT, font, 1)
-        if where == "top":
-            org = (x - w / 2, y - 0.35 * h)
-        elif where == "right":
-            org = (x - w, y + 1.6 * h)
-        else:
-            org = (x, y + 1.6 * h)
-        org = (int(np.clip(org[0], 0, rgb.shape[1] - w)), int(np.clip(org[1], h, rgb.shape[0] - 2)))
-        cv2.putText(rgb, label, org, _FONT, font, _INK, 1, cv2.LINE_AA)
-    return rgb
 
 
 def point_shares(signature, mode="smooth"):
@@ -240,12 +202,3 @@ def colour_key(frame):
     rgb = np.ascontiguousarray(to_uint8(np.clip(bary, 0.0, 1.0)).reshape(frame.size, frame.size, 3))
     rgb[~frame.mask()] = 255
     return draw_triangle(rgb, frame)
-
-
-def encode_png(rgb):
-    """PNG file contents (bytes) of an RGB uint8 picture."""
-    cv2 = _cv2()
-    ok, data = cv2.imencode(".png", np.ascontiguousarray(np.asarray(rgb)[..., ::-1]))  # OpenCV is BGR
-    if not ok:
-        raise RuntimeError("OpenCV could not encode the picture as PNG")
-    return data.tobytes()

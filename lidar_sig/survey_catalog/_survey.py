@@ -342,7 +342,7 @@ class Catalog:
         from ..io import HDF5_EXTENSIONS, load_signature, read
 
         path = Path(query)
-        if not path.exists():
+        if not os.path.exists(path):  # False, not OSError, for a name longer than a file system takes
             raise LidarSigError(f"is neither a tile of the catalogue {self.path} nor a file; give a tile's name "
                                 "(`lidar-sig outliers CATALOGUE --json` lists them) or a cloud or archive", path=query)
         if path.suffix.lower() in HDF5_EXTENSIONS:

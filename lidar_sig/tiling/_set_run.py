@@ -38,8 +38,15 @@ class SetRun:
     excluded: dict = field(default_factory=dict)  # source id -> withheld or noise points left out
     labelled: bool = False  # some point has a class code
     records: dict = field(default_factory=dict)  # (source, part) -> its staged part's record
+    reused_parts: int = 0  # staged parts a resumed run reused
+    restaged: list = field(default_factory=list)  # files a resumed run staged again (edited since)
     seconds: float = 0.0
     execution: str = ""
+
+    def __getstate__(self):
+        # what a task of the run needs travels to a worker; the set's signature (tens of MiB:
+        # the counts of every class) stays in this process
+        return {**self.__dict__, "signature": None}
 
     def __repr__(self):
         state = "complete" if self.complete else f"incomplete: {len(self.missing)} missing"

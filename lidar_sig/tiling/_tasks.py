@@ -14,7 +14,7 @@ import numpy as np
 from ..method.signature_raster import Signature
 from ._core import SetContext, Tiling, tile_name, tile_saliency, tile_second_distances
 from .sources import Cells, load_cells, source_of, stage_part
-from .work import FINISHED, save_whole
+from .work import FINISHED, load_done, save_whole
 
 
 #: Per-point results: (Cl, Cs, Cp) and the chosen scale index (-1: none or undefined).
@@ -129,12 +129,10 @@ def tile_task(plan, ij):
     """Saliency and signature of one tile's core points, written to the work folder (a task);
     returns the tile's statistics. A result of the same set and method is reused."""
     path = result_path(plan.work, ij)
-    key = plan.key()
-    if path.is_file():
-        with np.load(path) as done:
-            if str(done["key"]) == key:
-                return {**json.loads(str(done["stats"])), "resumed": True}
-        path.unlink()  # another run's: its per-point files are about to be replaced
+    done = load_done(path, plan.key(), plan.work, extra=points_paths(plan.work, ij))
+    if done is not None:
+        return {**json.loads(str(done["stats"])), "resumed": True}
+    key = plan.key()  # another run's result, or a damaged one, is gone: its per-point files are replaced
     t0 = time.perf_counter()
     first = {}
 

@@ -31,8 +31,9 @@ class Execution:
     Parameters
     ----------
     memory : int or str
-        Memory budget of each process: bytes, or a size such as ``"1GiB"``, ``"800MiB"``,
-        ``"1.5G"`` (binary units); default 1 GiB. A LAS/LAZ file that needs more as one block
+        Memory budget of each process: bytes (an int, a numpy integer or a bare number in
+        text), or a size such as ``"1GiB"``, ``"800MiB"``, ``"1.5G"``, ``"500B"`` (binary
+        units; B is bytes); default 1 GiB; above this machine's memory, taken with a note. A LAS/LAZ file that needs more as one block
         is processed in tiles sized to it (docs/performance.md has the model).
     tile_size : float, optional
         Side of the processing tiles in metres; given, a set of files or a file is processed
@@ -64,6 +65,8 @@ class Execution:
         if self.scheduler is not None and (not isinstance(self.scheduler, str) or not self.scheduler.strip()):
             raise LidarSigError(f"{arg('scheduler')} must be an address such as tcp://host:8786, got "
                                 f"{a_kind(self.scheduler) if not isinstance(self.scheduler, str) else 'an empty text'}")
+        if self.scheduler is not None:  # " tcp://host:8786 " as the command line takes it
+            object.__setattr__(self, "scheduler", self.scheduler.strip())
         if self.scheduler and self.workers:
             raise LidarSigError(f"give {arg('workers')} or {arg('scheduler')}, not both (the cluster has its own workers)")
         if self.work_dir is not None:

@@ -19,10 +19,12 @@ file in tiles when one block would need more than the budget (``--memory``, defa
 from __future__ import annotations
 
 import math
+import os
 import re
+import warnings
 from pathlib import Path
 
-from ..base.errors import LidarSigError, arg, brief, counted
+from ..base.errors import LidarSigError, LidarSigWarning, arg, brief, counted
 
 TIB = 2**40
 GIB = 2**30
@@ -44,21 +46,27 @@ MIN_BUDGET_TILE_POINTS = 20_000
 #: Largest budget: 1 PiB, more than any machine holds (a larger one is a mistake).
 MAX_MEMORY = 2**50
 
-_UNITS = {"": GIB, "k": 2**10, "m": MIB, "g": GIB, "t": 2**40}
-_PATTERN = re.compile(r"^\s*([0-9]*\.?[0-9]+(?:e[+-]?[0-9]+)?)\s*([kmgt]?)(?:i?b)?\s*$", re.IGNORECASE)
+_UNITS = {"": 1, "k": 2**10, "m": MIB, "g": GIB, "t": 2**40}
+# a number, then a unit: K, M, G or T (with or without "iB"/"B"), "B" alone, or nothing (bytes)
+_PATTERN = re.compile(r"^\s*([0-9]*\.?[0-9]+(?:e[+-]?[0-9]+)?)\s*(?:([kmgt])(?:i?b)?|b)?\s*$", re.IGNORECASE)
 
 
 def budget_bytes(value):
-    """Bytes of a memory budget given as a whole number of bytes or as a size ``1GiB``,
-    ``800MiB``, ``1.5G``, ``2GB`` or a bare number of GiB in text (units are binary: 1G = 1GiB
-    = 2**30 bytes); LidarSigError naming the value and the fix otherwise, and for a budget too
-    small to run a tile in or larger than any machine (:data:`MAX_MEMORY`)."""
-    if isinstance(value, (int, float)) and not isinstance(value, bool):
+    """Bytes of a memory budget given as a number of bytes (an int, a numpy integer or a bare
+    number in text) or as a size ``1GiB``, ``800MiB``, ``1.5G``, ``2GB``, ``500B`` (units are
+    binary: 1G = 1GiB = 2**30 bytes; B is bytes); LidarSigError naming the value and the fix
+    otherwise, and for a budget too small to run a tile in or larger than any machine
+    (:data:`MAX_MEMORY`). A budget above this machine's memory is taken with a note."""
+    import numbers
+
+    if isinstance(value, numbers.Real) and not isinstance(value, bool):
         shown = f"{brief(value)} bytes"
-        number = value if isinstance(value, int) else value if math.isfinite(value) else math.nan
+        number = int(value) if isinstance(value, numbers.Integral) else \
+            float(value) if math.isfinite(value) else math.nan
+        match = None
     else:
         match = _PATTERN.match(str(value)) if isinstance(value, str) else None
-        number = float(match.group(1)) * _UNITS[match.group(2).lower()] if match else math.nan
+        number = float(match.group(1)) * _UNITS[(match.group(2) or "").lower()] if match else math.nan
         shown = brief(value)
     if not number > 0:  # not a number, or not positive (an int too large for a float passes: capped below)
         raise LidarSigError(f"{arg('memory')} must be a positive size such as 1GiB, 800MiB or 2G, got {shown}")
@@ -68,9 +76,24 @@ def budget_bytes(value):
     budget = int(number)
     least = BASE_BYTES + TILE_BYTES_PER_POINT * MIN_BUDGET_TILE_POINTS
     if budget < least:
-        raise LidarSigError(f"{arg('memory', value)} is less than a process needs to run a tile ({size(least)}); "
-                            f"give at least {math.ceil(least / MIB)}MiB")
+        bare = match is not None and match.group(2) is None and not value.strip().lower().endswith("b")
+        raise LidarSigError(f"{arg('memory', value)} ({counted(budget, 'byte')}) is less than a process needs to run "
+                            f"a tile ({size(least)}); give at least {math.ceil(least / MIB)}MiB"
+                            + (" (a number without a unit is bytes: give a unit, e.g. 2GiB)" if bare else ""))
+    machine = machine_bytes()
+    if machine is not None and budget > machine:
+        warnings.warn(f"{arg('memory', value)} is more than this machine's memory ({size(machine)}): a run that "
+                      "needs it will swap or be stopped; give at most what the machine holds",
+                      LidarSigWarning, stacklevel=3)
     return budget
+
+
+def machine_bytes():
+    """This machine's physical memory in bytes, or None where it cannot be read."""
+    try:
+        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (AttributeError, ValueError, OSError):
+        return None
 
 
 def block_bytes(n_points):

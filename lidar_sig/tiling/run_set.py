@@ -92,7 +92,7 @@ def _run_set(pipeline, inputs, *, work, tile_size, backend, resume, progress_ena
     if good:
         factors = good[0].factors
         lo = np.min([s.lo for s in good], axis=0)
-        tile_size = _header_tile_size(good, None if sized else tile_size, memory, backend.workers)
+        tile_size = header_tile_size(good, None if sized else tile_size, memory, backend.workers)
     work = prepare_work(work, resume, keep=[*files, *outputs])
     run = SetRun(sources, execution=backend.description)
     for s in sources:
@@ -129,7 +129,7 @@ def _run_set(pipeline, inputs, *, work, tile_size, backend, resume, progress_ena
     plan = Plan(str(work), pipe, ctx, tiling, cells, cell_files(work, records),
                 pipeline.classes if labelled else UNLABELED, staged_key)
     tiles = [ij for ij in tiling.tiles() if plan.occupied(ij)]
-    if pipeline.weights == "area":
+    if pipeline.weights.by_area:
         plan = _with_area_cap(plan, tiles, work, run, backend, resume, progress_enabled)
         if plan is None:
             return run
@@ -144,29 +144,75 @@ def _run_set(pipeline, inputs, *, work, tile_size, backend, resume, progress_ena
         with step("signature of the set", enabled=False):
             run.signature = sum_signatures(run)
     run.seconds = time.perf_counter() - start
+    if resume:
+        resumed_note(work, [f"{run.reused_parts} of {counted(len(records), 'staged part')}",
+                            f"{sum(bool(t.get('resumed')) for t in run.tile_stats.values())} of "
+                            f"{counted(len(tiles), 'tile')}"], [f"{name} (edited since)" for name in run.restaged])
     return run
 
 
-def _header_tile_size(good, tile_size, memory, workers):
+def resumed_note(work, reused, recomputed=()):
+    """Say, as a note, what a resumed run reused from the work folder ``work`` (``reused``: "3 of
+    4 tiles", ...) and what it recomputed besides what was left to do: ``recomputed`` and the
+    damaged files it found there (:func:`~lidar_sig.tiling.work.damaged`)."""
+    import warnings
+
+    from ..base.errors import LidarSigWarning
+    from .work import damaged
+
+    found = damaged(work)
+    if not found and not recomputed and all(r.startswith("0 of") for r in reused):
+        return  # nothing was there: the work folder's own note said so
+    again = list(recomputed) + ([f"{counted(len(found), 'damaged file')} ({Path(found[0]).name}"
+                                 + (", ..." if len(found) > 1 else "") + ")"] if found else [])
+    warnings.warn(f"resumed from {work}: reused {', '.join(reused)}"
+                  + (f"; recomputed {', '.join(again)}" if again else ""), LidarSigWarning, stacklevel=2)
+
+
+def header_tile_size(good, tile_size, memory, workers, *, advise=None):
     """The tile side (metres) from the files' headers: ``tile_size`` when given (refused when its
-    tiles would hold fewer than :data:`MIN_TILE_POINTS` points each), else a tile's block within
-    the budget ``memory`` and two tiles per worker at least (if not too small)."""
-    factors = good[0].factors
-    lo = np.min([s.lo for s in good], axis=0)
-    hi = np.max([s.hi for s in good], axis=0)
-    extent = (hi[:2] - lo[:2]) * np.asarray(factors[:2])  # metres
-    area = max(float(np.prod(extent)), 1e-12)
-    n_points = sum(s.n_points for s in good)
+    tiles would hold fewer than :data:`MIN_TILE_POINTS` points each, advising
+    :func:`least_tile_size`, or ``advise`` where several sets must pass), else a tile's block
+    within the budget ``memory`` and two tiles per worker at least (if not too small)."""
+    n_points, extent, area = _header_extent(good)
     least = tile_side_for(MIN_TILE_POINTS, n_points / area)  # smaller tiles: the halos would be most of the work
     if tile_size is None:
         return min(tile_side_for(tile_points(memory), n_points / area),
                    max(tile_side_for(n_points / (2 * workers), n_points / area), least))
-    n_tiles = math.prod(max(1, math.ceil(e / tile_size)) for e in extent)
-    if n_tiles > max(4, n_points / MIN_TILE_POINTS):
+    n_tiles, most = _tile_count(extent), max(4, n_points / MIN_TILE_POINTS)
+    if n_tiles(tile_size) > most:
         raise LidarSigError(f"{arg('tile_size', tile_size)} is too small for these files: its tiles would hold "
-                            f"about {n_points / n_tiles:,.0f} points each, fewer than {MIN_TILE_POINTS}; give "
-                            f"at least {least:.3g} m, or leave it out for the default")
+                            f"about {n_points / n_tiles(tile_size):,.0f} points each, fewer than {MIN_TILE_POINTS}; "
+                            f"give at least {advise or least_tile_size(good):.3g} m, or leave it out for the default")
     return tile_size
+
+
+def least_tile_size(good):
+    """The smallest tile side (metres), rounded up to three significant digits, that
+    :func:`header_tile_size` takes for the files ``good``: the advice names a value that passes."""
+    n_points, extent, _ = _header_extent(good)
+    n_tiles, most = _tile_count(extent), max(4, n_points / MIN_TILE_POINTS)
+    low, high = 0.0, max(float(max(extent)), 1e-9)  # a side of the longest extent: one tile across
+    for _ in range(100):  # bisection: the count falls as the side grows, in steps at e / k
+        mid = (low + high) / 2
+        low, high = (low, mid) if n_tiles(mid) <= most else (mid, high)
+    digits = 2 - math.floor(math.log10(high))
+    side = math.ceil(high * 10 ** digits) / 10 ** digits  # rounded up: still passes
+    return side if n_tiles(side) <= most else high
+
+
+def _header_extent(good):
+    """(points, extent (2,) in metres, area in m²) of the files ``good`` from their headers."""
+    factors = good[0].factors
+    lo = np.min([s.lo for s in good], axis=0)
+    hi = np.max([s.hi for s in good], axis=0)
+    extent = (hi[:2] - lo[:2]) * np.asarray(factors[:2])  # metres
+    return sum(s.n_points for s in good), extent, max(float(np.prod(extent)), 1e-12)
+
+
+def _tile_count(extent):
+    """The number of tiles of a side (metres) over ``extent``."""
+    return lambda side: math.prod(max(1, math.ceil(e / side)) for e in extent)
 
 
 def _tiles(plan, tiles, run, backend, progress_enabled, start):
@@ -188,15 +234,24 @@ def _tiles(plan, tiles, run, backend, progress_enabled, start):
 def _stage(work, good, sources, cells, run, backend, resume, noise_codes, progress_enabled):
     """Stage every part of the readable files ``good`` (reusing what a resumed run finished);
     {(source, part): record} of those staged, the files that failed recorded in ``run``."""
+    from ..io.archive import sha256_of
+
     records = {}
     todo = []
     for s in good:
-        for part, (first, stop) in enumerate(s.parts(backend.workers)):
-            info = staged(work, s, part, first, stop, cells, noise_codes) if resume else None
+        parts = s.parts(backend.workers)
+        infos = [staged(work, s, part, first, stop, cells, noise_codes) if resume else None
+                 for part, (first, stop) in enumerate(parts)]
+        if any(infos) and (infos[0] is None or infos[0].get("sha256") != sha256_of(s.path)):
+            # a file edited in place keeps its size and time: its content is what tells
+            infos = [None] * len(parts)
+            run.restaged.append(s.name)
+        for part, ((first, stop), info) in enumerate(zip(parts, infos)):
             if info is None:
                 todo.append((str(work), s, part, first, stop, cells, noise_codes))
             else:
                 records[(s.id, part)] = info
+                run.reused_parts += 1
     with step("staging", enabled=False, parts=len(todo)) as st:  # --verbose: each stage's time
         for (_, s, part, *_), info, err in progress(backend.run(stage_task, todo), total=len(todo),
                                                    desc="reading", enabled=progress_enabled, unit="part"):

@@ -30,8 +30,8 @@ from ..numerics.bounds import bounds
 from ..method.cloud import MAX_COORDINATE, check_magnitude, kept_points
 from ..base.errors import LidarSigError, arg, as_path, counted, reason, special_file
 from ..io import LAS_EXTENSIONS
-from ..io.tile_lists import tile_list
-from .work import STAGED
+from ..io.tile_lists import check_distinct, tile_list
+from .work import STAGED, read_record
 
 #: Bits of a point identifier that hold its index in its file (files up to 10^12 points).
 ID_BITS = 40
@@ -53,30 +53,28 @@ def expand(inputs: Iterable[str | os.PathLike[str]]) -> list[Path]:
         if listed is not None:
             for q in listed:
                 if q.suffix.lower() not in LAS_EXTENSIONS:
-                    raise LidarSigError(f"lists {q.name}; a set of tiles is read from LAS/LAZ files only", path=p)
+                    raise NotLasSet(f"lists {q.name}; a set of tiles is read from LAS/LAZ files only", path=p)
             files += listed
         elif p.is_dir():
             found = sorted(q for q in p.iterdir() if q.is_file() and q.suffix.lower() in LAS_EXTENSIONS)
             if not found:
-                raise LidarSigError("the folder holds no .las or .laz file; give a folder of LAS/LAZ tiles",
-                                    path=p)
+                raise NotLasSet("the folder holds no .las or .laz file; give a folder of LAS/LAZ tiles", path=p)
             files += found
         elif p.is_file():
             if p.suffix.lower() not in LAS_EXTENSIONS:
-                raise LidarSigError("a set of tiles is read from LAS/LAZ files only; convert it, or give it alone "
+                raise NotLasSet("a set of tiles is read from LAS/LAZ files only; convert it, or give it alone "
                                     f"without {arg('tile_size')}, {arg('workers')} or {arg('scheduler')}", path=p)
             files.append(p)
         elif special_file(p):
             raise LidarSigError(f"is {special_file(p)}, not a regular file; give LAS/LAZ files or folders", path=p)
         else:
             raise LidarSigError("no such file or folder; check the path", path=p)
-    seen = {}
-    for f in files:
-        key = f.resolve()
-        if key in seen:
-            raise LidarSigError(f"is given twice (also as {seen[key]}); give each file once", path=f)
-        seen[key] = f
+    check_distinct(files)  # a tile given twice, under any name or as a copy, would count twice
     return [f.resolve() for f in files]
+
+
+class NotLasSet(LidarSigError):
+    """Inputs that hold a file other than LAS/LAZ: no set of tiles (one block may read them)."""
 
 
 @dataclass(frozen=True, repr=False)
@@ -196,11 +194,8 @@ def file_identity(path):
 def staged(work, source, part, start, stop, cells, noise_codes=None):
     """The record of a part staged from the file as it is now on the grid ``cells``, leaving
     out the same points (``noise_codes``, as for :func:`stage_part`), or None."""
-    rec = part_record(work, source.id, part)
-    if not rec.is_file():
-        return None
-    info = json.loads(rec.read_text())
-    if (info.get("identity") != file_identity(source.path) or info.get("path") != source.path
+    info = read_record(part_record(work, source.id, part), work)
+    if not isinstance(info, dict) or (info.get("identity") != file_identity(source.path) or info.get("path") != source.path
             or info.get("range") != [start, stop] or info.get("grid") != cells.record()
             or info.get("noise_codes", "?") != _codes_record(noise_codes)):
         return None

@@ -65,8 +65,18 @@ def prepare_work(work, resume, keep=()):
         why = (f"{file} is a file, not a folder;" if file else
                "its parent folder does not exist; create it first, or")
         raise LidarSigError(f"cannot be the work folder: {why} give {arg('work_dir')} another folder", path=given)
+    if resume and not any(Path(h) in work.parents for h in _HELD) and not resumable(work):
+        import warnings
+
+        from ..base.errors import LidarSigWarning
+
+        # a resumed run that finds nothing says so: its folder may be elsewhere (another --work-dir)
+        warnings.warn(f"nothing to resume in {given} (no earlier run's work there): computing from the start; give "
+                      f"the run's own {arg('work_dir')} to resume it", LidarSigWarning, stacklevel=3)
     if str(work) not in _HELD:  # another run working there would lose its tiles, or read ours
-        _HELD[str(work)] = hold(work, "working in", errors=lambda _: _work_errors(given))
+        _HELD[str(work)] = hold(work, "working in", errors=lambda _: _work_errors(given),
+                                fix=f"give this run a folder of its own ({arg('work_dir')}), or wait for that run to "
+                                "end and run this command again")
     try:
         with _work_errors(given):
             if work.exists() and any(work.iterdir()) and not (work / WORK_MARK).is_file():
@@ -217,11 +227,9 @@ def discard_work(work):
 def saved_area_cap(work, key):
     """The area-weight cap an earlier run of the same set and method (``key``, see
     :meth:`lidar_sig.tiling._tasks.Plan.key`) saved in ``work``, or None."""
-    path = Path(work) / AREA_CAP_FILE
-    if path.is_file():
-        saved = json.loads(path.read_text())
-        if saved.get("key") == key:
-            return float(saved["cap"])
+    saved = read_record(Path(work) / AREA_CAP_FILE, work)
+    if isinstance(saved, dict) and saved.get("key") == key and isinstance(saved.get("cap"), (int, float)):
+        return float(saved["cap"])
     return None
 
 
@@ -250,3 +258,58 @@ def save_whole(path, array=None, **arrays):
     else:
         np.savez(tmp, **arrays)
     os.replace(tmp, path)
+
+
+#: File of a work folder that lists what a resumed run found damaged and recomputed.
+DAMAGED = "recomputed.txt"
+
+
+def load_done(path, key, work, extra=()):
+    """The arrays of the finished result ``path`` when it was written from ``key``, else None:
+    absent, another run's (removed), or damaged (removed and noted in ``work``, :func:`damaged`,
+    so that a resumed run recomputes it and says so, where it would otherwise fail the same way
+    at every attempt). ``extra``: files written with it (.npy) whose headers must read too."""
+    import numpy as np
+
+    if not path.is_file():
+        return None
+    try:
+        with np.load(path) as done:
+            arrays = {k: done[k] for k in done.files}
+        for other in extra:
+            np.load(other, mmap_mode="r")  # the header only: a damaged or missing file fails here
+        if str(arrays["key"]) == key:
+            return arrays
+    except Exception:  # numpy, zipfile and pickle raise many kinds on a damaged file
+        with contextlib.suppress(OSError):
+            with open(Path(work) / DAMAGED, "a") as fh:  # appends of a short line are whole
+                fh.write(f"{path}\n")
+    with contextlib.suppress(OSError):
+        path.unlink()
+    return None
+
+
+def damaged(work):
+    """The damaged files a run found in the work folder ``work`` (and its sub-folders, a change
+    map's epochs) and recomputed; the record is then cleared."""
+    found = []
+    for record in [Path(work) / DAMAGED, *Path(work).glob(f"*/{DAMAGED}")]:
+        with contextlib.suppress(OSError):
+            found += [line for line in record.read_text().splitlines() if line]
+            record.unlink()
+    return found
+
+
+def read_record(path, work):
+    """The JSON record ``path`` of a work folder, or None when absent or damaged (then noted in
+    ``work``, as :func:`load_done` notes a damaged result, and removed)."""
+    try:
+        return json.loads(Path(path).read_text())
+    except FileNotFoundError:
+        return None
+    except (OSError, ValueError):
+        with contextlib.suppress(OSError):
+            with open(Path(work) / DAMAGED, "a") as fh:
+                fh.write(f"{path}\n")
+            Path(path).unlink()
+        return None
