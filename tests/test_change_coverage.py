@@ -45,7 +45,10 @@ def test_cells_that_only_one_epoch_covers_are_appeared_or_vanished_in_the_geotif
 
     import cv2
 
-    from lidar_sig.reporting.map_image import APPEARED, VANISHED, layout
+    from lidar_sig.reporting.change_scale import CHANGE_SCALE
+    from lidar_sig.reporting.map_image import layout
+
+    APPEARED, VANISHED = (CHANGE_SCALE.states[s][0] for s in ("appeared", "vanished"))
 
     (a, b), west, east = cropped(tmp_path)
     proc = run_process("changes", a, b, "--cell", str(CELL), "-o", tmp_path / "map.tif", "--png",
@@ -70,7 +73,7 @@ def test_cells_that_only_one_epoch_covers_are_appeared_or_vanished_in_the_geotif
             assert coverage[c["row"], c["col"]] == codes[state]
             assert score[c["row"], c["col"]] == -9999.0  # not compared: no score, but a state
     assert (coverage != -9999.0).all()  # every cell has a state
-    # the map paints them in their own colours (blended over the backdrop), not the grey of too few points
+    # the map paints them in their own colours, not the colour of too few points
     image = cv2.cvtColor(cv2.imread(str(tmp_path / "map.png")), cv2.COLOR_BGR2RGB).astype(float)
     from lidar_sig.change_map import Grid
 
@@ -82,9 +85,7 @@ def test_cells_that_only_one_epoch_covers_are_appeared_or_vanished_in_the_geotif
         for c in (c for c in cells if c["row"] > 0):  # the north arrow covers a corner of row 0
             y = int(lay.map_y + (c["row"] + 0.5) * side)
             x = int(lay.map_x + (c["col"] + 0.5) * side)
-            pixel = image[y - 2:y + 3, x - 2:x + 3].reshape(-1, 3).mean(axis=0)
-            # the blend's direction from white is the state's colour's
-            assert np.corrcoef(255 - pixel, 255 - np.asarray(colour, float))[0, 1] > 0.9
+            assert (image[y - 2:y + 3, x - 2:x + 3] == colour).all()
 
 
 def test_coverage_states_follow_the_documented_rule():
@@ -108,14 +109,20 @@ def test_rows_are_ordered_as_the_header_says():
     assert proc.returncode == 0, proc.stderr
     lines = proc.stdout.splitlines()
     header = lines[2]
-    assert "rows: significant first, then by z" in header and "ranked by" not in header
+    assert "rows: significant first, then by how far above its level (lod_ratio" in header
+    assert "ranked by" not in header
     n = int(header.split()[0])
     start = next(i for i, line in enumerate(lines) if line.split()[:1] == ["rank"]) + 1
     rows = [line.split() for line in lines[start:]]
-    z = [float(r[9]) for r in rows]
     flags = [r[0].endswith("*") for r in rows]
     assert flags == [True] * n + [False] * (len(rows) - n) and n >= 5
-    assert z[:n] == sorted(z[:n], reverse=True) and z[n:] == sorted(z[n:], reverse=True)
+    # lod_ratio from the printed columns (score / lod, delta_H / its level; rounded, so a little slack)
+    # (a row whose level prints as 0.0000 cannot say its ratio: left out)
+    ratio = [max(float(r[5]) / float(r[6]), float(r[7]) / float(r[8])) if float(r[6]) and float(r[8]) else None
+             for r in rows]
+    for part in (ratio[:n], ratio[n:]):
+        part = [r for r in part if r is not None]
+        assert all(later <= earlier * 1.01 + 0.01 for earlier, later in zip(part, part[1:])), part
     # the score alone does not order the rows: that is why the header does not say so
     scores = [float(r[5]) for r in rows]
     assert scores != sorted(scores, reverse=True)

@@ -3,6 +3,7 @@ own styles apply to them there, which a bare HTML page does not show), and its p
 notebook run by a kernel."""
 import os
 import shutil
+import time
 from pathlib import Path
 
 import pytest
@@ -102,9 +103,11 @@ def test_a_catalogue_built_in_a_notebook_shows_its_progress_as_bars(tmp_path):
     build = f"import lidar_sig as ls\ncat = ls.Catalog.build({tiles!r}, 'tiles.h5')\ncat"
     nb = _executed(tmp_path, [build], "bars.ipynb")
     assert not _errors(nb), _errors(nb)
-    bars = [o for o in _outputs(nb) if o.output_type == "display_data"
-            and "application/vnd.jupyter.widget-view+json" in o.data]
-    assert any(o.data["text/plain"].startswith("tiles:") for o in bars), bars  # the tiles' bar, as it started
+    shown = [o.data.get("text/plain", "") for o in _outputs(nb) if o.output_type == "display_data"]
+    # each closed bar's output is its last line, what a saved notebook shows without the widgets'
+    # state: the tiles' bar at its end, no bar left at the "0%" it started at
+    assert any(text.startswith("tiles: 100%") and "2/2" in text for text in shown), shown
+    assert not [text for text in shown if " 0%|" in text or text.startswith("0%")], shown
     # the widgets' last state, kept with the notebook: the tiles' bar went to its end
     state = nb.metadata["widgets"]["application/vnd.jupyter.widget-state+json"]["state"]
     progress = [m["state"] for m in state.values() if m["model_name"] == "FloatProgressModel"]
@@ -130,3 +133,60 @@ def test_without_ipywidgets_a_notebook_shows_progress_lines_of_a_catalogue_and_a
     run = [line for line in said[2] if line.startswith("lidar-sig: progress: ")]
     assert "lidar-sig: progress: reading epoch2.laz: 0%" in run and \
         "lidar-sig: progress: saliency (c3dcm multiscale): 100%" in run, said[2]
+
+
+#: Each card's display, whether its picture lies left of its text, its title (in JupyterLab's page).
+CARD_LAYOUT = """
+return [...document.querySelectorAll('.jp-OutputArea-output .lidar-sig-card')].map(c => {
+  const img = c.querySelector(':scope > img'), text = c.querySelector(':scope > div');
+  return [c.querySelector('b').innerText, getComputedStyle(c).display,
+          img ? img.getBoundingClientRect().right <= text.getBoundingClientRect().left : null];
+});
+"""
+
+
+def test_the_cards_keep_their_layout_in_a_notebook_that_is_not_trusted(tmp_path):
+    # a notebook executed by nbconvert's client and opened in JupyterLab is not trusted: its
+    # outputs go through JupyterLab's sanitizer, which strips <style> blocks
+    why = missing_lab() or missing_nbconvert() or missing()
+    if why:
+        pytest.skip(f"no JupyterLab page to look at: {why}")
+    import nbformat
+
+    epoch1, epoch2, aligned = (repr(str(SAMPLES / n)) for n in ("epoch1.laz", "epoch2.laz", "epoch2_aligned.laz"))
+    nb = _executed(tmp_path, [
+        f"import lidar_sig as ls\npipe = ls.Pipeline(progress=False)\na = pipe.run({epoch1})\na.signature",
+        f"ls.compare(a, pipe.run({epoch2}))",
+        f"cm = ls.changes({epoch1}, {aligned}, cell=8, pipeline=pipe)\ncm",
+        "cm.levels",
+        "cm.top(3)",
+        "cm.report()",
+    ], "untrusted.ipynb")
+    assert not _errors(nb), _errors(nb)
+    nbformat.write(nb, str(tmp_path / "untrusted.ipynb"))
+    with JupyterLab(tmp_path) as lab, Browser(1280, 2400) as browser:
+        driver = browser.driver
+        driver.get(lab.page("untrusted.ipynb"))
+        deadline = time.monotonic() + 120
+        while driver.execute_script(
+                "return document.querySelectorAll('.jp-OutputArea-output .lidar-sig-card').length") < 6:
+            assert time.monotonic() < deadline, "JupyterLab showed no cards"
+            time.sleep(0.5)
+        trusted = driver.execute_script(
+            "const m = window.jupyterapp.shell.currentWidget.content.model;"
+            "return [...Array(m.cells.length).keys()].map(i => m.cells.get(i).trusted);")
+        cells = driver.execute_script(CELLS)
+        cards = driver.execute_script(CARD_LAYOUT)
+        tables = driver.execute_script(TABLES)
+        shot = browser.screenshot(tmp_path / "jupyterlab_untrusted_cards.png")
+    _keep(shot)
+    assert trusted and not any(trusted), trusted  # the sanitizer applies
+    assert len(cards) == 6 and all(display == "flex" for _, display, _ in cards), cards
+    assert all(left is not False for _, _, left in cards) and sum(bool(left) for _, _, left in cards) >= 3, cards
+    align = {}
+    for title, column, text, how in cells:
+        align.setdefault((title, column), set()).add(how)
+    assert align[("Signature", "class")] == {"left"} and align[("Signature", "points")] == {"right"}, cells
+    assert align[("ChangeMap", "significant")] == {"left"} and align[("ChangeMap", "score")] == {"right"}, cells
+    assert align[("Levels of detection", "metric")] == {"left"} and align[("Levels of detection", "beta")] == {"right"}
+    assert tables and all(abs(offset) < 1 and margin == "0px" for _, offset, margin in tables), tables

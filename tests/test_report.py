@@ -146,6 +146,8 @@ def test_signature_report_shows_one_cloud_without_metrics(tmp_path):
     html = (tmp_path / "sig.html").read_text(encoding="utf-8")
     assert "<h2>Metrics</h2>" not in html and "<h2>Top view</h2>" in html
     assert len(embedded_pngs(html)) == len(SIGNATURE_PLOTS)
+    # the caption of the one curve of Egeom speaks of one curve
+    assert "this curve" in html and "two curves" not in html and "one curve per cloud" not in html
     assert (tmp_path / "e1.h5").exists()
 
 
@@ -160,13 +162,21 @@ def test_archive_report_says_it_has_no_top_view(tmp_path):
     assert hashlib.sha256(EPOCH2.read_bytes()).hexdigest() in report.body
 
 
-def test_notebook_shows_the_report_in_place_without_a_page_around_it():
+def test_a_notebook_shows_a_report_as_a_compact_card_and_the_full_page_on_demand(tmp_path, monkeypatch):
     result = ls.Pipeline().run(str(EPOCH2))
     report = ls.report(result)
     shown = report._repr_html_()
-    assert shown.startswith('<div class="lidar-sig-report">') and "<html" not in shown
-    assert report.html().startswith("<!DOCTYPE html>") and shown in report.html()
+    # a card of the title, the sections and a small picture: not the page's megabyte
+    assert shown.startswith('<div class="lidar-sig-card"') and "<html" not in shown
+    assert len(shown) < 80_000 and len(shown) * 3 < len(report.body), (len(shown), len(report.body))
+    assert "Geometric entropy Egeom" in shown and "report.show()" in shown and "<a href" not in shown
+    full = report.show()._repr_html_()  # on demand, in place, without a page around it
+    assert full.startswith('<div class="lidar-sig-report">') and full in report.html()
+    assert report.html().startswith("<!DOCTYPE html>")
     assert report.title == "lidar_sig signature: epoch2.laz"
+    monkeypatch.chdir(tmp_path)
+    report.save("saved.html")  # once saved, the card links to the page (beside the notebook)
+    assert '<a href="saved.html" target="_blank">' in report._repr_html_()
 
 
 def test_report_of_a_comparison_lists_every_metric_with_its_value():

@@ -20,7 +20,8 @@ Progress takes one of two forms (docs/scripting.md):
   100% only. The stage is free text without ": ".
 
 In a notebook (this process is a Jupyter kernel), bars are tqdm's notebook widgets when
-ipywidgets is installed (:func:`widgets`), else tqdm's text bars on stderr.
+ipywidgets is installed (:func:`widgets`), each replaced by its last line in text when it
+closes (what a saved notebook shows), else tqdm's text bars on stderr.
 
 Which form, if any: an explicit ``enabled`` wins (False: none; True: lines if the environment
 variable ``LIDAR_SIG_PROGRESS`` says ``lines``, else bars); else the setting of the enclosing
@@ -119,13 +120,49 @@ def widgets() -> bool:
 
 
 def _bar(**options):
-    """A tqdm bar: the notebook's widget where :func:`widgets`, else text on stderr."""
-    if widgets():
-        from tqdm.notebook import tqdm
-    else:
-        from tqdm import tqdm
+    """A tqdm bar: the notebook's widget where :func:`widgets` (:func:`_notebook_bar`), else
+    text on stderr."""
+    from tqdm import tqdm
+
     tqdm.monitor_interval = 0  # no monitor thread: a process of one thread may fork (change_map/_cores.py)
+    if widgets():
+        return _notebook_bar()(file=sys.stderr, **options)
     return tqdm(file=sys.stderr, **options)
+
+
+def _notebook_bar():
+    """tqdm's notebook bar, shown through a display handle so that when it closes its output
+    becomes the bar's last line in text ("tiles: 100%|...| 5/5 [...]"): a saved notebook, read
+    without its widgets' state, shows where each bar ended, not the "0%" it started at."""
+    from tqdm.notebook import tqdm as widget_bar
+
+    class NotebookBar(widget_bar):
+        def __init__(self, *args, **kwargs):
+            self._handle = None
+            super().__init__(*args, display=False, **kwargs)
+            if not self.disable and self.delay <= 0:
+                self._show()
+
+        def _show(self):
+            from IPython.display import display
+
+            self._handle = display(self.container, display_id=True)
+            self.displayed = True
+
+        def display(self, *args, check_delay=True, **kwargs):
+            if check_delay and self.delay > 0 and not self.displayed:
+                self._show()
+            return super().display(*args, check_delay=check_delay, **kwargs)
+
+        def close(self):
+            if self.disable or self._handle is None:
+                return super().close()
+            last = self.format_meter(**{**self.format_dict, "ascii": True})
+            super().close()
+            self._handle.update({"text/plain": last}, raw=True)
+            self._handle = None
+
+    return NotebookBar
 
 
 def shown(enabled=None):

@@ -11,21 +11,28 @@ from pathlib import PurePath
 from collections.abc import Iterable, Sequence
 from typing import Any
 
-#: Style of a card, scoped to it (a notebook's own styles are left alone). The table's rules name
-#: its class as well as the card's, so that they outrank a notebook's rules for every table
-#: (JupyterLab right-aligns every cell and centres tables with ``:not(.jp-RenderedMarkdown)
-#: .jp-RenderedHTMLCommon td``): text cells left, numbers right, tables against the left edge.
-#: The card has a white ground of its own, so that its dark text reads on a dark theme too.
-_TABLE = ".lidar-sig-card table.lidar-sig-table"
-CSS = (".lidar-sig-card{font-family:system-ui,sans-serif;font-size:13px;color:#222;background:#fff;display:flex;"
-       "gap:14px;align-items:flex-start;padding:4px;text-align:left}.lidar-sig-card b{font-size:14px}"
-       f"{_TABLE}{{border-collapse:collapse;margin:4px 0 0 0;table-layout:auto;font-size:12px;color:#222}}"
-       f"{_TABLE} td,{_TABLE} th{{border:1px solid #ddd;padding:2px 6px;text-align:left;vertical-align:top;"
-       f"white-space:normal;line-height:1.35}}{_TABLE} th{{background:#f4f4f4;font-weight:600}}"
-       f"{_TABLE} td:first-child{{white-space:nowrap}}{_TABLE} td.n,{_TABLE} th.n{{text-align:right;"
-       "font-variant-numeric:tabular-nums;white-space:nowrap}"
-       ".lidar-sig-card .m{color:#666}.lidar-sig-card img{border:1px solid #eee;max-width:none}"
-       ".lidar-sig-card>div{min-width:0}.lidar-sig-card .lidar-sig-scroll{overflow-x:auto;max-width:100%}")
+#: Style of a card's parts, written inline on each element: a notebook that is not trusted
+#: (executed by nbconvert or papermill, received, checked out) has its ``<style>`` blocks
+#: stripped by JupyterLab's sanitizer, which keeps ``style`` attributes of the properties used
+#: here. Inline styles also outrank a notebook's rules (JupyterLab right-aligns every cell and
+#: centres tables with ``.jp-RenderedHTMLCommon`` rules): text cells left, numbers right, tables
+#: against the left edge. The card has a white ground of its own, so that its dark text reads on
+#: a dark theme too.
+STYLES = {
+    "card": "font-family:sans-serif;font-size:13px;color:#222;background:#fff;display:flex;gap:14px;"
+            "align-items:flex-start;padding:4px;text-align:left",
+    "text": "min-width:0",
+    "title": "font-size:14px;font-weight:bold",
+    "img": "border:1px solid #eee;max-width:none;flex-shrink:0",
+    "scroll": "overflow-x:auto;max-width:100%",
+    "table": "border-collapse:collapse;margin:4px 0 0 0;table-layout:auto;font-size:12px;color:#222",
+    "cell": "border:1px solid #ddd;padding:2px 6px;vertical-align:top;line-height:1.35",
+    "text_cell": "text-align:left;white-space:normal",
+    "head": "background:#f4f4f4;font-weight:600",
+    "number": "text-align:right;white-space:nowrap",
+    "first": "text-align:left;white-space:nowrap",
+    "muted": "color:#666",
+}
 
 
 #: The longest one-line ``repr``, in characters: what a notebook's output cell shows unfolded.
@@ -95,26 +102,44 @@ def png_uri(rgb: Any) -> str:
     return "data:image/png;base64," + base64.b64encode(png_bytes(rgb)).decode("ascii")
 
 
+def number(value: Any) -> str:
+    """A value as a card shows it: whole numbers with thousands separators ("19,404"), every
+    other value as its text."""
+    import numbers
+
+    if isinstance(value, numbers.Integral) and not isinstance(value, bool):
+        return f"{int(value):,}"
+    return str(value)
+
+
 def card(title: str, facts: Iterable[str] = (), *, header: Sequence[str] = (), rows: Iterable[Sequence[Any]] = (),
          numeric: Iterable[int] = (), image: Any = None, width: int = 200, note: str = "") -> str:
     """The HTML card of an object: ``title`` in bold, ``facts`` one per line, a table of ``rows``
-    under ``header`` (the columns in ``numeric`` right-aligned), a picture (an RGB array)
-    ``width`` pixels wide on the left, and a muted ``note``. Every text is escaped here."""
+    under ``header`` (the columns in ``numeric`` right-aligned; whole numbers with thousands
+    separators, :func:`number`), a picture (an RGB array) ``width`` pixels wide on the left, and
+    a muted ``note``. Every text is escaped here; every style is inline (:data:`STYLES`)."""
     numeric = set(numeric)
-    picture = f'<img src="{png_uri(image)}" width="{width}" alt="{esc(title)}">' if image is not None else ""
+    st = STYLES
+    picture = (f'<img src="{png_uri(image)}" width="{width}" alt="{esc(title)}" style="{st["img"]}">'
+               if image is not None else "")
     lines = "".join(f"<div>{esc(f)}</div>" for f in facts)
     rows = list(rows)
     grid = ""
+
+    def cell(tag, i, text, extra=""):
+        align = st["number"] if i in numeric else st["first"] if i == 0 else st["text_cell"]
+        style = f"{st['cell']};{align}{extra}"
+        kind = ' class="n"' if i in numeric else ""
+        return f'<{tag}{kind} style="{style}">{esc(number(text))}</{tag}>'
+
     if rows:
-        head = "".join(f'<th class="n">{esc(h)}</th>' if i in numeric else f"<th>{esc(h)}</th>"
-                       for i, h in enumerate(header))
-        body = "".join("<tr>" + "".join(f'<td class="n">{esc(c)}</td>' if i in numeric else f"<td>{esc(c)}</td>"
-                                        for i, c in enumerate(row)) + "</tr>" for row in rows)
-        grid = (f'<div class="lidar-sig-scroll"><table class="lidar-sig-table"><thead><tr>{head}</tr></thead>'
-                f"<tbody>{body}</tbody></table></div>")
-    muted = f'<div class="m">{esc(note)}</div>' if note else ""
-    return (f'<div class="lidar-sig-card"><style>{CSS}</style>{picture}<div><b>{esc(title)}</b>{lines}{grid}'
-            f"{muted}</div></div>")
+        head = "".join(cell("th", i, h, ";" + st["head"]) for i, h in enumerate(header))
+        body = "".join("<tr>" + "".join(cell("td", i, c) for i, c in enumerate(row)) + "</tr>" for row in rows)
+        grid = (f'<div class="lidar-sig-scroll" style="{st["scroll"]}"><table class="lidar-sig-table" '
+                f'style="{st["table"]}"><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table></div>')
+    muted = f'<div class="m" style="{st["muted"]}">{esc(note)}</div>' if note else ""
+    return (f'<div class="lidar-sig-card" style="{st["card"]}">{picture}<div style="{st["text"]}">'
+            f'<b style="{st["title"]}">{esc(title)}</b>{lines}{grid}{muted}</div></div>')
 
 
 class Records(list):

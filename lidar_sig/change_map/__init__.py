@@ -22,7 +22,7 @@ shift of a few decimetres between the epochs moves a few points across a cell ed
 - A cell changed significantly when its score, :data:`SCORE` (delta_KL) or
   :data:`LABEL_FREE_SCORE` (delta_FV) where the labels cannot say (unlabelled epochs, class
   schemes that barely overlap), or its delta_H exceeds its level, the two tests together at
-  the map's confidence; significant cells first, then by z.
+  the map's confidence; significant cells first, then by lod_ratio (the map's colour).
 
 The modules: :mod:`~lidar_sig.change_map._grid` (the cells), :mod:`~lidar_sig.change_map._density`
 (the defaults from the densities), :mod:`~lidar_sig.change_map._epochs` (an epoch read, joined

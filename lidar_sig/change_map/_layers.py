@@ -9,6 +9,7 @@ import numpy as np
 from ..metrics import METRIC, METRIC_KEYS
 from ._cells import COVERAGE as STATES
 from ._cells import COVERAGE_CHANGES
+from ..reporting.change_scale import CHANGE_SCALE
 
 #: Each covered cell's coverage, in the legend's order; cells neither epoch covers are left out.
 COVERAGE = ("compared", "appeared", "vanished", "too few points")
@@ -16,20 +17,10 @@ COVERAGE = ("compared", "appeared", "vanished", "too few points")
 COVERAGE_MEANS = {"compared": "compared", "appeared": "appeared: only the later epoch has points",
                   "vanished": "vanished: only the earlier epoch has points",  # enough to compare, both
                   "too few points": "too few points to compare"}
-#: The classes of the change map's colours, the same on every map: (upper bound of lod_ratio,
-#: RGB, legend) ascending; a cell takes the first class whose bound it does not exceed. lod_ratio
-#: is how far a cell lies from its level of detection (1 at the level), so the break at 1 is
-#: the significance test itself: greys up to 1 (not significant), ColorBrewer YlOrRd above.
-LEVEL_CLASSES = ((0.25, (240, 240, 240), "under 0.25 x its level of detection"),
-                 (0.5, (212, 212, 212), "0.25 to 0.5 x"),
-                 (1.0, (166, 166, 166), "0.5 to 1 x: not significant"),
-                 (2.0, (254, 217, 118), "1 to 2 x: changed significantly"),
-                 (5.0, (253, 141, 60), "2 to 5 x"),
-                 (20.0, (240, 59, 32), "5 to 20 x"),
-                 (100.0, (189, 0, 38), "20 to 100 x"),
-                 (float("inf"), (103, 0, 13), "over 100 x"))
-#: Outline of the cells that changed significantly: near black, seen on every class's colour.
-SIGNIFICANT_OUTLINE = (20, 20, 20)
+#: The classes of the change map's colours and the outline of a significant cell: the one colour
+#: scale of change (:data:`lidar_sig.reporting.change_scale.CHANGE_SCALE`), which every face uses.
+LEVEL_CLASSES = CHANGE_SCALE.classes
+SIGNIFICANT_OUTLINE = CHANGE_SCALE.outline
 #: Classes listed per cell as changed most, at most, and the least change listed (points of share).
 CLASSES_LISTED = 3
 CLASS_CHANGE_MIN = 1.0
@@ -162,31 +153,34 @@ def cell_aliases():
 def cell_rules():
     """[(field values, :class:`~lidar_sig.io.styles.Rule`)] of the cells' style, the legend's
     order: what changed (significant, or appeared or vanished inside the other epoch's
-    footprint) outlined near black, significant cells labelled with their rank; the other
-    compared cells thin grey; appeared and vanished cells hatched (solid outline where they
-    changed, dashed at a survey's edge), those with too few points dashed; no fill where
-    compared, so that the map's colours show through. A rule draws the cells whose fields hold
-    its values."""
+    footprint) outlined near black in a light halo, significant cells labelled with their rank;
+    the other compared cells thin grey; appeared and vanished cells and those with too few points
+    filled with their state's colour on the one colour scale of change (:data:`CHANGE_SCALE`;
+    outline solid where they changed, dashed at a survey's edge); no fill where compared, so
+    that the map's colours show through. A rule draws the cells whose fields hold its values."""
     from ..io.styles import Rule, equal
 
     def rule(label, values, *style, **more):
         return values, Rule(label, equal(**values), *style, **more)
 
-    def hatched(state, changed, pattern, colour):
+    def uncompared(state, changed):
         other = "earlier" if state == "appeared" else "later"
         label = f"{state} inside the {other} survey: changed" if changed else f"{state} at a survey's edge: not counted"
+        colour = state_colour(state)
         return rule(label, {"coverage": state, "changed": int(changed)},
                     SIGNIFICANT_OUTLINE if changed else colour, 0.7 if changed else 0.4, fill=colour,
-                    fill_alpha=255, pattern=pattern, line="solid" if changed else "dash")
+                    fill_alpha=255, pattern="solid", line="solid" if changed else "dash",
+                    halo=CHANGE_SCALE.halo if changed else None)
 
     return [
-        rule("changed significantly (its rank)", {"significant": 1}, SIGNIFICANT_OUTLINE, 0.7),
+        rule("changed significantly (its rank)", {"significant": 1}, SIGNIFICANT_OUTLINE, 0.7, halo=CHANGE_SCALE.halo),
         rule("compared, not significantly changed", {"coverage": "compared", "significant": 0}, (110, 110, 110), 0.2),
-        hatched("appeared", True, "b_diagonal", (33, 102, 172)),
-        hatched("vanished", True, "f_diagonal", (217, 95, 2)),
-        hatched("appeared", False, "b_diagonal", (33, 102, 172)),
-        hatched("vanished", False, "f_diagonal", (217, 95, 2)),
-        rule(COVERAGE_MEANS["too few points"], {"coverage": "too few points"}, (150, 150, 150), 0.3, line="dash"),
+        uncompared("appeared", True),
+        uncompared("vanished", True),
+        uncompared("appeared", False),
+        uncompared("vanished", False),
+        rule(COVERAGE_MEANS["too few points"], {"coverage": "too few points"}, (110, 110, 110), 0.3, line="dash",
+             fill=state_colour("too few points"), fill_alpha=255, pattern="solid"),
     ]
 
 
@@ -207,7 +201,12 @@ def level_style(band):
     (it does not depend on the map's values), with the significance test the break at 1."""
     from ..io.styles import raster_qml
 
-    return raster_qml(band, list(LEVEL_CLASSES), ramp="discrete")
+    return raster_qml(band, CHANGE_SCALE.qgis_classes(), ramp="discrete", nodata=state_colour("not covered"))
+
+
+def state_colour(state):
+    """The RGB of coverage ``state`` on the one colour scale of change."""
+    return CHANGE_SCALE.states[state][0]
 
 
 def when_style(series, band):

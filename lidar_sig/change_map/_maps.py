@@ -211,16 +211,13 @@ class ChangeMap:
                         f"({self.confidence:.0%}); {short_name(self.a.name)} -> {short_name(self.b.name)}>")
 
     def thumbnail(self, size: int = 240) -> np.ndarray:
-        """(H, W, 3) RGB picture of the map, about ``size`` pixels on its longer side: cells
-        compared shaded from white (a score of 0) to orange (at their level of detection) by
-        :meth:`reached`, those that changed significantly red, the others grey (row 0 north)."""
-        valid = self.raster("valid") > 0
-        near = np.clip(np.nan_to_num(self.raster("lod_ratio")), 0.0, 1.0)
-        rgb = np.where(valid[..., None], np.array([1.0, 1.0, 1.0]) - near[..., None] * np.array([0.0, 0.45, 0.8]),
-                       np.array([0.82, 0.82, 0.82]))
-        rgb[self.raster("significant") > 0] = (0.80, 0.05, 0.05)
-        k = max(1, size // max(self.grid.rows, self.grid.cols))
-        return np.repeat(np.repeat(rgb, k, axis=0), k, axis=1)
+        """(H, W, 3) uint8 picture of the map's cells, about ``size`` pixels on its longer side
+        (row 0 north): the report's and the PNG's map without its frame
+        (:func:`lidar_sig.reporting.map_image.cells_picture`): each cell in its colour on the
+        one colour scale of change, significant cells outlined, the five most changed numbered."""
+        from ..reporting.map_image import cells_picture
+
+        return cells_picture(self, display=size)[0]
 
     def _repr_html_(self):
         """A notebook's view: the map's thumbnail, its counts and the most changed cells."""
@@ -228,18 +225,18 @@ class ChangeMap:
 
     def _card(self, title):
         from ..base.views import card
+        from ..reporting.change_scale import legend_text
 
         rows = [(item["rank"], f"{item['bounds'][0]:.1f}, {item['bounds'][1]:.1f}", item["points_a"], item["points_b"],
                  f"{item['score']:.4f}", "yes" if item["significant"] else "no") for item in self.top(5)]
         facts = [f"{self.a.name} -> {self.b.name}", f"{self.grid.rows} x {self.grid.cols} cells of {self.cell:g} m, "
-                 f"{int(self.table['valid'].sum())} compared, {self.n_significant} significant "
-                 f"({self.confidence:.0%} level of detection of {self.score}); {self.n_changed} changed with the "
+                 f"{int(self.table['valid'].sum()):,} compared, {self.n_significant:,} significant "
+                 f"({self.confidence:.0%} level of detection of {self.score}); {self.n_changed:,} changed with the "
                  "appeared and vanished land inside the other epoch's footprint"]
         return card(title, facts + [f"warning: {w}" for w in self.warnings],
                     header=("rank", "x, y min", "points A", "points B", "score", "significant"), rows=rows,
-                    numeric=(0, 2, 3, 4), image=self.thumbnail(), width=220,
-                    note="red: changed significantly; white to orange: compared, from a score of 0 to one at its "
-                         "level of detection (score / level); grey: not compared")
+                    numeric=(0, 2, 3, 4), image=self.thumbnail(), width=240,
+                    note=legend_text())
 
     def rank_by(self, score: str) -> None:
         """Fill the table's ranking fields from metric ``score`` and delta_H, the two tests of
@@ -370,14 +367,16 @@ class ChangeMap:
 
     def ranked(self, n: int | None = None) -> np.ndarray:
         """Flat indices of the valid cells, most changed first: the significant cells first,
-        then by z (how far the score lies above what unchanged land gives, in spreads), ties by
-        score; the first ``n``."""
+        then by ``lod_ratio`` (how far the cell lies from its level of detection, the quantity
+        every face colours it by: docs/changes.md, "Colours"), ties by z, then by score; the
+        first ``n``."""
         if n is not None:
             n = whole_number(n, "the number of cells")
         valid = np.flatnonzero(self.table["valid"])
         t = self.table[valid]
         z = np.where(np.isnan(t["z"]), -np.inf, t["z"])
-        order = valid[np.lexsort((-t["score"], -z, ~t["significant"]))]
+        ratio = np.where(np.isnan(t["lod_ratio"]), -np.inf, t["lod_ratio"])
+        order = valid[np.lexsort((-t["score"], -z, -ratio, ~t["significant"]))]
         return order if n is None else order[:n]
 
     def signatures(self, flat: int) -> tuple[Signature, Signature]:
@@ -404,7 +403,7 @@ class ChangeMap:
 
     def top(self, n: int = 10) -> TopCells:
         """The ``n`` most changed cells as plain dicts (rank, bounds, counts, score, its level
-        of detection and significance, metrics, the metrics in which the cell changed
+        of detection, z, lod_ratio and significance, metrics, the metrics in which the cell changed
         significantly, classes), in a :class:`TopCells` list."""
         out = []
         for rank, flat in enumerate(self.ranked(n), 1):
@@ -414,8 +413,8 @@ class ChangeMap:
                     "points_a": int(rec["points_a"]), "points_b": int(rec["points_b"]),
                     "undefined_a": float(rec["undefined_a"]), "undefined_b": float(rec["undefined_b"]),
                     "score": float(rec["score"]), "lod": _plain(rec["lod"]), "height_lod": _plain(rec["height_lod"]),
-                    "z": _plain(rec["z"]), "p": _plain(rec["p"]), "q": _plain(rec["q"]),
-                    "significant": bool(rec["significant"])}
+                    "z": _plain(rec["z"]), "lod_ratio": _plain(rec["lod_ratio"]), "p": _plain(rec["p"]),
+                    "q": _plain(rec["q"]), "significant": bool(rec["significant"])}
             item.update({k: _plain(rec[k]) for k in CHANGE_KEYS})
             item["significant_metrics"] = [k for k in CHANGE_KEYS if k in self.levels
                                            and self.levels[k].significant[flat]]

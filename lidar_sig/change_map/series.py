@@ -59,13 +59,13 @@ class ChangeSeries:
         facts = [" -> ".join(Path(e.name).name for e in self.epochs),
                  f"{len(self.epochs)} epochs, {len(self.maps)} intervals, {self.grid.rows} x {self.grid.cols} cells of "
                  f"{m.cell:g} m; score {self.score} at {m.confidence:.0%}",
-                 f"when: {compared} cells compared in some interval, {most[str(NEVER)]} never significant"]
+                 f"when: {compared:,} cells compared in some interval, {most[str(NEVER)]:,} never significant"]
         rows = [(k + 1, self.interval_name(k).split(" ", 2)[2].strip("()"), int(mk.table["valid"].sum()),
                  mk.n_significant, most[str(k + 1)]) for k, mk in enumerate(self.maps)]
         head = card("ChangeSeries", facts, header=("interval", "epochs", "compared", "significant", "changed most"),
                     rows=rows, numeric=(0, 2, 3, 4), image=self.when_thumbnail(), width=220,
                     note=f"picture (when): each cell in the colour of the interval in which it changed most "
-                         f"({colours}); white: compared, never significant; grey: never compared")
+                         f"({colours}); white: compared, never significant; slate: never compared")
         return head + "".join(mk._card(f"ChangeMap of {self.interval_name(k)}") for k, mk in enumerate(self.maps))
 
     def when_counts(self) -> dict[str, int]:
@@ -77,13 +77,15 @@ class ChangeSeries:
     def when_thumbnail(self, size: int = 240) -> np.ndarray:
         """(H, W, 3) RGB picture of :meth:`when`, about ``size`` pixels on its longer side: each
         cell in the colour of its interval (the report's), white where compared but never
-        significant, grey where never compared (row 0 north)."""
+        significant, in the colour of "too few points" of the change scale where never compared
+        (row 0 north)."""
+        from ..reporting.change_scale import CHANGE_SCALE
         from ..reporting.map_image import INTERVALS
 
-        when = self.raster()
+        when = self.when()
         index = np.clip(np.nan_to_num(when).astype(int) - 1, 0, None) % len(INTERVALS)
         rgb = np.where((np.nan_to_num(when) > 0)[..., None], INTERVALS[index] / 255.0, 1.0)
-        rgb[np.isnan(when)] = (0.82, 0.82, 0.82)
+        rgb[np.isnan(when)] = np.asarray(CHANGE_SCALE.states["too few points"][0]) / 255.0
         k = max(1, size // max(self.grid.rows, self.grid.cols))
         return np.repeat(np.repeat(rgb, k, axis=0), k, axis=1)
 
@@ -102,18 +104,24 @@ class ChangeSeries:
         return f"interval {k + 1} ({a} -> {b})"
 
     def when(self) -> np.ndarray:
-        """(cells,) float: the interval (1-based) in which each cell changed most, i.e. the one
-        of largest z among the intervals where it changed significantly; :data:`NEVER` (0)
-        where it was compared but never significant; NaN where it was never compared."""
+        """(rows, cols) float, row 0 north: the interval (1-based) in which each cell changed
+        most, i.e. the one where it lies farthest above its level of detection (largest
+        ``lod_ratio``, the quantity the cells are ranked and coloured by) among the intervals
+        where it changed significantly; :data:`NEVER` (0) where it was compared but never
+        significant; NaN where it was never compared."""
+        return self._when().reshape(self.grid.rows, self.grid.cols)
+
+    def _when(self) -> np.ndarray:
+        """(cells,) :meth:`when` in the table's (row-major) order."""
         valid = np.array([m.table["valid"] for m in self.maps])
         significant = np.array([m.table["significant"] for m in self.maps])
-        z = np.array([np.where(s, m.table["z"], -np.inf) for m, s in zip(self.maps, significant)])
-        out = np.where(significant.any(axis=0), np.argmax(z, axis=0) + 1.0, float(NEVER))
+        ratio = np.array([np.where(s, m.table["lod_ratio"], -np.inf) for m, s in zip(self.maps, significant)])
+        out = np.where(significant.any(axis=0), np.argmax(ratio, axis=0) + 1.0, float(NEVER))
         return np.where(valid.any(axis=0), out, np.nan)
 
     def raster(self) -> np.ndarray:
-        """(rows, cols) raster of :meth:`when`, row 0 north."""
-        return self.when().reshape(self.grid.rows, self.grid.cols)
+        """(rows, cols) raster of :meth:`when`, row 0 north (the same array)."""
+        return self.when()
 
     def to_dict(self, n: int = 10) -> dict[str, Any]:
         """One entry per interval (its settings, survey parts and ``n`` top cells, as

@@ -122,8 +122,8 @@ def _header(cm):
             f"{counts['vanished']} vanished (only A), {counts['too few points']} too few points, "
             f"{counts['not covered']} not covered",
             f"{cm.n_significant} changed significantly ({score} or {height} above its level of detection, "
-            f"{cm.confidence:.0%} together), marked *; rows: significant first, then by z (the larger test's, in "
-            "spreads above its level)", *cm.answer()]
+            f"{cm.confidence:.0%} together), marked *; rows: significant first, then by how far above its level "
+            "(lod_ratio, the map's colour)", *cm.answer()]
 
 
 def _densities(result):

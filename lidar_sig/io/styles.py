@@ -28,12 +28,13 @@ def _hex(rgb):
     return "#" + "".join(f"{int(round(c)):02x}" for c in rgb)
 
 
-def raster_qml(band, stops, *, ramp="interpolated"):
+def raster_qml(band, stops, *, ramp="interpolated", nodata=None):
     """A single-band pseudocolour style of ``band`` (1-based): ``stops`` [(value, (r, g, b),
     label)], ascending, each an entry of the legend. ``ramp`` says how values between stops are
     drawn: "interpolated" (linearly between the stops), "exact" (each value its own colour:
     discrete codes) or "discrete" (classes: a value takes the colour of the first stop it does
-    not exceed; the last stop may be ``inf``). No-data pixels stay transparent."""
+    not exceed; the last stop may be ``inf``). No-data pixels stay transparent, or take the
+    colour ``nodata`` (RGB)."""
     values = [float(v) for v, _, _ in stops]
     kind = {"interpolated": "INTERPOLATED", "exact": "EXACT", "discrete": "DISCRETE"}[ramp]
     items = "".join(f"<item value={quoteattr(repr(v))} label={quoteattr(label)} color={quoteattr(_hex(rgb))} "
@@ -42,7 +43,8 @@ def raster_qml(band, stops, *, ramp="interpolated"):
     lo, hi = min(finite), max(finite)
     return (_HEAD + '<qgis styleCategories="Symbology"><pipe>'
             f'<rasterrenderer type="singlebandpseudocolor" band="{int(band)}" opacity="1" alphaBand="-1" '
-            f'classificationMin={quoteattr(repr(lo))} classificationMax={quoteattr(repr(hi))} nodataColor="">'
+            f'classificationMin={quoteattr(repr(lo))} classificationMax={quoteattr(repr(hi))} '
+            f'nodataColor={quoteattr(_colour(nodata) if nodata is not None else "")}>'
             "<rasterTransparency/><minMaxOrigin><limits>None</limits><extent>WholeRaster</extent>"
             "<statAccuracy>Exact</statAccuracy></minMaxOrigin>"
             f'<rastershader><colorrampshader colorRampType="{kind}" classificationMode="1" clip="0" '
@@ -58,7 +60,8 @@ class Rule:
     """One rule of a polygon style: features matching the QGIS expression ``filter`` are drawn
     with a fill (``fill`` RGB, ``fill_alpha`` 0-255; ``pattern`` "solid", "no" or a hatch such
     as "b_diagonal") and an outline (``outline`` RGB, ``width`` mm, ``line`` "solid", "dash" or
-    "dot"); ``label`` is its legend entry."""
+    "dot"), with a light ``halo`` (RGB) twice as wide beneath the outline when given, so that a
+    dark outline shows on dark fills too; ``label`` is its legend entry."""
 
     label: str
     filter: str
@@ -68,6 +71,7 @@ class Rule:
     fill: tuple = (255, 255, 255)
     fill_alpha: int = 0
     pattern: str = "no"
+    halo: tuple | None = None
 
 
 def equal(**values):
@@ -106,13 +110,10 @@ def polygon_qml(rules, *, label_expression=None, aliases=None, precision=None):
     entries, symbols = [], []
     for k, r in enumerate(rules):
         entries.append(f'<rule key="rule{k}" symbol="{k}" label={quoteattr(r.label)} filter={quoteattr(r.filter)}/>')
-        options = {"color": _colour(r.fill, r.fill_alpha), "style": r.pattern, "outline_color": _colour(r.outline),
-                   "outline_style": r.line, "outline_width": repr(float(r.width)), "outline_width_unit": "MM",
-                   "joinstyle": "miter"}
-        props = "".join(f'<Option type="QString" name="{k_}" value={quoteattr(v)}/>' for k_, v in options.items())
-        symbols.append(f'<symbol type="fill" name="{k}" alpha="1" clip_to_extent="1" force_rhr="0">'
-                       f'<layer class="SimpleFill" enabled="1" pass="0" locked="0"><Option type="Map">{props}</Option>'
-                       "</layer></symbol>")
+        layers = [] if r.halo is None else [_fill_layer((255, 255, 255), 0, "no", r.halo, "solid", 2 * r.width)]
+        layers.append(_fill_layer(r.fill, r.fill_alpha, r.pattern, r.outline, r.line, r.width))
+        symbols.append(f'<symbol type="fill" name="{k}" alpha="1" clip_to_extent="1" force_rhr="0">{"".join(layers)}'
+                       "</symbol>")
     labels = ""
     if label_expression:
         labels = ('<labeling type="simple"><settings calloutType="simple">'
@@ -127,6 +128,14 @@ def polygon_qml(rules, *, label_expression=None, aliases=None, precision=None):
             f'<rules key="root">{"".join(entries)}</rules><symbols>{"".join(symbols)}</symbols></renderer-v2>'
             f"{labels}{_fields(aliases, precision)}<blendMode>0</blendMode><featureBlendMode>0</featureBlendMode>"
             "<layerGeometryType>2</layerGeometryType></qgis>\n")
+
+
+def _fill_layer(fill, fill_alpha, pattern, outline, line, width):
+    options = {"color": _colour(fill, fill_alpha), "style": pattern, "outline_color": _colour(outline),
+               "outline_style": line, "outline_width": repr(float(width)), "outline_width_unit": "MM",
+               "joinstyle": "miter"}
+    props = "".join(f'<Option type="QString" name="{k}" value={quoteattr(v)}/>' for k, v in options.items())
+    return f'<layer class="SimpleFill" enabled="1" pass="0" locked="0"><Option type="Map">{props}</Option></layer>'
 
 
 def style_path(path: str | os.PathLike[str]) -> Path:

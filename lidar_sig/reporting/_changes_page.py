@@ -26,8 +26,7 @@ def changes_report(change_map, *, top=TOP):
     names = [Path(e.name).name for e in (cm.a, cm.b)]
     pngs = {}
     with step("rendering the report", cells=int(cm.table["valid"].sum())):
-        pngs["map_a.png"] = encode_png(change_map_image(cm, "a", top=top))
-        pngs["map_b.png"] = encode_png(change_map_image(cm, "b", top=top))
+        pngs["map.png"] = encode_png(change_map_image(cm, top=top))
         scale = max(1, 256 // cm.frame.size)
         for rank, c in enumerate(cm.ranked(top), 1):
             for tag, sig in zip("ab", cm.signatures(int(c))):
@@ -37,12 +36,9 @@ def changes_report(change_map, *, top=TOP):
                f"({counted(cm.a.n_points, 'point')})</li><li><span class=\"b\">B</span> "
                f"<code>{page.esc(cm.b.name)}</code> "
                f"({counted(cm.b.n_points, 'point')})</li></ul>" + settings_text(cm))
-    maps = ('<div class="grid">'
-            + page.image(pngs["map_a.png"], "change map over A", caption=f"Score over a top view of A, "
-                         f"<code>{page.esc(names[0])}</code>")
-            + page.image(pngs["map_b.png"], "change map over B", caption=f"Score over a top view of B, "
-                         f"<code>{page.esc(names[1])}</code>")
-            + "</div>")
+    maps = page.image(pngs["map.png"], "change map", caption="Each cell in its colour on the change scale (the "
+                      "same classes on every map, in QGIS and in the notebook): how far it lies from its level of "
+                      "detection; the cells not compared by their state; the most changed numbered by rank.")
     cells = []
     for rank in range(1, min(top, int(cm.table["valid"].sum())) + 1):
         cells.append(page.image(pngs[f"cell{rank}_a.png"], f"Sas of A in cell {rank}",
@@ -74,7 +70,9 @@ def settings_text(cm):
             f"{density} points/m²) and are compared. Ranked by <b>{page.esc(ranking)}</b>: "
             f"<b>{cm.n_significant} of {valid} cells changed significantly</b> (their score or their height "
             f"component exceeds its level of detection, at {cm.confidence:.0%} confidence together), listed "
-            f"first, then the others by z; per-cell signatures in a {cm.frame.size} px frame, {page.esc(cm.render)} rendering; saliency {page.esc(_method(cm.method))}, "
+            f"first, each by how far it lies from its level of detection (lod_ratio, the map's colour); per-cell "
+            f"signatures in a {cm.frame.size} px frame, {page.esc(cm.render)} rendering; saliency "
+            f"{page.esc(_method(cm.method))}, "
             "computed on each whole epoch.</p>" + coverage_text(cm))
 
 
@@ -117,7 +115,8 @@ def cells_table(cm, top):
     note = ("<p>* changed significantly: the score or the height component delta_H exceeds its level of "
             "detection, the value unchanged land would reach between these two epochs (sampled as this cell is, "
             f"surveyed as these two surveys differ everywhere), the two tests together at {cm.confidence:.0%}. "
-            "Significant cells first, then by z, the larger of the two tests' (spreads above the level).</p>")
+            "Significant cells first, then by how far the cell lies from its level of detection (lod_ratio: the "
+            "larger of score / lod and delta_H / its level), the quantity the map is coloured by.</p>")
     return note + page.table(("rank", "cell x, y", "points A / B", "score", "level of detection",
                               f"{height} / level (m)", "z", "other metrics", "classes A &rarr; B"), rows,
                              numeric=(0, 2, 3, 4, 5, 6))

@@ -35,6 +35,8 @@ class Report:
     title: str
     body: str
     figures: dict[str, bytes] = field(default_factory=Figures)
+    #: Where the page was last saved (None before), for the notebook card's link.
+    path: Path | None = field(default=None, compare=False)
 
     def __post_init__(self):
         self.figures = Figures(self.figures)
@@ -48,8 +50,29 @@ class Report:
         """The whole page, as text."""
         return page.document(self.title, self.body)
 
-    def _repr_html_(self):  # a notebook shows the report in place
-        return self.body
+    def _repr_html_(self):
+        """A notebook's view: a compact card (the title, the sections, the first figure small,
+        a link to the saved page); the full page on demand with :meth:`show`."""
+        import re
+        from html import unescape
+
+        from ..base.views import card
+
+        sections = [unescape(re.sub(r"<[^>]+>", "", h)) for h in re.findall(r"<h2[^>]*>(.*?)</h2>", self.body)]
+        facts = [f"{len(self.figures)} figures, {len(self.body) / 1e6:.1f} MB of HTML",
+                 "sections: " + ", ".join(sections) if sections else ""]
+        where = (f"saved as {self.path}; " if self.path is not None else "")
+        html = card(f"Report: {self.title}", [f for f in facts if f], image=_small(self.figures), width=200,
+                    note=f"{where}the full page here: report.show(); as a file: report.save('report.html')")
+        if self.path is not None:  # a link JupyterLab opens beside the notebook
+            target, name = page.esc(Path(self.path).as_posix()), page.esc(Path(self.path).name)
+            html += (f'<div style="font-family:sans-serif;font-size:13px;padding:0 4px 4px">'
+                     f'<a href="{target}" target="_blank">open {name}</a></div>')
+        return html
+
+    def show(self) -> Page:
+        """The full page, for a notebook to show in place (its ``_repr_html_``)."""
+        return Page(self.body)
 
     def save(self, path: str | os.PathLike[str], *, overwrite: bool = False) -> None:
         """Write the page to ``path`` (.html), atomically; refuses an existing file unless
@@ -59,6 +82,7 @@ class Report:
         check_report_path(path)
         with step(f"writing {Path(path).name}"), atomic_output(path, overwrite=overwrite) as tmp:
             tmp.write_text(self.html(), encoding="utf-8")
+        self.path = Path(path)
 
     def save_plots(self, folder: str | Path, *, overwrite: bool = False) -> Files:
         """Write every figure as a PNG file in ``folder`` (made if missing, its parent must
@@ -76,3 +100,30 @@ class Report:
                 write_png(folder / name, png, overwrite=overwrite)
                 paths.append(folder / name)
         return Files(paths)
+
+
+@dataclass(repr=False)
+class Page:
+    """A report's full page shown in a notebook (:meth:`Report.show`)."""
+
+    body: str
+
+    def __repr__(self):
+        return f"<Page of a report, {len(self.body) / 1e6:.1f} MB of HTML>"
+
+    def _repr_html_(self):
+        return self.body
+
+
+def _small(figures, width=200):
+    """(H, W, 3) uint8: the first figure scaled to ``width`` px, or None without figures."""
+    if not figures:
+        return None
+    import cv2
+    import numpy as np
+
+    image = cv2.imdecode(np.frombuffer(next(iter(figures.values())), np.uint8), cv2.IMREAD_COLOR)
+    if image is None:
+        return None
+    height = max(1, round(image.shape[0] * width / image.shape[1]))
+    return cv2.resize(image, (width, height), interpolation=cv2.INTER_AREA)[:, :, ::-1]

@@ -9,7 +9,7 @@ from ..base.progress import step
 from . import _page as page
 from ._document import Report
 from ._provenance import provenance
-from .sections import (EGEOM_CAPTION, SALIENCY_CAPTION, class_legend, class_table, figure_caption, made_line,
+from .sections import (EGEOM_CAPTION_ONE, SALIENCY_CAPTION, class_legend, class_table, figure_caption, made_line,
                        signatures_intro, summary, top_view, top_views)
 
 #: File names of the single-cloud report's figures.
@@ -45,7 +45,7 @@ def signature_report(side, *, render="smooth"):
         page.section("Class composition", page.image(pngs["classes.png"], "class composition"),
                      class_table((side,), ("",)), anchor="classes"),
         page.section("Geometric entropy Egeom", page.image(pngs["egeom.png"], "pdf of Egeom",
-                                                            caption=EGEOM_CAPTION), anchor="egeom"),
+                                                            caption=EGEOM_CAPTION_ONE), anchor="egeom"),
         page.section("Saliency per class", page.image(pngs["saliency_by_class.png"], "class-wise pdfs of Cl, Cs, Cp",
                                                        caption=SALIENCY_CAPTION), anchor="saliency"),
         page.section("Top view", top_views((side,), ("",), pngs, ("top_view.png",)), anchor="top-views"),

@@ -16,9 +16,14 @@ from ..method.scales import recorded_kind
 from . import _page as page
 
 EGEOM_CAPTION = (
-    "Distribution of the geometric entropy of the points with a defined saliency; d_EMD-Info is the "
-    "earth mover's distance between these two curves. Surfaces (ground, roofs) sit near 0 to 0.4, "
-    "vegetation and clutter further right.")
+    "Distribution of the geometric entropy of the points with a defined saliency, one curve per cloud; "
+    "d_EMD-Info is the earth mover's distance between the two clouds' curves. Surfaces (ground, roofs) "
+    "sit near 0 to 0.4, vegetation and clutter further right.")
+#: The same of one cloud's report: one curve.
+EGEOM_CAPTION_ONE = (
+    "Distribution of the geometric entropy of the cloud's points with a defined saliency; compared with "
+    "another cloud, d_EMD-Info is the earth mover's distance between this curve and the other's. Surfaces "
+    "(ground, roofs) sit near 0 to 0.4, vegetation and clutter further right.")
 SALIENCY_CAPTION = (
     "Per semantic class, the distribution of each saliency over its points (the paper's figure of "
     "class-wise saliency pdfs). Ground and roofs peak at high Cs; vegetation spreads over Cp; "

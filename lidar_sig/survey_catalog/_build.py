@@ -97,7 +97,9 @@ def build_catalog(inputs: Any, output: str | os.PathLike[str], pipeline: Pipelin
         raise LidarSigError(f"inputs must be a path or a list of LAS/LAZ tiles and folders, got {a_kind(inputs)}")
     if not inputs:
         raise LidarSigError("give at least one LAS/LAZ tile or folder of tiles")
-    files = [str(f) for f in expand(inputs)]
+    # copies are not refused: each tile keeps its own signature, and the catalogue names tiles
+    # that hold the same points (a tile and its COPC copy, a file delivered twice)
+    files = [str(f) for f in expand(inputs, distinct=False)]
     check_output(output, overwrite=True)  # its folder; the catalogue itself is read once held
     work = Path(as_path(work, "work")) if work is not None else output.with_name(output.name + ".work")
     # one run at a time: two runs growing it at once would each write the tiles it read and its

@@ -43,9 +43,12 @@ CHUNK_POINTS = 500_000
 RECORD = np.dtype([("x", "f8"), ("y", "f8"), ("z", "f8"), ("label", "i8"), ("id", "i8")])
 
 
-def expand(inputs: Iterable[str | os.PathLike[str]]) -> list[Path]:
+def expand(inputs: Iterable[str | os.PathLike[str]], *, distinct: bool = True) -> list[Path]:
     """The LAS/LAZ files of ``inputs`` (files, folders, glob patterns and ``.vpc`` files,
-    :func:`lidar_sig.io.tile_lists.tile_list`; a folder's files sorted by name)."""
+    :func:`lidar_sig.io.tile_lists.tile_list`; a folder's files sorted by name). With
+    ``distinct`` (a set whose points are joined), a tile given twice, under any name or as a
+    copy, is refused (:func:`~lidar_sig.io.tile_lists.check_distinct`); a survey catalogue, whose
+    tiles stay apart, names its copies instead."""
     files = []
     for given in inputs:
         p = as_path(given, "the inputs")
@@ -69,7 +72,8 @@ def expand(inputs: Iterable[str | os.PathLike[str]]) -> list[Path]:
             raise LidarSigError(f"is {special_file(p)}, not a regular file; give LAS/LAZ files or folders", path=p)
         else:
             raise LidarSigError("no such file or folder; check the path", path=p)
-    check_distinct(files)  # a tile given twice, under any name or as a copy, would count twice
+    if distinct:
+        check_distinct(files)  # a tile given twice, under any name or as a copy, would count twice
     return [f.resolve() for f in files]
 
 

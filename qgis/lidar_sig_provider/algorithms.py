@@ -566,8 +566,8 @@ class ChangesAlgorithm(LidarSigAlgorithm):
             "grid of the CRS, each cell with a level of detection that says whether it changed significantly. "
             "The change map (a Cloud-Optimized GeoTIFF coloured by how far each cell lies from its level of "
             "detection, in the same colours on every map: greys below the level, yellow to dark red above it) "
-            "and, above it, the cells (outlined where they changed significantly, hatched where only one epoch "
-            "has points) are added to the project; the later epoch's points with their cell's change on "
+            "and, above it, the cells (outlined where they changed significantly, blue or purple where only one "
+            "epoch has points) are added to the project; the later epoch's points with their cell's change on "
             "request.</p><p>An epoch is a point-cloud file; from a script, also a folder of tiles. The layers are "
             "named by the epochs (Change A → B, Cells A → B).</p>")
     notes = ("<p><b>Cell size</b> (m): 0, chosen from the densities. <b>Fewest points per cell</b> (in each epoch): "
