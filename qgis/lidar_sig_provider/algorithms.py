@@ -218,7 +218,7 @@ class LidarSigAlgorithm(QgsProcessingAlgorithm):
     def initAlgorithm(self, config=None):
         self.parameters()
         if self.job in AREA_JOBS:  # --aoi: the clouds clipped to the extent (in its CRS) first
-            self.addParameter(QgsProcessingParameterExtent("AOI", "Area of interest (not set: the whole clouds)",
+            self.addParameter(QgsProcessingParameterExtent("AOI", "Area of interest",
                                                            optional=True))
         options = QgsProcessingParameterString("OPTIONS", "More options (as on the command line)", optional=True)
         options.setFlags(options.flags() | options.FlagAdvanced)
