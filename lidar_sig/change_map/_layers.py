@@ -195,13 +195,22 @@ def cells_style(cells=None):
                        precision=CELL_PRECISION)
 
 
-def level_style(band):
+def level_style(band, values=None):
     """The QGIS style of the change map's GeoTIFF (QML): band ``band`` (lod_ratio) as a
-    single-band pseudocolour in the fixed classes :data:`LEVEL_CLASSES`, the same on every map
-    (it does not depend on the map's values), with the significance test the break at 1."""
+    single-band pseudocolour in the fixed classes :data:`LEVEL_CLASSES`, with the significance
+    test the break at 1. The legend lists only the classes that hold one of ``values`` (the
+    map's lod_ratio; every class when not given or all NaN): each keeps its bounds and colour, so
+    a value takes the same colour on every map (QGIS gives a value the first class it does not
+    exceed, and a class left out holds no value of the map)."""
     from ..io.styles import raster_qml
 
-    return raster_qml(band, CHANGE_SCALE.qgis_classes(), ramp="discrete", nodata=state_colour("not covered"))
+    classes = CHANGE_SCALE.qgis_classes()
+    v = np.asarray([] if values is None else values, dtype=np.float64)
+    v = v[~np.isnan(v)]
+    if len(v):
+        lower = [-np.inf] + [bound for bound, _, _ in classes[:-1]]
+        classes = [c for c, low in zip(classes, lower) if ((v > low) & (v <= c[0])).any()]
+    return raster_qml(band, classes, ramp="discrete", nodata=state_colour("not covered"))
 
 
 def state_colour(state):

@@ -422,6 +422,14 @@ class ChangeMap:
             out.append(item)
         return TopCells(out, compared=int(self.table["valid"].sum()), score=self.score)
 
+    def drawn(self) -> Any:
+        """(cells,) bool: the cells every face draws (:func:`~lidar_sig.change_map._layers.drawn_cells`):
+        not the slivers of points a survey's edge leaves outside both footprints, which are
+        drawn as not covered."""
+        from ._layers import drawn_cells
+
+        return drawn_cells(self)
+
     def coverage(self) -> dict[str, int]:
         """{state: cells} of every coverage state (:data:`~lidar_sig.change_map._cells.COVERAGE`):
         compared, appeared, vanished, too few points, not covered."""
@@ -528,8 +536,8 @@ class ChangeMap:
             with step(f"writing {Path(path).name}", bands=len(rasters)), output_group():
                 write_geotiff(path, rasters, descriptions, self.grid.transform, self.crs, overwrite=overwrite,
                               tags=self.metadata_tags(), meanings=meanings)
-                write_style(style_path(path), level_style(self.band_names.index("lod_ratio") + 1),
-                            overwrite=overwrite)
+                write_style(style_path(path), level_style(self.band_names.index("lod_ratio") + 1,
+                                                          self.table["lod_ratio"]), overwrite=overwrite)
         elif VECTOR in holds:
             from ..io.geopackage import write_geopackage
             from ._layers import cells_layer

@@ -92,11 +92,15 @@ STATE_NAMES = ("not covered", "compared", "appeared", "vanished", "too few point
 CHANGE_SCALE = ChangeScale("lod_ratio", LEVEL_CLASSES, STATES)
 
 
-def table_colours(table, scale=CHANGE_SCALE) -> np.ndarray:
+def table_colours(table, scale=CHANGE_SCALE, drawn=None) -> np.ndarray:
     """(cells, 3) uint8: the colour of each cell of a change map's ``table`` through ``scale``:
-    a compared cell by its class of ``scale.quantity``, the others by their coverage state."""
+    a compared cell by its class of ``scale.quantity``, the others by their coverage state; a
+    cell not ``drawn`` ((cells,) bool: the slivers of a survey's edge, which the cells layer
+    leaves out) as not covered, as QGIS shows it."""
     values = np.where(table["valid"], np.asarray(table[scale.quantity], np.float64), np.nan)
     states = np.array(STATE_NAMES, dtype=object)[np.asarray(table["coverage"], np.int64)]
+    if drawn is not None:
+        states[~np.asarray(drawn, bool)] = "not covered"
     return scale.cell_colours(values, states)
 
 

@@ -81,7 +81,8 @@ def cells_picture(change_map, *, display=640, top=TOP, scale=CHANGE_SCALE):
     cm = change_map
     edges = cell_edges(cm.grid, display)
     rgb = np.zeros((edges[1][-1], edges[0][-1], 3), np.uint8)
-    out = _paint_cells(rgb, cm.grid, edges, table_colours(cm.table, scale), cm.table["significant"], scale)
+    out = _paint_cells(rgb, cm.grid, edges, table_colours(cm.table, scale, cm.drawn()), cm.table["significant"],
+                        scale)
     _numbers(out, cm.grid, edges, cm.ranked(top))
     return out, edges
 
