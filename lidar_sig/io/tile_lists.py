@@ -46,19 +46,7 @@ def _vpc_paths(path: Path) -> list[Path]:
         raise LidarSigError(f"is {special_file(path)}, not a regular file; give a .vpc file", path=path)
     if os.path.isdir(path):  # os.path: False, not OSError, for a name too long
         raise LidarSigError("is a folder; give a .vpc file, or the folder itself as the set of tiles", path=path)
-    try:
-        # utf-8-sig: a byte order mark, which some editors write, is no part of the JSON
-        features = json.loads(path.read_text(encoding="utf-8-sig"))["features"]
-        hrefs = [next(a["href"] for a in f["assets"].values() if "data" in a.get("roles", ["data"]))
-                 for f in features]
-    except FileNotFoundError:
-        raise LidarSigError("does not exist; give an existing .vpc file", path=path) from None
-    except RecursionError:  # JSON nested deeper than Python's parser goes
-        raise LidarSigError("cannot be read as a virtual point cloud (its JSON is nested too deeply); give a .vpc "
-                            "file as QGIS or PDAL write it (a STAC ItemCollection of the tiles)", path=path) from None
-    except (OSError, ValueError, KeyError, TypeError, StopIteration, AttributeError) as exc:
-        raise LidarSigError(f"cannot be read as a virtual point cloud ({type(exc).__name__}: {exc}); give a .vpc "
-                            "file as QGIS or PDAL write it (a STAC ItemCollection of the tiles)", path=path) from None
+    hrefs = [href for href, _ in _features(lambda: path.read_text(encoding="utf-8-sig"), path)]
     if not hrefs:
         raise LidarSigError("lists no tile; give a .vpc file that lists the epoch's tiles", path=path)
     paths, seen = [], {}
@@ -96,25 +84,39 @@ def vpc_tiles(source: str) -> list[tuple[str, tuple | None]]:
 
     from .remote import fetch, is_url
 
-    try:
-        text = fetch(source).decode("utf-8-sig") if is_url(source) else Path(source).read_text(encoding="utf-8-sig")
-        features = json.loads(text)["features"]
-        found = []
-        for f in features:
-            href = next(a["href"] for a in f["assets"].values() if "data" in a.get("roles", ["data"]))
-            if not isinstance(href, str) or not href:
-                raise TypeError(f"an href is {type(href).__name__}, not a path or URL")
-            if not is_url(href) and not Path(href).is_absolute():
-                href = urljoin(source, href) if is_url(source) else str(Path(source).parent / href)
-            found.append((href, _proj_bounds(f.get("properties") or {})))
-    except FileNotFoundError:
-        raise LidarSigError("does not exist; give an existing .vpc file", path=source) from None
-    except (OSError, ValueError, KeyError, TypeError, StopIteration, AttributeError) as exc:
-        raise LidarSigError(f"cannot be read as a virtual point cloud ({type(exc).__name__}: {exc}); give a .vpc "
-                            "file as QGIS or PDAL write it (a STAC ItemCollection of the tiles)", path=source) from None
+    found = []
+    for k, (href, props) in enumerate(_features(lambda: fetch(source).decode("utf-8-sig") if is_url(source)
+                                                else Path(source).read_text(encoding="utf-8-sig"), source)):
+        if not isinstance(href, str) or not href:
+            raise LidarSigError(f"gives tile {k + 1} an href that is not a path or URL ({type(href).__name__}); "
+                                "give each tile's href as its path or URL", path=source)
+        if not is_url(href) and not Path(href).is_absolute():
+            href = urljoin(source, href) if is_url(source) else str(Path(source).parent / href)
+        found.append((href, _proj_bounds(props if isinstance(props, dict) else {})))
     if not found:
         raise LidarSigError("lists no tile; give a .vpc file that lists the epoch's tiles", path=source)
     return found
+
+
+def _features(read, where) -> list[tuple[object, object]]:
+    """(href, properties) of each feature of a ``.vpc`` whose text ``read()`` gives (decoded
+    with utf-8-sig: a byte order mark, which some editors write, is no part of the JSON): the
+    href of its data asset, as the file gives it; a LidarSigError naming ``where`` when the text
+    is no STAC ItemCollection of tiles."""
+    try:
+        features = json.loads(read())["features"]
+        return [(next(a["href"] for a in f["assets"].values() if "data" in a.get("roles", ["data"])),
+                 f.get("properties")) for f in features]
+    except LidarSigError:  # a URL that could not be read says so itself
+        raise
+    except FileNotFoundError:
+        raise LidarSigError("does not exist; give an existing .vpc file", path=where) from None
+    except RecursionError:  # JSON nested deeper than Python's parser goes
+        raise LidarSigError("cannot be read as a virtual point cloud (its JSON is nested too deeply); give a .vpc "
+                            "file as QGIS or PDAL write it (a STAC ItemCollection of the tiles)", path=where) from None
+    except (OSError, ValueError, KeyError, TypeError, StopIteration, AttributeError) as exc:
+        raise LidarSigError(f"cannot be read as a virtual point cloud ({type(exc).__name__}: {exc}); give a .vpc "
+                            "file as QGIS or PDAL write it (a STAC ItemCollection of the tiles)", path=where) from None
 
 
 def _proj_bounds(props: dict) -> tuple | None:
