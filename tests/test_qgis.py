@@ -495,16 +495,22 @@ def test_qgis_draws_every_map_in_the_same_colours_for_the_same_distance_from_its
         _, ratio, significant = lod_ratio_band(paths[name])
         cells[name] = {(r, c): (float(ratio[r, c]), significant[r, c] == 1)
                        for r, c in zip(*np.nonzero(ratio != -9999.0))}
+    from lidar_sig.reporting.change_scale import CHANGE_SCALE
+
+    def on_the_scale(ratio):
+        """The colour the one scale of change gives a distance from the level, as QGIS writes it."""
+        return "#%02x%02x%02x" % tuple(int(v) for v in CHANGE_SCALE.colours[CHANGE_SCALE.class_of([ratio])[0]])
+
     values = sorted({ratio for found in cells.values() for ratio, _ in found.values()})
     found = qgis("shades", maps=[str(p) for p in paths.values()], values=values, pixels=9)
-    first = found[str(paths["8 m"])]["values"]
     drawn = {True: set(), False: set()}
     for name, path in paths.items():
         seen = found[str(path)]
         assert seen["gdal"] == [], seen["gdal"]  # no "band 3: dfMax should be strictly greater than dfMin"
-        assert seen["values"] == first  # each map's style gives each distance the colour the first's gives it
         for (r, c), (ratio, significant) in cells[name].items():
-            assert seen["cells"][f"{r},{c}"] == first[repr(ratio)]  # drawn as the style says
+            # each map's style gives each of its cells' distances the colour of the one scale (its legend
+            # lists the scale's classes that its cells fall in), and QGIS draws the cell so
+            assert seen["values"][repr(ratio)] == seen["cells"][f"{r},{c}"] == on_the_scale(ratio), (name, ratio)
             drawn[significant].add(seen["cells"][f"{r},{c}"])
     assert not drawn[True] & drawn[False]  # a significant cell never looks like one that is not
     assert len(drawn[True]) >= 2 and all(int(c[1:3], 16) > int(c[5:7], 16) for c in drawn[True])  # warm
