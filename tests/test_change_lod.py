@@ -107,11 +107,16 @@ def test_two_disjoint_halves_of_the_block_give_few_significant_cells(block):
 def test_the_block_against_60_percent_of_itself_noisy_and_moved_gives_few_significant_cells(block):
     from change_noise import thinned_noisy
 
-    _, other = thinned_noisy(block[0], seed=0)
-    cm = changes(block[1], other)
-    share, n = significant_share(cm)
-    assert n >= 20 and share <= 0.05
-    assert np.exp(cm.levels["emd_info"].beta) > 2  # the noise raises d_EMD-Info everywhere: a survey factor
+    # a rate, over three draws (one draw of 24 cells flags 2 by chance one time in three at 5%)
+    flagged = compared = 0
+    for seed in range(3):
+        _, other = thinned_noisy(block[0], seed=seed)
+        cm = changes(block[1], other)
+        share, n = significant_share(cm)
+        flagged, compared = flagged + cm.n_significant, compared + n
+        assert n >= 20
+        assert np.exp(cm.levels["emd_info"].beta) > 2  # the noise raises d_EMD-Info everywhere: a survey factor
+    assert flagged / compared <= 0.05
 
 
 def test_the_edited_cells_are_significant_and_rank_first(block, edited):

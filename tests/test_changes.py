@@ -278,7 +278,8 @@ def test_cli_prints_the_ranked_cells_and_marks_the_significant_ones():
     assert proc.returncode == 0, proc.stderr
     lines = proc.stdout.splitlines()
     assert lines[0].startswith("9 x 9 cells of 8 m (given)") and "(auto)" in lines[0]
-    assert lines[1].startswith("coverage: 79 cells compared")
+    compared = json.loads(run("changes", SAMPLES / "epoch1.laz", ALIGNED, "--cell", "8", "--json", "-q").stdout)
+    assert lines[1].startswith(f"coverage: {compared['coverage']['cells']['compared']} cells compared")
     assert "delta_KL or delta_H" in lines[2] and "changed significantly" in lines[2]
     n = int(lines[2].split()[0])
     assert n >= 5
@@ -437,13 +438,14 @@ def test_cells_are_admitted_by_their_points_with_defined_saliency():
         return PointCloud(xyz, np.full(len(xyz), 2), crs="EPSG:2154")
 
     pipeline = ls.Pipeline(scales=ls.radii(0.5, 0.6), progress=False)
-    cm = changes(cloud(0), cloud(1), cell=10, min_points=10, pipeline=pipeline)
+    # every point (no sample): the sparse cell's 16 points are all there
+    cm = changes(cloud(0), cloud(1), cell=10, min_points=10, pipeline=pipeline, sample_density=None)
     t = cm.table
     assert t["points_a"][1] == 16 and t["defined_a"][1] == 0 and not t["valid"][1]
     assert t["valid"][0] and t["defined_a"][0] == 3000
     # 16 points in the sparse cell pass a count of all points, none has a defined saliency
     with pytest.raises(LidarSigError, match="10 points with defined saliency"):
-        changes(cloud(0, 8), cloud(1, 8), cell=10, min_points=10, pipeline=pipeline)
+        changes(cloud(0, 8), cloud(1, 8), cell=10, min_points=10, pipeline=pipeline, sample_density=None)
 
 
 # -- defaults that fit the survey (issue 17) ----------------------------------------------------
@@ -561,7 +563,7 @@ def test_three_epochs_give_a_series_computed_once_per_epoch(tmp_path, monkeypatc
 
     calls = []
     original = ls.Pipeline.saliency
-    monkeypatch.setattr(ls.Pipeline, "saliency", lambda self, cloud: calls.append(cloud) or original(self, cloud))
+    monkeypatch.setattr(ls.Pipeline, "saliency", lambda self, cloud, **kw: calls.append(cloud) or original(self, cloud, **kw))
     a, b, c = small_cloud(0), small_cloud(1), small_cloud(2)
     series = changes(a, b, c, cell=10, min_points=100)
     assert isinstance(series, ChangeSeries) and len(series.maps) == 2 and len(calls) == 3

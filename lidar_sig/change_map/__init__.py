@@ -8,7 +8,10 @@ signature per cell per epoch from the per-point saliency, with no point-to-point
 shift of a few decimetres between the epochs moves a few points across a cell edge, nothing more.
 
 - Saliency is computed on each WHOLE epoch (so that cell edges do not cut neighbourhoods), once
-  per epoch, then the points are binned into cells.
+  per epoch, then the points are binned into cells. An epoch denser than
+  :data:`SAMPLE_DENSITY` points per m² (more for cells under 25 m, :data:`SAMPLE_CELL_POINTS`
+  a cell) is sampled by its points' keys: the cells take the sample, its saliency alone is
+  computed, the neighbours among all the points.
 - Cells are squares of ``cell`` metres, aligned to multiples of the cell size in the CRS's
   coordinates (converted to the CRS unit), so that grids of different runs agree. A cell is
   half-open: [x0 + i s, x0 + (i + 1) s) x [y0 + j s, y0 + (j + 1) s). By default the cell and
@@ -34,8 +37,9 @@ ChangeMap: levels, ranking, rasters, files), :mod:`~lidar_sig.change_map.series`
 epochs) and :mod:`~lidar_sig.change_map._compute` (:func:`changes`, which reads the epochs and runs
 the pipeline).
 """
-from ._cells import CELL_FIELDS, CELL_FRAME, SEED, bin_points, cell_signature, null_metrics, observed_metrics
-from ._density import auto_cell, auto_min_points, density
+from ._cells import (CELL_FIELDS, CELL_FRAME, SEED, Sample, bin_points, cell_signature, in_sample, null_metrics,
+                     observed_metrics)
+from ._density import SAMPLE_CELL_POINTS, SAMPLE_DENSITY, auto_cell, auto_min_points, density, sample_fraction
 from ._epochs import Epoch, compute_epoch, read_epoch
 from ._grid import MAX_CELLS, Grid, check_cell
 from ._lod import CONFIDENCE, REPLICATES, Level, level_of_detection
@@ -45,7 +49,7 @@ from ._in_units import TiledEpoch, check_streamed, in_units
 from .series import ChangeSeries
 
 __all__ = ["AUTO", "CELL_FIELDS", "CELL_FRAME", "CONFIDENCE", "LABEL_FREE_SCORE", "MAX_CELLS", "REPLICATES",
-           "SCORE", "SEED", "ChangeMap", "ChangeSeries", "Epoch", "Grid", "Level", "TiledEpoch", "auto_cell", "auto_min_points",
-           "bin_points", "cell_signature", "changes", "check_cell", "check_streamed", "compute_epoch", "density", "in_units", "level_of_detection",
+           "SAMPLE_CELL_POINTS", "SAMPLE_DENSITY", "SCORE", "SEED", "Sample", "ChangeMap", "ChangeSeries", "Epoch", "Grid", "Level", "TiledEpoch", "auto_cell", "auto_min_points",
+           "bin_points", "cell_signature", "changes", "check_cell", "check_streamed", "compute_epoch", "density", "in_sample", "in_units", "level_of_detection",
            "metric_levels",
-           "null_metrics", "observed_metrics", "read_epoch", "score_values"]
+           "null_metrics", "observed_metrics", "read_epoch", "sample_fraction", "score_values"]

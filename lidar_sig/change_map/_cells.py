@@ -108,6 +108,30 @@ def point_keys(xyz, labels=None):
         return _mix(key)
 
 
+@dataclass(frozen=True)
+class Sample:
+    """The sample of an epoch's points whose saliency a change map computes and whose cells'
+    signatures take them (:func:`in_sample` of share ``fraction``): small, sent to the tiles of
+    a run in work units."""
+
+    fraction: float
+
+    def mask(self, xyz, labels):
+        """(N,) bool: the points of coordinates ``xyz`` (N, 3, CRS units) and class codes in the sample."""
+        inside = in_sample(xyz, labels, self.fraction)
+        return np.ones(len(xyz), bool) if inside is None else inside
+
+
+def in_sample(xyz, labels, fraction):
+    """(N,) bool: the points of an epoch's sample of share ``fraction`` (:func:`sample_fraction
+    <lidar_sig.change_map._density.sample_fraction>`), those whose :func:`point_keys` lie in the
+    lowest ``fraction`` of their range: the same points however the epoch is ordered, cut or
+    listed; None for a fraction of 1 (every point)."""
+    if fraction >= 1.0:
+        return None
+    return point_keys(xyz, labels) < np.uint64(int(fraction * 2.0 ** 64))
+
+
 def _mix(x):
     """splitmix64's finaliser: every bit of ``x`` (uint64) moves about half of the output's."""
     x = (x ^ (x >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)

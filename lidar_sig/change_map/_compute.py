@@ -18,9 +18,11 @@ from ..base.progress import step
 from ..method.signature_raster import Frame, method_differences
 from ..numerics.bounds import bounds
 from ..io.clip import clip_inputs
-from ._cells import CELL_FRAME, SEED, bin_points, cell_table
+from ._cells import CELL_FRAME, SEED, bin_points, cell_table, in_sample
 from ._cores import cell_values
-from ._density import AUTO, auto_cell, auto_min_points, density, fewer_points, no_defined_cell, sparse_note
+from ._density import (AUTO, SAMPLE_DENSITY, auto_cell, auto_min_points, density, fewer_points, no_defined_cell,
+                       sample_fraction, sparse_note)
+from ._density import sample_density as sample_rule
 from ._epochs import Epoch, check_same_crs, epoch_name, read_epoch
 from ._grid import Grid, check_cell, check_cells, check_overlap, check_span
 from ._lod import CONFIDENCE, REPLICATES, few_cells_note
@@ -37,7 +39,8 @@ if TYPE_CHECKING:
 def changes(a: Any, b: Any, /, *, cell: float | str = AUTO, pipeline: Pipeline | None = None,
             min_points: int | str = AUTO, score: str | None = None, render: str = "smooth", frame: Frame = CELL_FRAME,
             columns: Any = None, confidence: float = CONFIDENCE, class_map: Any = None, seed: int = SEED,
-            execution: Any = None, resume: bool = False, work: Any = None, aoi: Any = None) -> ChangeMap:
+            execution: Any = None, resume: bool = False, work: Any = None, aoi: Any = None,
+            sample_density: float | str | None = AUTO) -> ChangeMap:
     ...
 
 
@@ -46,7 +49,7 @@ def changes(a: Any, b: Any, c: Any, /, *more: Any, cell: float | str = AUTO, pip
             min_points: int | str = AUTO, score: str | None = None, render: str = "smooth", frame: Frame = CELL_FRAME,
             columns: Any = None, confidence: float = CONFIDENCE, class_map: Any = None,
             seed: int = SEED, execution: Any = None, resume: bool = False, work: Any = None,
-            aoi: Any = None) -> ChangeSeries:
+            aoi: Any = None, sample_density: float | str | None = AUTO) -> ChangeSeries:
     ...
 
 
@@ -54,7 +57,7 @@ def changes(a: Any, b: Any, *more: Any, cell: float | str = AUTO, pipeline: Pipe
             min_points: int | str = AUTO, score: str | None = None, render: str = "smooth", frame: Frame = CELL_FRAME,
             columns: Any = None, confidence: float = CONFIDENCE, class_map: Any = None,
             seed: int = SEED, execution: Any = None, resume: bool = False,
-            work: Any = None, aoi: Any = None) -> ChangeMap | ChangeSeries:
+            work: Any = None, aoi: Any = None, sample_density: float | str | None = AUTO) -> ChangeMap | ChangeSeries:
     """Per-cell change map between epochs of the same area (registration-free), with a level of
     detection per cell and metric.
 
@@ -79,10 +82,8 @@ def changes(a: Any, b: Any, *more: Any, cell: float | str = AUTO, pipeline: Pipe
         s_SSIM, 1 - SSIM ranks); default :data:`~lidar_sig.change_map.SCORE` (delta_KL), or
         :data:`~lidar_sig.change_map.LABEL_FREE_SCORE` (delta_FV) when an epoch is unlabelled
         or the epochs' class codes barely overlap.
-    render : str
-        Rendering of Sg and Sas for the image metrics (see :mod:`lidar_sig.method.signature_raster`).
-    frame : Frame
-        Frame of the per-cell signatures; default :data:`~lidar_sig.change_map.CELL_FRAME` (64 px).
+    render : str: rendering of Sg and Sas for the image metrics (:mod:`lidar_sig.method.signature_raster`).
+    frame : Frame: of the per-cell signatures; default :data:`~lidar_sig.change_map.CELL_FRAME` (64 px).
     confidence : float
         Confidence of the significance test, one-sided, from 0.5 to 0.9999; default 0.95.
     class_map : str, list, dict or path, optional
@@ -100,6 +101,8 @@ def changes(a: Any, b: Any, *more: Any, cell: float | str = AUTO, pipeline: Pipe
         Work folder of a run in work units (default: a new one in the execution's ``work_dir`` or the
         temporary folder, removed with the map's ``close()``).
     aoi : str, path or tuple, optional: an area of interest the epochs are clipped to first (docs/scale-out.md).
+    sample_density : float, "auto" or None: an epoch's points per m² its cells take at most, a sample of a
+        denser one ("auto": 5, more for cells under 25 m; None: every point; docs/changes.md).
 
     Returns
     -------
@@ -110,7 +113,7 @@ def changes(a: Any, b: Any, *more: Any, cell: float | str = AUTO, pipeline: Pipe
     from ..pipeline.flow import pipeline_or_default
     from ..tiling.execution import as_execution
     sources = (a, b) + more
-    s = _settings(cell, min_points, confidence, score, frame, seed)
+    s = _settings(cell, min_points, confidence, score, frame, seed, sample_density)
     resume = _checked_flags(columns, resume)
     pipeline = pipeline_or_default(pipeline)
     table_of_classes = merge_classes(pipeline.classes, class_map)  # a bad map is refused before reading
@@ -127,9 +130,9 @@ def changes(a: Any, b: Any, *more: Any, cell: float | str = AUTO, pipeline: Pipe
         warnings.warn("the epochs are mapped in one block: work units take two epochs of LAS/LAZ files (the tile "
                       "size and scheduler are not used; the workers compute the cells)", LidarSigWarning, stacklevel=2)
     given, clouds, names, labelled, notes = _read(sources, pipeline, columns, s.score, class_map)
-    units, kept, densities, grid = _layout(clouds, given, names, pipeline, s, notes)
-    return _maps(clouds, names, given, kept, pipeline, table_of_classes, labelled, grid, units, densities, s, render,
-                 notes)
+    units, kept, samples, densities, grid = _layout(clouds, given, names, pipeline, s, notes)
+    return _maps(clouds, names, given, kept, samples, pipeline, table_of_classes, labelled, grid, units, densities, s,
+                 render, notes)
 
 
 def _clipped(clip, options):
@@ -147,15 +150,20 @@ def _clipped(clip, options):
     return mapped
 
 
-def _maps(clouds, names, given, kept, pipeline, table_of_classes, labelled, grid, units, densities, s, render, notes):
-    """Each epoch's saliency (once), its points binned, then the map of each interval (a
-    ChangeMap, or a ChangeSeries of three epochs or more)."""
+def _maps(clouds, names, given, kept, samples, pipeline, table_of_classes, labelled, grid, units, densities, s,
+          render, notes):
+    """Each epoch's saliency (once, of its sample), its points binned, then the map of each
+    interval (a ChangeMap, or a ChangeSeries of three epochs or more); ``densities`` are the
+    epochs' and their samples' points per m²."""
+    densities, sampled = densities
     epochs, seconds = [], []
-    for cloud, name, epoch, used_points in zip(clouds, names, given, kept):
+    for cloud, name, epoch, used_points, sample in zip(clouds, names, given, kept, samples):
         start = time.perf_counter()
         if epoch is None:
-            sal, stats = pipeline.saliency(cloud)
+            sal, stats = pipeline.saliency(cloud, query=sample)
             epoch = Epoch(name, cloud, sal, stats, kept=used_points)
+        elif used_points is not epoch.kept:  # computed whole: its cells take the sample
+            epoch = Epoch(epoch.name, epoch.cloud, epoch.saliency, epoch.metadata, kept=used_points)
         seconds.append(time.perf_counter() - start)
         epochs.append(epoch)
     classes = table_of_classes if labelled else UNLABELED
@@ -168,10 +176,10 @@ def _maps(clouds, names, given, kept, pipeline, table_of_classes, labelled, grid
     maps = []
     for k in range(len(epochs) - 1):
         maps.append(_interval(k, epochs, binned, grid, classes, s, render, score, method, units, names,
-                              densities[k:k + 2]))
+                              sampled[k:k + 2]))
         cm = maps[-1]
         cm.cell_rule, cm.min_points_rule = s.cell_rule, s.min_points_rule
-        cm.density = (densities[k], densities[k + 1])
+        cm.density, cm.sampled = (densities[k], densities[k + 1]), (sampled[k], sampled[k + 1])
         cm.timings["saliency"] = [seconds[k], seconds[k + 1]]
         cm.warnings = notes + schemes[k] + cm.warnings
     for text in dict.fromkeys(w for m in maps for w in m.warnings):  # each once
@@ -189,9 +197,10 @@ def _checked_flags(columns, resume):
     return yes_no(resume, "resume")
 
 
-def _settings(cell, min_points, confidence, score, frame, seed):
+def _settings(cell, min_points, confidence, score, frame, seed, sample_density=SAMPLE_DENSITY):
     """The checked settings of :func:`changes` (a LidarSigError naming a bad one): the cell and
-    fewest points (None for "auto") and how each was chosen, the confidence, score, frame and seed."""
+    fewest points (None for "auto") and how each was chosen, the confidence, score, frame, seed
+    and the sample's density (None: every point)."""
     from types import SimpleNamespace
 
     cell_rule = AUTO if _is_auto(cell) else "given"
@@ -204,8 +213,16 @@ def _settings(cell, min_points, confidence, score, frame, seed):
         raise LidarSigError(f"unknown score {score!r}; use one of {', '.join(METRIC_KEYS)}")
     if not isinstance(frame, Frame):
         raise LidarSigError(f"frame must be a lidar_sig.Frame, got {frame!r}")
+    if _is_auto(sample_density):
+        sample_density = AUTO
+    elif sample_density is not None and (isinstance(sample_density, bool) or not isinstance(sample_density, (int, float))
+                                         or not 0 < sample_density < float("inf")):
+        raise LidarSigError(f"sample_density must be a positive number of points per m² (e.g. {SAMPLE_DENSITY:g}), "
+                            f"'auto' or None for every point, got {sample_density!r}")
     return SimpleNamespace(cell=cell, cell_rule=cell_rule, min_points=min_points, min_points_rule=min_points_rule,
-                           confidence=confidence, score=score, frame=frame, seed=whole_number(seed, "seed"))
+                           confidence=confidence, score=score, frame=frame, seed=whole_number(seed, "seed"),
+                           sample_density=sample_rule(sample_density if sample_density in (None, AUTO)
+                                                      else float(sample_density), cell))
 
 
 def _read(sources, pipeline, columns, score, class_map):
@@ -244,17 +261,24 @@ def _layout(clouds, given, names, pipeline, s, notes):
     used = [c.xyz[:, :2] if k is None else c.xyz[k, :2] for c, k in zip(clouds, kept)]
     densities = [density(xy, units.horizontal) for xy in used]
     notes += [n for n in [sparse_note(names, densities)] if n]
+    # each epoch's cells take a sample of at most SAMPLE_DENSITY points per m², by the points'
+    # keys; the rules count the sample's points, at its expected density
+    fractions = [sample_fraction(d, s.sample_density) for d in densities]
+    samples = [in_sample(c.xyz, c.labels, f) for c, f in zip(clouds, fractions)]
+    kept = [k if q is None else (q if k is None else k & q) for k, q in zip(kept, samples)]
+    sampled = [d * f for d, f in zip(densities, fractions)]
     if s.cell is None:
-        s.cell = auto_cell(min(densities))
+        s.cell = auto_cell(min(sampled))
     if s.min_points is None:
-        s.min_points = auto_min_points(min(densities), s.cell)
+        s.min_points = auto_min_points(min(sampled), s.cell)
     for k in range(len(clouds) - 1):  # before the grid: disjoint epochs would span a needless one
         check_overlap(used[k], used[k + 1], names[k], names[k + 1])
     corners = np.vstack([np.vstack(bounds(xy)) for xy in used])  # not every point stacked
     check_span(corners, s.cell / units.horizontal, s.cell)
     grid = Grid.covering(corners, s.cell / units.horizontal)
     check_cells(grid, s.cell)
-    counts = [np.bincount(grid.cell_of(xy), minlength=grid.n_cells) for xy in used]
+    counts = [np.bincount(grid.cell_of(c.xyz[:, :2] if k is None else c.xyz[k, :2]), minlength=grid.n_cells)
+              for c, k in zip(clouds, kept)]
     for k in range(len(clouds) - 1):  # said before the saliency is computed
         filled = np.minimum(counts[k], counts[k + 1])
         if filled.max() < s.min_points:
@@ -262,7 +286,7 @@ def _layout(clouds, given, names, pipeline, s, notes):
             fix = fewer_points(s.min_points_rule, s.min_points)
             raise LidarSigError(f"no cell of {s.cell:g} m holds {counted(s.min_points, 'point')} in both "
                                 f"epochs{pair} (at most {amount(filled.max())}); {fix}")
-    return units, kept, densities, grid
+    return units, kept, samples, (densities, sampled), grid
 
 
 def _in_units(sources, files, pipeline, execution, resume, work, table_of_classes, class_map, settings):

@@ -39,6 +39,32 @@ LEAST_DENSITY = 1.0
 RECALL_BELOW = 0.75
 
 
+#: Points per m² of an epoch whose saliency a change map computes, at most: a denser epoch's
+#: cells take a sample of its points (:func:`sample_fraction`; the neighbours of a sampled point
+#: are still searched among all of them). A 25 m cell then holds about 3,000 points, and
+#: benchmarks/change_power.py finds every edit from 2 points/m² (docs/changes.md, "The points a
+#: cell's signature takes") ...
+SAMPLE_DENSITY = 5.0
+#: ... and points a full cell's sample holds at least (5 points/m² over 25 m cells): a smaller
+#: cell given takes a denser sample (8 m cells: 48.8 points/m²).
+SAMPLE_CELL_POINTS = 3125
+
+
+def sample_density(rule, cell=None):
+    """Points per m² an epoch's sample holds at most, by ``rule``: :data:`AUTO`, the larger of
+    :data:`SAMPLE_DENSITY` and :data:`SAMPLE_CELL_POINTS` over the given ``cell``'s area (m; None:
+    chosen, 25 m or more); a number, that; None, every point (None)."""
+    if rule is None or rule != AUTO:
+        return rule
+    # a cell too small for any grid (refused later, by name) must not divide by zero here
+    return SAMPLE_DENSITY if cell is None else max(SAMPLE_DENSITY, SAMPLE_CELL_POINTS / max(cell * cell, 1e-300))
+
+
+def sample_fraction(points_per_m2, most=SAMPLE_DENSITY):
+    """The share of an epoch's points its cells take: min(1, ``most`` / density); 1 for ``most`` None."""
+    return 1.0 if most is None or points_per_m2 <= most else most / points_per_m2
+
+
 def density(xy, metres_per_unit=1.0):
     """Points per m² of a cloud's (N, 2) coordinates: the points over the area of the
     :data:`DENSITY_PIXEL` pixels they occupy (``metres_per_unit`` converts the CRS unit)."""

@@ -23,9 +23,9 @@ from ..base.errors import FACE, LidarSigError, LidarSigWarning, counted
 from ..base.progress import progress, step
 from ..method.classes import UNLABELED
 from ..method.signature_raster import Signature
-from ._cells import CHANGE_KEYS, counts_table
+from ._cells import CHANGE_KEYS, Sample, counts_table
 from ._lod import few_cells_note
-from ._density import auto_cell, auto_min_points, no_defined_cell, sparse_note
+from ._density import auto_cell, auto_min_points, no_defined_cell, sample_fraction, sparse_note
 from ._grid import Grid, check_cells, check_overlap, check_span
 from ._units import (UNIT_BYTES_PER_POINT, VIEW_POINTS, UnitPlan, code_task, density_pixel, density_task,
                      unit_points, unit_task, view_path)
@@ -173,38 +173,49 @@ def changes_in_units(files, names, *, pipeline, execution, work, resume, setting
     units, with scratch files in ``work`` (``remove(work)`` removes it with the map's
     :class:`WorkHolder`; ``own``: a folder made for this map alone); ``settings`` are those of
     :func:`~lidar_sig.change_map.changes`, with ``keep``, the outputs the folder must not hold."""
-    from ..tiling.run_set import run_set
     from ..tiling.sources import scan
-    from ..tiling.work import prepare_work, work_scope
+    from ..tiling.work import work_scope
     from ._epochs import check_same_crs
 
     scanned = [[s for s in scan(f) if s.error is None] for f in files]  # before any work
     check_same_crs([SimpleNamespace(crs=next((s.crs for s in good), None)) for good in scanned], names)
     _check_headers(scanned, names, execution, settings)
-    with work_scope(work):
-        work = prepare_work(work, resume, keep=[p for f in files for p in f] + list(settings.get("keep", ())))
-        with execution.backend() as backend:
-            start = time.perf_counter()
-            runs, seconds = [], []
-            for e, tag in enumerate("ab"):
-                t0 = time.perf_counter()
-                with step(f"saliency of {names[e]}", files=len(files[e])):
-                    run = run_set(pipeline, files[e], work=work / f"epoch_{tag}", tile_size=execution.tile_size,
-                                  backend=backend, resume=resume, memory=execution.memory)
-                if not run.complete:
-                    shown = run.missing[:3] + ([f"and {len(run.missing) - 3} more"] if len(run.missing) > 3 else [])
-                    raise LidarSigError(f"the epoch {names[e]} could not be computed: " + "; ".join(shown))
-                runs.append(run)
-                seconds.append(time.perf_counter() - t0)
-            cm = _map(runs, names, files, pipeline, backend, work, settings, classes_table, WorkHolder(work, remove, own))
-            if resume:
-                from ..tiling.run_set import resumed_note
+    try:  # a task that failed inside an epoch's run leaves that run's work for a resumed run
+        with work_scope(work):
+            return _run(files, names, pipeline, execution, work, resume, settings, classes_table, remove, own)
+    except _TaskFailed as failed:
+        raise _failed(failed.err, failed.what, work) from None
 
-                units = cm.timings["units"]
-                resumed_note(work, [f"{units['reused']} of {counted(units['units'], 'work unit')}"])
-            cm.timings["saliency"] = seconds
-            cm.timings["all"] = time.perf_counter() - start
-            return cm
+
+def _run(files, names, pipeline, execution, work, resume, settings, classes_table, remove, own):
+    """:func:`changes_in_units` within the scope of its work folder."""
+    from ..tiling.run_set import run_set
+    from ..tiling.work import prepare_work
+
+    work = prepare_work(work, resume, keep=[p for f in files for p in f] + list(settings.get("keep", ())))
+    with execution.backend() as backend:
+        start = time.perf_counter()
+        runs, seconds = [], []
+        for e, tag in enumerate("ab"):
+            t0 = time.perf_counter()
+            with step(f"saliency of {names[e]}", files=len(files[e])):
+                run = run_set(pipeline, files[e], work=work / f"epoch_{tag}", tile_size=execution.tile_size,
+                              backend=backend, resume=resume, memory=execution.memory,
+                              sample=lambda run, tiles: _sample(run, tiles, backend, settings["sample_density"]))
+            if not run.complete:
+                shown = run.missing[:3] + ([f"and {len(run.missing) - 3} more"] if len(run.missing) > 3 else [])
+                raise LidarSigError(f"the epoch {names[e]} could not be computed: " + "; ".join(shown))
+            runs.append(run)
+            seconds.append(time.perf_counter() - t0)
+        cm = _map(runs, names, files, pipeline, backend, work, settings, classes_table, WorkHolder(work, remove, own))
+        if resume:
+            from ..tiling.run_set import resumed_note
+
+            units = cm.timings["units"]
+            resumed_note(work, [f"{units['reused']} of {counted(units['units'], 'work unit')}"])
+        cm.timings["saliency"] = seconds
+        cm.timings["all"] = time.perf_counter() - start
+        return cm
 
 
 def _check_headers(scanned, names, execution, settings):
@@ -227,24 +238,37 @@ def _check_headers(scanned, names, execution, settings):
             header_tile_size(good, execution.tile_size, execution.memory, execution.workers or 1, advise=least)
 
 
-def _frame(runs, names, s, backend, work):
+def _sample(run, tiles, backend, most):
+    """The :class:`~lidar_sig.change_map._cells.Sample` of an epoch's tiled ``run``, staged and
+    tiled (``tiles``), from its density (kept as ``run.density``) and the sample's ``most``
+    points per m² (None: every point), or None for every point: what its tiles compute
+    (:func:`lidar_sig.tiling.run_set.run_set`'s ``sample``)."""
+    run.density = _densities(run, tiles, backend)
+    fraction = sample_fraction(run.density, most)
+    run.sampled = run.density * fraction
+    return Sample(fraction) if fraction < 1.0 else None
+
+
+def _frame(runs, names, s):
     """(units, bounds, densities, notes, cell, min_points, grid) of two complete tiled runs: the
-    CRS checked, each epoch's staged extent and density, the defaults chosen, the map's grid."""
+    CRS checked, each epoch's staged extent, its density and its sample's, the defaults chosen,
+    the map's grid."""
     from ..method.crs import las_units
     import laspy
 
     with laspy.open(runs[0].sources[0].path) as reader:
         _, units = las_units(reader.header, path=runs[0].sources[0].path)
     bounds = [staged_bounds(run) for run in runs]
-    densities = _densities(runs, bounds, units, backend, work)
+    densities = [run.density for run in runs]
+    sampled = [run.sampled for run in runs]
     notes = [n for n in [sparse_note(names, densities)] if n]
-    cell = auto_cell(min(densities)) if s.cell is None else s.cell
-    min_points = auto_min_points(min(densities), cell) if s.min_points is None else s.min_points
+    cell = auto_cell(min(sampled)) if s.cell is None else s.cell
+    min_points = auto_min_points(min(sampled), cell) if s.min_points is None else s.min_points
     corners = [np.array([b[0][:2], b[1][:2]]) for b in bounds]
     check_overlap(*corners, *names)
     grid = Grid.covering(np.vstack(corners), cell / units.horizontal)
     check_cells(grid, cell)
-    return units, bounds, densities, notes, cell, int(min_points), grid
+    return units, bounds, (densities, sampled), notes, cell, int(min_points), grid
 
 
 def _map(runs, names, files, pipeline, backend, work, settings, classes_table, holder):
@@ -255,7 +279,7 @@ def _map(runs, names, files, pipeline, backend, work, settings, classes_table, h
 
     s = SimpleNamespace(**settings)
     t0 = time.perf_counter()
-    units, bounds, densities, notes, cell, min_points, grid = _frame(runs, names, s, backend, work)
+    units, bounds, (densities, sampled_density), notes, cell, min_points, grid = _frame(runs, names, s)
     seconds = {"densities": time.perf_counter() - t0}
     labelled = runs[0].labelled and runs[1].labelled
     if runs[0].labelled != runs[1].labelled:
@@ -270,7 +294,7 @@ def _map(runs, names, files, pipeline, backend, work, settings, classes_table, h
     seconds["coding"], t0 = time.perf_counter() - t0, time.perf_counter()
     gathered = _gather(uplan, unit_ids, tiles_of, backend, len(classes))
     seconds["units"] = time.perf_counter() - t0
-    table = counts_table(grid, gathered["points"], gathered["undefined"], min_points, densities, cell)
+    table = counts_table(grid, gathered["points"], gathered["undefined"], min_points, sampled_density, cell)
     if not table["valid"].any():
         most = int((gathered["points"] - gathered["undefined"]).min(axis=0).max(initial=0))
         raise no_defined_cell(cell, min_points, names[0], names[1], most, s.min_points_rule)
@@ -292,28 +316,31 @@ def _map(runs, names, files, pipeline, backend, work, settings, classes_table, h
                    min_points, score, s.render, classes, epochs[0], epochs[1], s.frame, method, levels, s.confidence,
                    warnings=notes + schemes + few, timings={"lod": time.perf_counter() - t0, "replicates": 2 * REPLICATES})
     cm.rank_by(score)
-    cm.cell_rule, cm.min_points_rule, cm.density = s.cell_rule, s.min_points_rule, tuple(densities)
+    cm.cell_rule, cm.min_points_rule = s.cell_rule, s.min_points_rule
+    cm.density, cm.sampled = tuple(densities), tuple(sampled_density)
     cm.timings["units"] = {"units": len(unit_ids), "side_cells": side, "reused": gathered["reused"]}
     cm.timings.update({f"{k}_seconds": v for k, v in seconds.items()})
     return cm
 
 
-def _densities(runs, bounds, units, backend, work):
-    """Points per m² of each epoch's kept points over the 10 m pixels they occupy, as
-    :func:`~lidar_sig.change_map._density.density` gives for one block (the pixels from the
-    epoch's lowest kept point); a failed tile names the map's ``work`` folder."""
+def _densities(run, tiles, backend):
+    """Points per m² of an epoch's kept points (its staged ``run``, processing ``tiles``) over
+    the 10 m pixels they occupy, as :func:`~lidar_sig.change_map._density.density` gives for
+    one block (the pixels from the epoch's lowest kept point); a failed tile raises
+    :class:`_TaskFailed`."""
     from ._density import DENSITY_PIXEL
 
-    pixel = density_pixel(units.horizontal)
-    items = [(run, ij, tuple(lo[:2]), pixel) for run, (lo, _, _, _) in zip(runs, bounds) for ij in run.tile_stats]
-    keys = {id(run): [] for run in runs}  # each epoch's pixels, whatever order the tiles end in
-    with step("densities", tiles=len(items)) as st:
-        for (run, ij, _, _), found, err in st.track(backend.run(density_task, items), total=len(items), unit="tile"):
+    lo, _, n, _ = staged_bounds(run)
+    pixel = density_pixel(run.ctx.factors[0])
+    items = [(run, ij, tuple(lo[:2]), pixel) for ij in tiles]
+    keys = []
+    with step("density", tiles=len(items)) as st:
+        for (_, ij, _, _), found, err in st.track(backend.run(density_task, items), total=len(items), unit="tile"):
             if err is not None:
-                raise _failed(err, ij, work)
-            keys[id(run)].append(found)
-    occupied = [len(np.unique(np.concatenate(keys[id(run)]))) if keys[id(run)] else 0 for run in runs]
-    return [n / (max(o, 1) * DENSITY_PIXEL ** 2) for (_, _, n, _), o in zip(bounds, occupied)]
+                raise err if isinstance(err, LidarSigError) else _TaskFailed(err, ij)
+            keys.append(found)
+    occupied = len(np.unique(np.concatenate(keys))) if keys else 0
+    return n / (max(occupied, 1) * DENSITY_PIXEL ** 2)
 
 
 def _unit_side(runs, bounds, grid, cell, workers, memory):
@@ -366,6 +393,16 @@ def _gather(uplan, units, tiles_of, backend, n_classes):
             for name in ("metrics", "mu0", "sigma", "defined"):
                 out[name][cells] = res[name]
     return out
+
+
+class _TaskFailed(Exception):
+    """A task that failed inside an epoch's tiled run (``err``, on tile or unit ``what``): not
+    the user's error, so that the run keeps its work for a resumed run (a LidarSigError would
+    keep only finished tiles); the map says it, naming its work folder (:func:`_failed`)."""
+
+    def __init__(self, err, what):
+        super().__init__(str(err))
+        self.err, self.what = err, what
 
 
 def _failed(err, what, work):

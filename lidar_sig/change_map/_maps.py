@@ -174,6 +174,10 @@ class ChangeMap:
         ``"auto"`` (chosen from the epochs' densities) or ``"given"``.
     density : tuple
         Points per m² of each epoch (:func:`~lidar_sig.change_map._density.density`).
+    sampled : tuple
+        Points per m² of each epoch's sample, the points its cells take (at most
+        :data:`~lidar_sig.change_map._density.SAMPLE_DENSITY`; docs/changes.md, "The points a
+        cell's signature takes"); empty when not known.
     warnings : list
         What may make the map mislead (class schemes, too few cells for the survey part).
     """
@@ -198,6 +202,7 @@ class ChangeMap:
     cell_rule: str = "given"
     min_points_rule: str = "given"
     density: tuple = ()
+    sampled: tuple = ()
     warnings: list = field(default_factory=list)
     timings: dict = field(default_factory=dict)
     #: What was read when the epochs were clipped to an area of interest (lidar_sig.io.clip.Reading), or None.
@@ -456,7 +461,8 @@ class ChangeMap:
         return {"a": self.a.name, "b": self.b.name, "cell_m": self.cell, "cell_rule": self.cell_rule,
                 "cell_crs_units": self.grid.size, "units": self.units.describe(), "crs": crs_name(self.crs),
                 "min_points": self.min_points, "min_points_rule": self.min_points_rule,
-                "density": [round(float(v), 4) for v in self.density], "score": self.score,
+                "density": [round(float(v), 4) for v in self.density],
+                "sampled_density": [round(float(v), 4) for v in self.sampled], "score": self.score,
                 "confidence": self.confidence, "render": self.render, "frame_px": self.frame.size,
                 "grid": {"rows": self.grid.rows, "cols": self.grid.cols, "transform": [a, b, c, d, e, f],
                          "cells": self.grid.n_cells, "valid": int(self.table["valid"].sum()),
@@ -482,7 +488,8 @@ class ChangeMap:
         """Text tags of the GeoTIFF: the settings a reader needs to interpret the bands."""
         return {"cell_m": f"{self.cell:g}", "cell_rule": self.cell_rule, "min_points": str(self.min_points),
                 "min_points_rule": self.min_points_rule, "density_points_per_m2": ", ".join(
-                    f"{v:.4g}" for v in self.density), "score": self.score, "confidence": f"{self.confidence:g}",
+                    f"{v:.4g}" for v in self.density), "sampled_points_per_m2": ", ".join(
+                    f"{v:.4g}" for v in self.sampled), "score": self.score, "confidence": f"{self.confidence:g}",
                 "compared": str(int(self.table["valid"].sum())), "significant": str(self.n_significant),
                 "changed": str(self.n_changed),
                 "epoch_a": self.a.name, "epoch_b": self.b.name}

@@ -140,7 +140,7 @@ def code_task(uplan, epoch, ij, view_step):
     if done is not None:
         return dict(zip(done["units"].tolist(), np.diff(done["starts"]).tolist()))
     run = uplan.epochs[epoch]
-    raw, ids, labels, values = run.core_points(ij)
+    raw, ids, labels, values = run.core_points(ij)  # of the epoch's sample, the points its cells take
     codes = labels if uplan.labelled else np.zeros(len(ids), np.int64)
     cls = uplan.classes.index(codes)
     pixel, egeom_bin = point_codes(values, cls, uplan.frame, egeom=geometric_entropy(values))

@@ -33,6 +33,10 @@ def _confidence():
 @click.option("--min-points", default="auto", show_default=True, metavar="N|auto",
               help="Fewest points with defined saliency of a cell in each epoch for it to be compared, or auto: "
                    "a fifth of a full cell.")
+@click.option("--sample-density", "sample_density", default="auto", show_default=True, metavar="POINTS_PER_M2|auto|all",
+              help="Points per m² of an epoch its cells take at most: a denser epoch's cells take a sample of its "
+                   "points, whose saliency alone is computed (neighbours among all); auto: 5, more for cells under "
+                   "25 m (3,125 points a cell); all: every point.")
 @click.option("--score", type=Choice(metric_keys), default=None,
               help="Metric that ranks the cells [default: kl, or fv for unlabelled epochs or class schemes that "
                    "barely overlap].")
@@ -55,8 +59,9 @@ def _confidence():
 @resume_option
 @aoi_option
 @pipeline_options
-def changes_command(epochs, output, cells, points, cell, min_points, score, confidence, class_map, top, png, report,
-                    as_json, render, overwrite, columns, crs, execution, resume, aoi, pipeline, method_given, quiet):
+def changes_command(epochs, output, cells, points, cell, min_points, sample_density, score, confidence, class_map, top,
+                    png, report, as_json, render, overwrite, columns, crs, execution, resume, aoi, pipeline, method_given,
+                    quiet):
     """Map where epochs differ: per-cell signature metrics in a grid of the CRS, each with its
     level of detection, so that the cells that changed significantly stand out.
 
@@ -70,13 +75,15 @@ def changes_command(epochs, output, cells, points, cell, min_points, score, conf
     """
     cell = _auto_or(cell, "the cell size (--cell)", _metres)
     min_points = _auto_or(min_points, "the fewest points (--min-points)", _whole)
+    sample_density = _sample_density(sample_density)
     from ..change_map import ChangeSeries
     from ..jobs import changes as changes_job
 
     done = changes_job(epochs, crs=crs, output=output, cells=cells, points=points, png=png, report=report, overwrite=overwrite,
                        top=top, cell=cell, pipeline=pipeline, min_points=min_points, score=score,
                        render=render or "smooth", columns=columns, confidence=confidence,
-                       class_map=list(class_map) or None, execution=execution, resume=resume, aoi=aoi)
+                       class_map=list(class_map) or None, execution=execution, resume=resume, aoi=aoi,
+                       sample_density=sample_density)
     result, written = done.changes, done.lines
     if as_json:
         click.echo(json.dumps(done.to_dict()))
@@ -86,7 +93,7 @@ def changes_command(epochs, output, cells, points, cell, min_points, score, conf
     say(f"{first.grid.rows} x {first.grid.cols} cells of {first.cell:g} m ({_rule(first.cell_rule)}), "
         f"compared where both epochs hold {counted(first.min_points, 'point')} with defined saliency "
         f"({_rule(first.min_points_rule)}); densities "
-        + ", ".join(f"{d:.3g}" for d in _densities(result)) + " points/m²")
+        + ", ".join(f"{d:.3g}" for d in _densities(result)) + " points/m²" + _sampled(maps))
     for k, cm in enumerate(maps):
         where = f"{result.interval_name(k)}: " if len(maps) > 1 else ""
         for line in _header(cm):
@@ -134,6 +141,12 @@ def _densities(result):
     return list(result.density)
 
 
+def _sampled(maps):
+    """What the first line adds when the cells take a sample of a denser epoch's points."""
+    thinned = {round(s, 6) for m in maps for s, d in zip(m.sampled, m.density) if s < d}
+    return f" (the cells take a sample of {min(thinned):g} points/m²)" if thinned else ""
+
+
 def _rule(rule):
     from ..change_map import AUTO
 
@@ -157,6 +170,24 @@ def _whole(text, what):
         raise LidarSigError(f"{what} must be auto or a whole number >= 1, got {text!r}") from None
     if value < 1:
         raise LidarSigError(f"{what} must be auto or a whole number >= 1, got {text!r}")
+    return value
+
+
+def _sample_density(text):
+    """``--sample-density``: points per m² (a positive number), auto, or None for ``all``."""
+    if text.strip().lower() == "all":
+        return None
+    if text.strip().lower() == "auto":
+        from ..change_map import AUTO
+
+        return AUTO
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not 0 < value < float("inf"):
+        raise LidarSigError(f"--sample-density must be auto, all or a positive number of points per m² (e.g. 5), "
+                            f"got {text!r}")
     return value
 
 

@@ -225,20 +225,29 @@ class Pipeline:
         combined, pick = self.strategy.combine(per_scale)
         return self.descriptor.refine(batch, combined, pick), pick
 
-    def saliency(self, cloud: PointCloud) -> tuple[Saliency, dict[str, Any]]:
+    def saliency(self, cloud: PointCloud, *, query: Any = None) -> tuple[Saliency, dict[str, Any]]:
         """Per-point Saliency of ``cloud`` and run statistics (undefined, capped, duplicate and
         excluded counts, scales in metres). Withheld and noise points (see ``keep_noise``) are
-        left out of the run and get an undefined saliency."""
+        left out of the run and get an undefined saliency. ``query`` ((N,) bool, optional): the
+        points whose saliency is computed, their neighbours searched among all the points the
+        run uses; the others get an undefined saliency (a change map's sample,
+        docs/changes.md, "The points a cell's signature takes")."""
         kept = self.kept(cloud)
+        if query is not None:
+            query = np.asarray(query, dtype=bool)
+            if query.shape != (len(cloud),):
+                raise LidarSigError(f"query must be one bool per point ({len(cloud):,}), got shape {query.shape}")
         if kept is None:
-            values, chosen, stats = self._saliency(cloud, 0)
+            values, chosen, stats = self._saliency(cloud, 0, query)
             return Saliency.from_values(values, chosen), stats
-        values, chosen, stats = self._saliency(cloud.subset(kept), int((~kept).sum()))
+        values, chosen, stats = self._saliency(cloud.subset(kept), int((~kept).sum()),
+                                               None if query is None else query[kept])
         return Saliency.of_kept(values, chosen, kept), {**stats, "n_points": len(cloud)}
 
-    def _saliency(self, cloud, n_excluded):
+    def _saliency(self, cloud, n_excluded, query=None):
         """(N, 3) saliency values and (N,) chosen scales (or None) of every point of ``cloud``
-        (the points a run uses), and the run statistics."""
+        (the points a run uses), or of the points ``query`` alone (the others NaN), and the
+        run statistics."""
         self.announce_compilation()
         load_kernels(self.kernels())
         warming = self._warm_up()
@@ -258,12 +267,17 @@ class Pipeline:
                 index.weights = index.area_weights()
             s.note(locations=len(support))
         m = len(support)
-        values = np.empty((m, 3))
+        values = np.empty((m, 3)) if query is None else np.full((m, 3), np.nan)
         chosen = None
         n_capped = 0
         searching = describing = 0.0  # seconds, for --verbose: the two interleave per block
         with step(f"saliency ({self.descriptor.name} {self.strategy.name})", enabled=self.progress) as s:
-            blocks = index.blocks()
+            if query is None:
+                blocks = index.blocks()
+            else:  # the locations of the points asked for, in the index's order
+                wanted = np.zeros(m, bool)
+                wanted[np.flatnonzero(query) if inverse is None else inverse[query]] = True
+                blocks = index.blocks(index.rows_of(np.flatnonzero(wanted)))
             for rows in s.track(blocks, unit="block"):
                 t0 = time.perf_counter()
                 batch = index.query(rows)
@@ -283,8 +297,13 @@ class Pipeline:
             values = values[inverse]
             chosen = chosen[inverse] if chosen is not None else None
         n = len(cloud)
-        n_undefined = int(nan_rows(values).sum())
-        if n_undefined == n:
+        if query is not None:  # a copy not asked for stays undefined, as the points not asked for
+            values[~query] = np.nan
+            if chosen is not None:
+                chosen[~query] = -1
+        n_asked = n if query is None else int(query.sum())
+        n_undefined = int(nan_rows(values).sum()) - (n - n_asked)
+        if n_undefined == n_asked:
             # k counts points; normalized radii are also said in metres
             metres = f" (= {_fmt(scales)} m)" if self.scales.normalized else ""
             larger = "a larger k" if self.scales.by_count else "larger radii"
@@ -300,7 +319,7 @@ class Pipeline:
                 + (" (normalized radii follow the bounding box, which a far outlier inflates)"
                    if self.scales.normalized else "")
                 + "; use smaller radii or the default k-nearest scales", LidarSigWarning, stacklevel=2)
-        stats = {"n_points": n, "n_undefined": n_undefined, "n_capped": n_capped,
+        stats = {"n_points": n, **({} if query is None else {"n_queried": n_asked}), "n_undefined": n_undefined, "n_capped": n_capped,
                  "n_duplicates": n - m, "n_excluded": n_excluded, "resolved_scales": scales.tolist(),
                  "units": cloud.units.describe(), "metres_per_unit": list(cloud.units.factors),
                  **self.method()}

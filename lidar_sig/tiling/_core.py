@@ -293,14 +293,16 @@ def block_saliency(pipeline, xyz, query, edge, scales, area_cap, second=None):
     return location, values, chosen, ok, capped
 
 
-def tile_saliency(pipeline, load, tiling, ij, ctx, *, halo=None, second_of=None):
+def tile_saliency(pipeline, load, tiling, ij, ctx, *, halo=None, second_of=None, sampled=None):
     """Saliency of the core points of processing tile ``ij`` (see the module docstring).
 
     ``load(bounds) -> (xyz, ids)`` returns the set's points within plan-view bounds (x0, y0,
     x1, y1) in centred metres, with identifiers; core points are those ``tiling`` puts in
     ``ij``. ``second_of(xyz, ids)``, when given, returns the points' second-neighbour distances
     in the whole set (:func:`tile_second_distances` of every tile), so that no block searches
-    them again. Returns a :class:`TileResult` in the order of the first load.
+    them again. ``sampled()``, when given, returns the (N,) bool mask of the points of the first
+    load whose saliency is asked for (a sample; None: all): the others are listed, undefined.
+    Returns a :class:`TileResult` in the order of the first load.
     """
     check_tileable(pipeline)
     box = tiling.box(*ij)
@@ -311,20 +313,24 @@ def tile_saliency(pipeline, load, tiling, ij, ctx, *, halo=None, second_of=None)
     values = np.full((len(out_ids), 3), np.nan)
     chosen = None
     capped = np.zeros(len(out_ids), bool)
-    if not len(out_ids):
-        return TileResult(out_ids, values, None, {"n_points": 0, "n_locations": 0, "n_capped": 0,
-                                                  "n_recomputed": 0, "halo": width})
-    core_location = None  # distinct location of each core point, from the first block
+    asked = None if sampled is None else sampled()
+    first_want = core if asked is None else core & asked
+    if not first_want.any():
+        return TileResult(out_ids, values, None, {"n_points": len(out_ids), "n_locations": 0, "n_capped": 0,
+                                                  "n_recomputed": 0, "halo": width,
+                                                  **({} if asked is None else {"n_sampled": 0})})
+    core_location = None  # distinct location of each core point asked for, from the first block
     by_id = None  # out_ids' order, sorted once for the blocks of recomputed points
     n_recomputed = 0
     widest = width
     # blocks still to compute: (box, halo width, positions in out_ids); the tile first
-    pending = [(box, width, np.arange(len(out_ids)))]
+    first_pos = np.flatnonzero(first_want[core])
+    pending = [(box, width, first_pos)]
     while pending:
         box, width, todo = pending.pop()
         halo_ = Halo(box, width, ctx.lo, ctx.hi)
         if core_location is None:  # the tile's own block, loaded already: its core points in order
-            want, pos = core, todo
+            want, pos = first_want, todo
         else:  # map the block's wanted points back to positions in out_ids
             xyz, ids = load(halo_.bounds)
             want = np.isin(ids, out_ids[todo])
@@ -336,8 +342,7 @@ def tile_saliency(pipeline, load, tiling, ij, ctx, *, halo=None, second_of=None)
                                                        ctx.scales, ctx.area_cap, second)
         loc = location[want]
         if core_location is None:
-            core_location = np.empty(len(out_ids), np.int64)
-            core_location[pos] = loc
+            core_location = loc
         values[pos] = vals[loc]
         capped[pos] = cut[loc]
         if pick is not None:
@@ -351,8 +356,9 @@ def tile_saliency(pipeline, load, tiling, ij, ctx, *, halo=None, second_of=None)
             pending += _regroup(xyz[want][failed], pos[failed], 2.0 * width)
     per_location = np.bincount(core_location)  # counting, not sorting: a tile holds millions
     stats = {"n_points": len(out_ids), "n_locations": int(np.count_nonzero(per_location)),
-             "n_capped": int(np.count_nonzero(np.bincount(core_location[capped], minlength=1))),
-             "n_recomputed": n_recomputed, "halo": widest}
+             "n_capped": int(np.count_nonzero(np.bincount(core_location[capped[first_pos]], minlength=1))),
+             "n_recomputed": n_recomputed, "halo": widest,
+             **({} if asked is None else {"n_sampled": len(first_pos)})}
     return TileResult(out_ids, values, chosen, stats)
 
 

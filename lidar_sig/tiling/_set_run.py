@@ -42,6 +42,8 @@ class SetRun:
     restaged: list = field(default_factory=list)  # files a resumed run staged again (edited since)
     seconds: float = 0.0
     execution: str = ""
+    density: float | None = None  # points per m², when a run's ``sample`` measured it
+    sampled: float | None = None  # and the sample's points per m²
 
     def __getstate__(self):
         # what a task of the run needs travels to a worker; the set's signature (tens of MiB:
@@ -141,12 +143,16 @@ class SetRun:
     def core_points(self, ij: tuple[int, int], values: bool = True) -> tuple[Any, ...]:
         """(raw coordinates (N, 3) in the files' units, identifiers, class codes, (Cl, Cs, Cp))
         of tile ``ij``'s core points, as the run staged and computed them: the staged points
-        whose tile by the tiling's own index is ``ij`` (a change map's work units code them);
-        without ``values``, the first three."""
+        whose tile by the tiling's own index is ``ij`` (a change map's work units code them),
+        those of the run's sample alone when it has one (``plan.sample``); without ``values``,
+        the first three."""
         plan = self.plan
         rec = self.box_points(ij)
         rec = rec[plan.tiling.core(*plan.ctx.plan_view(rec["x"], rec["y"]), ij)]
         raw, ids, labels = np.column_stack([rec["x"], rec["y"], rec["z"]]), rec["id"], rec["label"]
+        if plan.sample is not None:
+            keep = plan.sample.mask(raw, labels)
+            raw, ids, labels = raw[keep], ids[keep], labels[keep]
         if not values:
             return raw, ids, labels
         ids_path, values_path = points_paths(plan.work, ij)

@@ -33,12 +33,17 @@ class Plan:
     files: dict
     classes: object
     staged: str = ""
+    #: The points whose saliency is asked for, a sample (``sample.mask(raw xyz, class codes)``
+    #: -> (N,) bool, or None for all; a change map's, :class:`lidar_sig.change_map.Sample`);
+    #: None: every point.
+    sample: object = None
 
     def key(self):
         """Changes whenever a tile's result would: the set's files as staged (path, size, time,
-        points), its context, the method, the points left out and the tiling."""
+        points), its context, the method, the points left out, the tiling and the sample."""
         return json.dumps([self.staged, self.ctx.key(), self.pipeline.method(), self.classes.name,
-                           self.pipeline.noise_codes(), self.pipeline.frame.size, self.tiling.size], default=str)
+                           self.pipeline.noise_codes(), self.pipeline.frame.size, self.tiling.size,
+                           repr(self.sample)], default=str)
 
     def _raw(self, bounds):
         """Plan-view ``bounds`` (x0, y0, x1, y1 in centred metres) in the files' coordinates."""
@@ -46,13 +51,16 @@ class Plan:
         c, f = self.ctx.centre, self.ctx.factors
         return (x0 / f[0] + c[0], y0 / f[1] + c[1], x1 / f[0] + c[0], y1 / f[1] + c[1])
 
-    def load(self, bounds):
-        """(xyz centred metres, ids, labels) of the staged points within plan-view ``bounds``."""
+    def load(self, bounds, *, raw=False):
+        """(xyz centred metres, ids, labels) of the staged points within plan-view ``bounds``,
+        and with ``raw`` their coordinates in the files' units last."""
         x0, y0, x1, y1 = bounds
         rec = load_cells(self.files, self.cells, self._raw(bounds))
-        xyz = self.ctx.metric(np.column_stack([rec["x"], rec["y"], rec["z"]]))
+        coords = np.column_stack([rec["x"], rec["y"], rec["z"]])
+        xyz = self.ctx.metric(coords)
         inside = (xyz[:, 0] >= x0) & (xyz[:, 0] <= x1) & (xyz[:, 1] >= y0) & (xyz[:, 1] <= y1)
-        return xyz[inside], rec["id"][inside], rec["label"][inside]
+        out = xyz[inside], rec["id"][inside], rec["label"][inside]
+        return (*out, coords[inside]) if raw else out
 
     def load_points(self, bounds):
         xyz, ids, _ = self.load(bounds)
@@ -137,13 +145,15 @@ def tile_task(plan, ij):
     first = {}
 
     def load(bounds):  # the tile's own block keeps its class codes: no second read for them
-        xyz, ids, labels = plan.load(bounds)
+        xyz, ids, labels, raw = plan.load(bounds, raw=True)
         if not first:
-            first.update(xyz=xyz, labels=labels)
+            first.update(xyz=xyz, labels=labels, raw=raw)
         return xyz, ids
 
     second_of = plan.second_of if plan.ctx.area_cap is not None else None  # the cap pass's distances
-    r = tile_saliency(plan.pipeline, load, plan.tiling, ij, plan.ctx, second_of=second_of)
+    sampled = None if plan.sample is None else lambda: first.setdefault("sampled", plan.sample.mask(first["raw"],
+                                                                                                    first["labels"]))
+    r = tile_saliency(plan.pipeline, load, plan.tiling, ij, plan.ctx, second_of=second_of, sampled=sampled)
     codes = np.empty(0, np.int64)
     if first:  # core points in the order of the first block, as tile_saliency lists them
         core = plan.tiling.core(first["xyz"][:, 0], first["xyz"][:, 1], ij)
@@ -155,12 +165,16 @@ def tile_task(plan, ij):
     per_source = np.bincount(source_of(r.ids))
     stats = {**r.stats, "n_undefined": sig.n_undefined, "seconds": time.perf_counter() - t0,
              "sources": {str(s): int(c) for s, c in enumerate(per_source) if c}, "resumed": False}
-    order = np.argsort(r.ids, kind="stable")  # by identifier: each file's points in its order
+    # by identifier: each file's points in its order; of a sample, its points alone (the others
+    # are undefined: the files hold what was computed)
+    kept = first["sampled"][core] if "sampled" in first else slice(None)
+    ids, values, chosen = r.ids[kept], r.values[kept], None if r.chosen is None else r.chosen[kept]
+    order = np.argsort(ids, kind="stable")
     rec = np.empty(len(order), POINT_VALUES)
-    rec["values"] = r.values[order]
-    rec["chosen"] = r.chosen[order] if r.chosen is not None else -1
+    rec["values"] = values[order]
+    rec["chosen"] = chosen[order] if chosen is not None else -1
     ids_path, values_path = points_paths(plan.work, ij)
-    save_whole(ids_path, r.ids[order])
+    save_whole(ids_path, ids[order])
     save_whole(values_path, rec)
     save_whole(path, counts_at=nz, counts=flat[nz], egeom_counts=sig.egeom_counts, class_totals=sig.class_totals,
                has_chosen=np.array(r.chosen is not None), key=np.array(key),

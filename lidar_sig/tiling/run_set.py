@@ -24,6 +24,7 @@ import json
 import math
 import os
 import time
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -50,7 +51,7 @@ MIN_TILE_POINTS = 500
 
 def run_set(pipeline: Any, inputs: Any, *, work: str | os.PathLike[str], tile_size: float | None = None,
             backend: Any = None, resume: bool = False, progress_enabled: bool | None = None, outputs: Any = (),
-            memory: int | str = DEFAULT_MEMORY) -> SetRun:
+            memory: int | str = DEFAULT_MEMORY, sample: Any = None) -> SetRun:
     """Process the LAS/LAZ files and folders ``inputs`` as one set, in tiles of ``tile_size``
     metres (default: as many points as a process holds within ``memory`` bytes,
     :func:`lidar_sig.tiling.memory.tile_points`, and two tiles per worker at least), on ``backend``
@@ -59,7 +60,10 @@ def run_set(pipeline: Any, inputs: Any, *, work: str | os.PathLike[str], tile_si
     in ``work`` (the :class:`SetRun` reads them from there); the command line removes it after a
     complete run, in Python :func:`lidar_sig.tiling.work.remove_work` does. With ``resume``, staged files and finished
     tiles of an earlier run of the same set, grid and method are reused. Returns a
-    :class:`SetRun`.
+    :class:`SetRun`. ``sample(run, tiles)``, when given, is called once the set is staged and
+    tiled (``run.plan`` set, ``tiles`` the occupied ones) and returns the points whose saliency is
+    computed (an object with ``mask(raw xyz, class codes) -> (N,) bool``, kept on the
+    :class:`Plan`), or None for every point: a change map computes its cells' sample alone.
 
     The work folder is held by this run (another run is refused) until it returns or raises,
     or until its job ends (:func:`lidar_sig.tiling.work.work_scope`); then it is let go, and
@@ -67,10 +71,10 @@ def run_set(pipeline: Any, inputs: Any, *, work: str | os.PathLike[str], tile_si
     as_path(work, "run_set's work (a folder for the run's scratch files)")
     with work_scope(work):
         return _run_set(pipeline, inputs, work=work, tile_size=tile_size, backend=backend, resume=resume,
-                        progress_enabled=progress_enabled, outputs=outputs, memory=memory)
+                        progress_enabled=progress_enabled, outputs=outputs, memory=memory, sample=sample)
 
 
-def _run_set(pipeline, inputs, *, work, tile_size, backend, resume, progress_enabled, outputs, memory):
+def _run_set(pipeline, inputs, *, work, tile_size, backend, resume, progress_enabled, outputs, memory, sample=None):
     """:func:`run_set` within the scope of its work folder."""
     from .backends import InProcess
 
@@ -111,14 +115,7 @@ def _run_set(pipeline, inputs, *, work, tile_size, backend, resume, progress_ena
     # 2. the set's context, from the points staged (withheld and noise points left out)
     lo = np.min([r["lo"] for r in records.values()], axis=0)
     hi = np.max([r["hi"] for r in records.values()], axis=0)
-    n_points = sum(r["n"] - r["n_excluded"] for r in records.values())
-    need = pipeline.min_points()
-    if n_points < need:
-        left_out = sum(run.excluded.values())
-        raise LidarSigError(f"the set holds {counted(n_points, 'point')}"
-                            + (f" besides {counted(left_out, 'withheld or noise point')}" if left_out else "")
-                            + f", fewer than the largest scale needs ({need}); use a larger set or smaller scales"
-                            + (f" ({arg('keep_noise', True)} uses every point)" if left_out else ""))
+    n_points = _enough_points(pipeline, records, run)
     ctx = context_of(lo, hi, factors, pipeline, n_points)
     if sized:  # the headers' mean density can hide a denser part: no tile may hold more than the budget
         tile_size = min(tile_size, tile_side_for(tile_points(memory), densest(records, cells, factors)))
@@ -129,6 +126,9 @@ def _run_set(pipeline, inputs, *, work, tile_size, backend, resume, progress_ena
     plan = Plan(str(work), pipe, ctx, tiling, cells, cell_files(work, records),
                 pipeline.classes if labelled else UNLABELED, staged_key)
     tiles = [ij for ij in tiling.tiles() if plan.occupied(ij)]
+    if sample is not None:
+        run.ctx, run.tiling, run.plan = ctx, tiling, plan
+        plan = replace(plan, sample=sample(run, tiles))
     if pipeline.weights.by_area:
         plan = _with_area_cap(plan, tiles, work, run, backend, resume, progress_enabled)
         if plan is None:
@@ -215,6 +215,20 @@ def _tile_count(extent):
     return lambda side: math.prod(max(1, math.ceil(e / side)) for e in extent)
 
 
+def _enough_points(pipeline, records, run):
+    """The points the set staged and kept (withheld and noise points left out), refused when
+    fewer than the method's largest scale needs."""
+    n_points = sum(r["n"] - r["n_excluded"] for r in records.values())
+    need = pipeline.min_points()
+    if n_points < need:
+        left_out = sum(run.excluded.values())
+        raise LidarSigError(f"the set holds {counted(n_points, 'point')}"
+                            + (f" besides {counted(left_out, 'withheld or noise point')}" if left_out else "")
+                            + f", fewer than the largest scale needs ({need}); use a larger set or smaller scales"
+                            + (f" ({arg('keep_noise', True)} uses every point)" if left_out else ""))
+    return n_points
+
+
 def _tiles(plan, tiles, run, backend, progress_enabled, start):
     """Run the ``tiles`` of ``plan``, their statistics (or why they failed) recorded in ``run``."""
     bar = progress(backend.run(tile_task, [(plan, ij) for ij in tiles]), total=len(tiles), desc="tiles",
@@ -289,7 +303,7 @@ def _with_area_cap(plan, tiles, work, run, backend, resume, progress_enabled):
             st.note(cap=f"{cap:.4g} m")
         save_area_cap(work, plan.key(), cap)
     ctx = SetContext(ctx.centre, ctx.factors, ctx.lo, ctx.hi, ctx.scales, cap, ctx.density)
-    return Plan(plan.work, plan.pipeline, ctx, plan.tiling, plan.cells, plan.files, plan.classes, plan.staged)
+    return replace(plan, ctx=ctx)
 
 
 def run_in_tiles(pipeline, source, execution, *, n_points, work=None, outputs=()):
