@@ -1,9 +1,10 @@
 """Bytes a point writes into and reads back from a change map's work folder (issue 47, must-show 5).
 
-    python benchmarks/work_bytes.py [--dir DIR] [--memory 400MiB] [--tile-size 100]
+    python benchmarks/work_bytes.py [--dir DIR] [--memory 400MiB] [--tile-size 100] [--pair A B]
 
 Maps the IGN pair of benchmarks/bench_m3c2_time.py (the six IGN tiles against the block's edited
-copy, written once into ``--dir``) in work units in this process (``workers=1``), with
+copy, written once into ``--dir``), or the LAS/LAZ files ``--pair A B`` (e.g. the 20 million pair
+of benchmarks/bench_change_scale.py), in work units in this process (``workers=1``), with
 ``--points b.laz`` written as the command line writes it, and counts:
 
 - **written**: the size of every file the run leaves in its work folder, by kind (staged
@@ -93,12 +94,13 @@ def main():
     parser.add_argument("--dir", default=None)
     parser.add_argument("--memory", default="400MiB")
     parser.add_argument("--tile-size", type=float, default=None)
+    parser.add_argument("--pair", nargs=2, metavar=("A", "B"), default=None)
     args = parser.parse_args()
     from bench_m3c2_time import pairs
 
     folder = Path(args.dir or tempfile.mkdtemp(prefix="work-bytes-"))
     folder.mkdir(parents=True, exist_ok=True)
-    a, b, _ = pairs(folder)["IGN"]
+    a, b = args.pair if args.pair else pairs(folder)["IGN"][:2]
     work = folder / "work"
     import shutil
 

@@ -571,7 +571,9 @@ class ChangesAlgorithm(LidarSigAlgorithm):
             "request.</p><p>An epoch is a point-cloud file; from a script, also a folder of tiles. The layers are "
             "named by the epochs (Change A → B, Cells A → B).</p>")
     notes = ("<p><b>Cell size</b> (m): 0, chosen from the densities. <b>Fewest points per cell</b> (in each epoch): "
-             "0, chosen from the densities. <b>Ranking metric</b>: the metric that ranks the cells; not set, "
+             "0, chosen from the densities. <b>Sample density</b> (points/m²): a denser epoch's cells take a sample of "
+             "its points, whose saliency alone is computed; 0: 5, more for cells under 25 m; a large value takes "
+             "every point. <b>Ranking metric</b>: the metric that ranks the cells; not set, "
              "delta_KL, or delta_FV without comparable classes. <b>CRS of clouds without one</b>: the CRS of epochs "
              "whose header carries none (--crs), given to the change map and the cells; an epoch in another CRS is "
              "refused. <b>Later epoch's points with change</b>: its points with their cell's score, level of "
@@ -584,6 +586,8 @@ class ChangesAlgorithm(LidarSigAlgorithm):
                                                        QgsProcessingParameterNumber.Double, 0.0, minValue=0.0))
         self.addParameter(QgsProcessingParameterNumber("MIN_POINTS", "Fewest points per cell (0: automatic)",
                                                        QgsProcessingParameterNumber.Integer, 0, minValue=0))
+        self.addParameter(QgsProcessingParameterNumber("SAMPLE_DENSITY", "Sample density (points/m²; 0: automatic)",
+                                                       QgsProcessingParameterNumber.Double, 0.0, minValue=0.0))
         self.addParameter(choice("SCORE", "Ranking metric", metric_names()))
         self.addParameter(QgsProcessingParameterNumber("CONFIDENCE", "Confidence of the level of detection",
                                                        QgsProcessingParameterNumber.Double, 0.95, minValue=0.5,
@@ -609,6 +613,8 @@ class ChangesAlgorithm(LidarSigAlgorithm):
         args += ["--cell", repr(cell)] if cell > 0 else []
         fewest = self.parameterAsInt(parameters, "MIN_POINTS", context)
         args += ["--min-points", str(fewest)] if fewest > 0 else []
+        sample = self.parameterAsDouble(parameters, "SAMPLE_DENSITY", context)
+        args += ["--sample-density", repr(sample)] if sample > 0 else []
         score = self.parameterAsEnumString(parameters, "SCORE", context)  # the name shown; the command's key
         args += ["--score", metric_names().get(score, score)] if score else []
         for name, option in (("POINTS", "--points"), ("REPORT", "--report")):
