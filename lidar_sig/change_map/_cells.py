@@ -122,14 +122,15 @@ class Sample:
         return np.ones(len(xyz), bool) if inside is None else inside
 
 
-def in_sample(xyz, labels, fraction):
+def in_sample(xyz, labels, fraction, keys=None):
     """(N,) bool: the points of an epoch's sample of share ``fraction`` (:func:`sample_fraction
-    <lidar_sig.change_map._density.sample_fraction>`), those whose :func:`point_keys` lie in the
-    lowest ``fraction`` of their range: the same points however the epoch is ordered, cut or
-    listed; None for a fraction of 1 (every point)."""
+    <lidar_sig.change_map._density.sample_fraction>`), those whose :func:`point_keys` (``keys``
+    when computed already) lie in the lowest ``fraction`` of their range: the same points however
+    the epoch is ordered, cut or listed; None for a fraction of 1 (every point)."""
     if fraction >= 1.0:
         return None
-    return point_keys(xyz, labels) < np.uint64(int(fraction * 2.0 ** 64))
+    keys = point_keys(xyz, labels) if keys is None else keys
+    return keys < np.uint64(int(fraction * 2.0 ** 64))
 
 
 def _mix(x):
@@ -167,8 +168,8 @@ def bin_points(epoch, grid, classes, labelled, frame=CELL_FRAME):
     undefined = np.bincount(cells[~epoch.saliency.defined], minlength=n_cells + 1)[:n_cells]
     pixel, egeom_bin = point_codes(epoch.saliency.values, index, frame, egeom=epoch.saliency.egeom)
     height = epoch.cloud.xyz[:, 2] * epoch.cloud.units.vertical
-    return Binned(order, starts, counts.reshape(n_cells, n_classes), undefined, pixel, egeom_bin, index, height,
-                  point_keys(epoch.cloud.xyz, epoch.cloud.labels))
+    keys = epoch.keys if epoch.keys is not None else point_keys(epoch.cloud.xyz, epoch.cloud.labels)
+    return Binned(order, starts, counts.reshape(n_cells, n_classes), undefined, pixel, egeom_bin, index, height, keys)
 
 
 def cell_signature(epoch, idx, classes, labelled, frame):

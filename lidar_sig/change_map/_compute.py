@@ -18,7 +18,7 @@ from ..base.progress import step
 from ..method.signature_raster import Frame, method_differences
 from ..numerics.bounds import bounds
 from ..io.clip import clip_inputs
-from ._cells import CELL_FRAME, SEED, bin_points, cell_table, in_sample
+from ._cells import CELL_FRAME, SEED, bin_points, cell_table, in_sample, point_keys
 from ._cores import cell_values
 from ._density import (AUTO, SAMPLE_DENSITY, auto_cell, auto_min_points, density, fewer_points, no_defined_cell,
                        sample_fraction, sparse_note)
@@ -153,17 +153,19 @@ def _clipped(clip, options):
 def _maps(clouds, names, given, kept, samples, pipeline, table_of_classes, labelled, grid, units, densities, s,
           render, notes):
     """Each epoch's saliency (once, of its sample), its points binned, then the map of each
-    interval (a ChangeMap, or a ChangeSeries of three epochs or more); ``densities`` are the
-    epochs' and their samples' points per m²."""
+    interval (a ChangeMap, or a ChangeSeries of three epochs or more); ``samples`` are each
+    epoch's sample (None: every point) and its points' keys (None: not computed yet),
+    ``densities`` the epochs' and their samples' points per m²."""
     densities, sampled = densities
+    samples, keys = samples
     epochs, seconds = [], []
-    for cloud, name, epoch, used_points, sample in zip(clouds, names, given, kept, samples):
+    for cloud, name, epoch, used_points, sample, key in zip(clouds, names, given, kept, samples, keys):
         start = time.perf_counter()
         if epoch is None:
             sal, stats = pipeline.saliency(cloud, query=sample)
-            epoch = Epoch(name, cloud, sal, stats, kept=used_points)
+            epoch = Epoch(name, cloud, sal, stats, kept=used_points, keys=key)
         elif used_points is not epoch.kept:  # computed whole: its cells take the sample
-            epoch = Epoch(epoch.name, epoch.cloud, epoch.saliency, epoch.metadata, kept=used_points)
+            epoch = Epoch(epoch.name, epoch.cloud, epoch.saliency, epoch.metadata, kept=used_points, keys=key)
         seconds.append(time.perf_counter() - start)
         epochs.append(epoch)
     classes = table_of_classes if labelled else UNLABELED
@@ -264,7 +266,8 @@ def _layout(clouds, given, names, pipeline, s, notes):
     # each epoch's cells take a sample of at most SAMPLE_DENSITY points per m², by the points'
     # keys; the rules count the sample's points, at its expected density
     fractions = [sample_fraction(d, s.sample_density) for d in densities]
-    samples = [in_sample(c.xyz, c.labels, f) for c, f in zip(clouds, fractions)]
+    keys = [point_keys(c.xyz, c.labels) if f < 1.0 else None for c, f in zip(clouds, fractions)]  # binned again
+    samples = [in_sample(c.xyz, c.labels, f, k) for c, f, k in zip(clouds, fractions, keys)]
     kept = [k if q is None else (q if k is None else k & q) for k, q in zip(kept, samples)]
     sampled = [d * f for d, f in zip(densities, fractions)]
     if s.cell is None:
@@ -286,7 +289,7 @@ def _layout(clouds, given, names, pipeline, s, notes):
             fix = fewer_points(s.min_points_rule, s.min_points)
             raise LidarSigError(f"no cell of {s.cell:g} m holds {counted(s.min_points, 'point')} in both "
                                 f"epochs{pair} (at most {amount(filled.max())}); {fix}")
-    return units, kept, samples, (densities, sampled), grid
+    return units, kept, (samples, keys), (densities, sampled), grid
 
 
 def _in_units(sources, files, pipeline, execution, resume, work, table_of_classes, class_map, settings):

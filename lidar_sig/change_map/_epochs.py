@@ -18,14 +18,16 @@ from ..io.tile_lists import check_distinct, tile_list
 @dataclass
 class Epoch:
     """One epoch of a change map: its name, cloud, per-point saliency (docs/method.md, "Saliency map"), the run's
-    statistics (with the method that computed it) and the points the run used (``kept``,
-    :meth:`Pipeline.kept`; None for all)."""
+    statistics (with the method that computed it), the points the run used (``kept``,
+    :meth:`Pipeline.kept`; None for all) and, when known already, each point's key
+    (:func:`~lidar_sig.change_map._cells.point_keys`, which chose the cells' sample)."""
 
     name: str
     cloud: object
     saliency: object
     metadata: dict = field(default_factory=dict)
     kept: np.ndarray = None
+    keys: np.ndarray = None
 
     def used(self, values):
         """The rows of per-point ``values`` (coordinates, saliency) of the points the run used."""
