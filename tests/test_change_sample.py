@@ -41,6 +41,8 @@ def test_a_sampled_point_s_saliency_is_the_one_a_run_on_every_point_gives():
     assert stats["n_queried"] == int(query.sum())
     np.testing.assert_allclose(part.values[query], whole.values[query], rtol=1e-12, atol=1e-15)
     assert np.isnan(part.values[~query]).all()
+    whole_map = changes(cloud, ls.read(SAMPLES / "epoch2_aligned.laz"), pipeline=pipe, sample_density=None)
+    assert whole_map.sample_text() == "" and whole_map.sampled == whole_map.density
     with pytest.raises(ls.LidarSigError, match="one bool per point"):
         pipe.saliency(cloud, query=query[:-1])
 
@@ -52,6 +54,10 @@ def test_a_dense_epoch_s_cells_take_its_sample_and_the_rules_count_it(ign):
     assert cm.density == pytest.approx((d, d))
     assert d > SAMPLE_DENSITY and cm.sampled == pytest.approx((SAMPLE_DENSITY, SAMPLE_DENSITY))
     assert cm.min_points == round(0.2 * SAMPLE_DENSITY * 25 ** 2)
+    assert cm.sample_text() == f"the cells take a sample of {SAMPLE_DENSITY:g} points/m²"  # the CLI and report say it
+    from lidar_sig.reporting._changes_page import settings_text
+
+    assert cm.sample_text() in settings_text(cm)
     points = cm.table["points_a"]
     expected = np.bincount(cm.grid.cell_of(ign.xyz[:, :2]), minlength=cm.grid.n_cells) * SAMPLE_DENSITY / d
     full = points >= 500

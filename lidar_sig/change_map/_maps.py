@@ -455,6 +455,12 @@ class ChangeMap:
                  "changed": bool(t["changed"][c])}
                 for c in np.flatnonzero(t["coverage"] == code)]
 
+    def sample_text(self) -> str:
+        """What the cells took of a denser epoch, "the cells take a sample of 5 points/m²", or ""
+        when they took every point (docs/changes.md, "The points a cell's signature takes")."""
+        thinned = sorted({round(float(s), 6) for s, d in zip(self.sampled, self.density) if s < d})
+        return f"the cells take a sample of {thinned[0]:g} points/m²" if thinned else ""
+
     def settings(self) -> dict[str, Any]:
         """The grid and settings as plain values (``to_dict`` without the cells)."""
         a, b, c, d, e, f = self.grid.transform

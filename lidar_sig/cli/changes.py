@@ -143,8 +143,8 @@ def _densities(result):
 
 def _sampled(maps):
     """What the first line adds when the cells take a sample of a denser epoch's points."""
-    thinned = {round(s, 6) for m in maps for s, d in zip(m.sampled, m.density) if s < d}
-    return f" (the cells take a sample of {min(thinned):g} points/m²)" if thinned else ""
+    said = next((text for text in (m.sample_text() for m in maps) if text), "")
+    return f" ({said})" if said else ""
 
 
 def _rule(rule):

@@ -61,13 +61,14 @@ def settings_text(cm):
     """The grid, the rules that chose it, the ranking and how many cells changed significantly."""
     valid = int(cm.table["valid"].sum())
     chosen = {"auto": "chosen from the epochs' densities", "given": "given"}
-    density = " and ".join(f"{d:.3g}" for d in cm.density)
+    density = " and ".join(f"{d:.3g}" for d in cm.density) + " points/m²"
+    density += "".join(f"; {text}" for text in [cm.sample_text()] if text)  # the cells' sample, if any
     crs = cm.settings()["crs"] or "the coordinates (no CRS)"
     ranking = cm.score_name
     return (f"<p>Cells of {cm.cell:g} m ({cm.grid.rows} x {cm.grid.cols}, aligned to multiples of the cell size in "
             f"{page.esc(crs)}; {chosen[cm.cell_rule]}); {valid} of {cm.grid.n_cells} cells hold {cm.min_points:,} "
             f"points with defined saliency or more in both epochs ({chosen[cm.min_points_rule]}; densities "
-            f"{density} points/m²) and are compared. Ranked by <b>{page.esc(ranking)}</b>: "
+            f"{density}) and are compared. Ranked by <b>{page.esc(ranking)}</b>: "
             f"<b>{cm.n_significant} of {valid} cells changed significantly</b> (their score or their height "
             f"component exceeds its level of detection, at {cm.confidence:.0%} confidence together), listed "
             f"first, each by how far it lies from its level of detection (lod_ratio, the map's colour); per-cell "
