@@ -70,3 +70,20 @@ def test_a_dense_epoch_s_cells_take_its_sample_and_the_rules_count_it(ign):
     for k in ("points_a", "points_b", "valid", "coverage"):
         assert np.array_equal(again.table[k], cm.table[k]), k
     np.testing.assert_allclose(again.table["score"], cm.table["score"], rtol=1e-9, equal_nan=True)
+
+
+@pytest.mark.parametrize("bad", [0, -5, float("nan"), float("inf"), True, "dense"])
+def test_a_bad_sample_density_is_refused_at_the_call_before_any_file_is_read(bad, tmp_path):
+    with pytest.raises(ls.LidarSigError, match="sample_density must be a positive number"):
+        changes(tmp_path / "missing_a.laz", tmp_path / "missing_b.laz", sample_density=bad)
+
+
+@pytest.mark.parametrize("bad", ["0", "-1", "nan", "inf", "dense"])
+def test_the_command_line_refuses_a_bad_sample_density_in_one_line(bad, tmp_path):
+    from command_line import run
+    from robustness.helpers import assert_one_line_error
+
+    proc = run("changes", SAMPLES / "epoch1.laz", SAMPLES / "epoch2_aligned.laz", "--sample-density", bad,
+               "-o", tmp_path / "map.tif")
+    assert_one_line_error(proc, "--sample-density", bad)
+    assert not (tmp_path / "map.tif").exists()
