@@ -17,7 +17,7 @@ from ..base.compile import COMMON, announce_compilation, load_kernels, warm_up
 from ..base.errors import FACE, LidarSigError, LidarSigWarning, a_kind, arg, counted
 from ..io.open3d import from_open3d, is_open3d
 from ..numerics.bounds import nan_rows
-from ..numerics.neighbors import WEIGHTS, NeighborIndex, Weights, unique_points
+from ..numerics.neighbors import WEIGHTS, NeighborIndex, Weights, cap_share, set_area_cap, unique_points
 from ..plugins import get_descriptor, get_strategy
 from ..base.progress import step
 from .result import Result, TiledResult
@@ -244,6 +244,20 @@ class Pipeline:
                                                None if query is None else query[kept])
         return Saliency.of_kept(values, chosen, kept), {**stats, "n_points": len(cloud)}
 
+    @staticmethod
+    def _area_weights(index, cloud, inverse):
+        """The area weights of ``index``'s locations (``inverse``: each point's, or None), with the
+        cap a run in tiles finds too (:func:`~lidar_sig.numerics.neighbors.set_area_cap`)."""
+        second = index.second_distances()
+        xy = None
+        if cap_share(len(cloud)) < 1.0:  # the sample's windows are placed by each location's x, y
+            occurrence = np.arange(len(cloud))
+            if inverse is not None:  # a point of each location: copies share their coordinates
+                occurrence = np.empty(len(index.xyz), np.int64)
+                occurrence[inverse] = np.arange(len(cloud))
+            xy = cloud.xyz[occurrence[index.order], :2] * np.asarray(cloud.units.factors[:2])
+        return index.area_weights(set_area_cap(second, xy, len(cloud)), second)
+
     def _saliency(self, cloud, n_excluded, query=None):
         """(N, 3) saliency values and (N,) chosen scales (or None) of every point of ``cloud``
         (the points a run uses), or of the points ``query`` alone (the others NaN), and the
@@ -264,7 +278,7 @@ class Pipeline:
             self.descriptor.prepare(support, self.scales.kind, scales, max_neighbors=self.max_neighbors,
                                     min_neighbors=self.min_neighbors, progress=self.progress)
             if self.weights.by_area:
-                index.weights = index.area_weights()
+                index.weights = self._area_weights(index, cloud, inverse)
             s.note(locations=len(support))
         m = len(support)
         values = np.empty((m, 3)) if query is None else np.full((m, 3), np.nan)

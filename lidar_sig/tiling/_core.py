@@ -17,7 +17,9 @@ or the block holds the whole set. Sides of the halo beyond the set's extent are 
 What depends on the whole set is decided once and shared by every tile (:class:`SetContext`):
 the centre the coordinates are taken from, the scales in metres (normalized radii follow the
 set's extent), and the area-weight cap (from the median second-neighbour distance of all
-distinct locations). Exact duplicate points share their x, y and so their tile, and are merged
+distinct locations, or of a sample of windows above a million points,
+:data:`~lidar_sig.numerics.neighbors.CAP_POINTS`: the tiles then find their points' distances
+themselves, with the cap in their halo). Exact duplicate points share their x, y and so their tile, and are merged
 there as in the single-block run.
 
 The voxel grid of a block differs from the whole set's, so points tied at exactly the same
@@ -34,7 +36,8 @@ import numpy as np
 
 from ..numerics.bounds import bounds
 from ..base.errors import LidarSigError, arg, positive_metres
-from ..numerics.neighbors import NeighborIndex, ScaleKind, area_cap, radius_reach, unique_points
+from ..numerics.neighbors import (CAP_REACH, NeighborIndex, ScaleKind, area_cap, cap_share, in_cap_windows, radius_reach,
+                                  sampled_area_cap, unique_points)
 
 #: Relative margin kept between a needed distance and the halo's edge (round-off of the tests).
 MARGIN = 1e-9
@@ -431,6 +434,31 @@ def tile_second_distances(load, tiling, ij, ctx, *, halo=None):
     return point_ids, out if per_point is None else out[per_point], out
 
 
+def tile_cap_sample(load, tiling, ij, ctx, share):
+    """Second-neighbour distances (metres) of the distinct locations among tile ``ij``'s core
+    points that lie in the windows of the area-weight cap's sample of ``share``
+    (:func:`~lidar_sig.numerics.neighbors.in_cap_windows`), exact up to CAP_REACH (beyond it, some
+    distance beyond it: the cap takes none past it). ``load(bounds) -> (xyz, ids, labels, raw)``.
+    Every point within CAP_REACH of such a location lies within CAP_REACH of its window and of
+    the tile, so a block of those few points alone finds each distance."""
+    x0, y0, x1, y1 = tiling.box(*ij)
+    xyz, _, _, raw = load((x0 - CAP_REACH, y0 - CAP_REACH, x1 + CAP_REACH, y1 + CAP_REACH))
+    xy = raw[:, :2] * np.asarray(ctx.factors[:2])
+    near = in_cap_windows(xy, share, CAP_REACH)
+    xyz, xy = xyz[near], xy[near]
+    wanted = tiling.core(xyz[:, 0], xyz[:, 1], ij) & in_cap_windows(xy, share)
+    if not wanted.any():
+        return np.empty(0)
+    support, inverse = unique_points(xyz)
+    loc = np.flatnonzero(wanted) if inverse is None else np.unique(inverse[wanted])
+    if len(support) < 3:  # fewer than two others within the reach: each distance is beyond it
+        return np.full(len(loc), np.inf)
+    index = NeighborIndex(support, ScaleKind.KNN, np.array([min(SECOND_GRID_K, len(support))]), min_neighbors=1)
+    asked = np.zeros(len(support), bool)
+    asked[loc] = True
+    return index.second_distances(np.flatnonzero(asked[index.order]), shells=TILE_SHELLS)
+
+
 def positions_of(sorted_source, wanted):
     """Positions in ``sorted_source`` (any order, unique) of the identifiers ``wanted``."""
     order = np.argsort(sorted_source, kind="stable")
@@ -480,8 +508,17 @@ def saliency_in_tiles(pipeline, cloud, tile_size, *, halo=None):
         return xyz[inside], ids[inside]
 
     if pipeline.weights.by_area:
-        d = np.concatenate([tile_second_distances(load, tiling, ij, ctx)[2] for ij in tiling.tiles()])
-        ctx = SetContext(ctx.centre, ctx.factors, ctx.lo, ctx.hi, ctx.scales, area_cap(d), ctx.density)
+        share, cap = cap_share(len(cloud)), None
+        if share < 1.0:
+            def load_raw(bounds):
+                xyz_, ids_ = load(bounds)
+                return xyz_, ids_, None, cloud.xyz[ids_]
+
+            cap = sampled_area_cap(np.concatenate([tile_cap_sample(load_raw, tiling, ij, ctx, share)
+                                                   for ij in tiling.tiles()]))
+        if cap is None:
+            cap = area_cap(np.concatenate([tile_second_distances(load, tiling, ij, ctx)[2] for ij in tiling.tiles()]))
+        ctx = SetContext(ctx.centre, ctx.factors, ctx.lo, ctx.hi, ctx.scales, cap, ctx.density)
     values = np.full((len(xyz), 3), np.nan)
     chosen = None
     totals = {}

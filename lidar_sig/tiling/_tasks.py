@@ -1,5 +1,6 @@
 """The tasks of a tiled run, each small enough to send to a worker: staging one part of a file,
-the second-neighbour distances of one tile (for the area-weight cap), and one tile's saliency and
+the second-neighbour distances of one tile or of its part of a sample (for the area-weight cap),
+and one tile's saliency and
 signature written to the work folder (each file complete or absent, so that a resumed run skips
 finished tiles); and the :class:`Plan` every tile task shares."""
 from __future__ import annotations
@@ -12,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from ..method.signature_raster import Signature
-from ._core import SetContext, Tiling, tile_name, tile_saliency, tile_second_distances
+from ._core import SetContext, Tiling, tile_cap_sample, tile_name, tile_saliency, tile_second_distances
 from .sources import Cells, load_cells, source_of, stage_part
 from .work import FINISHED, load_done, save_whole
 
@@ -37,6 +38,10 @@ class Plan:
     #: -> (N,) bool, or None for all; a change map's, :class:`lidar_sig.change_map.Sample`);
     #: None: every point.
     sample: object = None
+    #: True when the cap's pass kept every core point's second-neighbour distance
+    #: (:func:`second_task`), which the tiles then take; False when the cap came from a sample
+    #: (:func:`cap_task`) and each tile searches its own.
+    second_known: bool = True
 
     def key(self):
         """Changes whenever a tile's result would: the set's files as staged (path, size, time,
@@ -133,6 +138,12 @@ def second_task(plan, ij):
     return len(location_d)
 
 
+def cap_task(plan, ij, share):
+    """Second-neighbour distances of the distinct locations of one tile's core points in the
+    area-weight cap's sample of ``share`` (a task; :func:`tile_cap_sample`)."""
+    return tile_cap_sample(lambda bounds: plan.load(bounds, raw=True), plan.tiling, ij, plan.ctx, share)
+
+
 def tile_task(plan, ij):
     """Saliency and signature of one tile's core points, written to the work folder (a task);
     returns the tile's statistics. A result of the same set and method is reused."""
@@ -150,7 +161,7 @@ def tile_task(plan, ij):
             first.update(xyz=xyz, labels=labels, raw=raw)
         return xyz, ids
 
-    second_of = plan.second_of if plan.ctx.area_cap is not None else None  # the cap pass's distances
+    second_of = plan.second_of if plan.ctx.area_cap is not None and plan.second_known else None  # the cap pass's
     sampled = None if plan.sample is None else lambda: first.setdefault("sampled", plan.sample.mask(first["raw"],
                                                                                                     first["labels"]))
     r = tile_saliency(plan.pipeline, load, plan.tiling, ij, plan.ctx, second_of=second_of, sampled=sampled)

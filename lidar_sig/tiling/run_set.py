@@ -32,14 +32,14 @@ import numpy as np
 
 from ..method.classes import UNLABELED
 from ..base.errors import LidarSigError, arg, as_path, counted
-from ..numerics.neighbors import AREA_CAP
+from ..numerics.neighbors import AREA_CAP, cap_share, sampled_area_cap
 from ..base.progress import progress, step
 from ._core import SetContext, Tiling, check_tile_size, check_tileable, context_of, tile_name
 from ._median import sorted_median
 from .memory import DEFAULT_MEMORY, budget_bytes, tile_points
 from ._set_run import SetRun, TiledResult, sum_signatures
 from .sources import Cells, cell_files, densest, expand, scan, staged, tile_side_for
-from ._tasks import Plan, second_paths, second_task, stage_task, tile_task
+from ._tasks import Plan, cap_task, second_paths, second_task, stage_task, tile_task
 from .work import (discard_work, forget_area_cap, fresh_work, prepare_work, remove_work, save_area_cap,
                    saved_area_cap, work_scope)
 
@@ -130,7 +130,7 @@ def _run_set(pipeline, inputs, *, work, tile_size, backend, resume, progress_ena
         run.ctx, run.tiling, run.plan = ctx, tiling, plan
         plan = replace(plan, sample=sample(run, tiles))
     if pipeline.weights.by_area:
-        plan = _with_area_cap(plan, tiles, work, run, backend, resume, progress_enabled)
+        plan = _with_area_cap(plan, tiles, work, run, backend, resume, progress_enabled, n_points)
         if plan is None:
             return run
         ctx = plan.ctx
@@ -282,28 +282,46 @@ def _stage(work, good, sources, cells, run, backend, resume, noise_codes, progre
     return records
 
 
-def _with_area_cap(plan, tiles, work, run, backend, resume, progress_enabled):
+def _with_area_cap(plan, tiles, work, run, backend, resume, progress_enabled, n_points):
     """``plan`` with the set's area-weight cap in its context: the median second-neighbour
-    distance over every distinct location, from a pass over the tiles (or a resumed run's);
-    None when a tile of that pass failed (recorded in ``run``)."""
-    ctx = plan.ctx
+    distance over every distinct location of a set of ``n_points`` points, or over a sample of
+    windows above a million (:func:`lidar_sig.numerics.neighbors.set_area_cap`), from a pass
+    over the tiles (or a resumed run's); None when a tile of that pass failed (recorded in
+    ``run``)."""
+    share = cap_share(n_points)
     cap = saved_area_cap(work, plan.key()) if resume else None
     if cap is None:
         forget_area_cap(work)  # the distances it was found from are about to be replaced
         with step("area-weight cap", enabled=False, tiles=len(tiles)) as st:
-            for (_, ij), _, err in progress(backend.run(second_task, [(plan, ij) for ij in tiles]),
-                                            total=len(tiles), desc="area weights", enabled=progress_enabled,
-                                            unit="tile"):
-                if err is not None:
-                    run.failed_tiles[tile_name(*ij)] = _reason(err)
-            if run.failed_tiles:
-                return None
-            # the median over every distinct location, from the tiles' sorted files (not in memory)
-            cap = AREA_CAP * sorted_median([second_paths(work, ij)[0] for ij in tiles])
+            if share < 1.0:
+                found = _cap_pass(cap_task, [(plan, ij, share) for ij in tiles], run, backend, progress_enabled)
+                if found is None:
+                    return None
+                cap = sampled_area_cap(np.concatenate(found))
+                st.note(sample=f"{sum(map(len, found)):,} locations")
+            if cap is None:  # every location (or the sample's windows held none)
+                if _cap_pass(second_task, [(plan, ij) for ij in tiles], run, backend, progress_enabled) is None:
+                    return None
+                # the median over every distinct location, from the tiles' sorted files (not in memory)
+                cap = AREA_CAP * sorted_median([second_paths(work, ij)[0] for ij in tiles])
+                share = 1.0  # the tiles take the distances this pass kept
             st.note(cap=f"{cap:.4g} m")
         save_area_cap(work, plan.key(), cap)
+    ctx = plan.ctx
     ctx = SetContext(ctx.centre, ctx.factors, ctx.lo, ctx.hi, ctx.scales, cap, ctx.density)
-    return replace(plan, ctx=ctx)
+    return replace(plan, ctx=ctx, second_known=share >= 1.0)
+
+
+def _cap_pass(task, items, run, backend, progress_enabled):
+    """The results of the cap's ``task`` over ``items`` (one per tile), or None when one failed
+    (recorded in ``run``)."""
+    found = []
+    for (_, ij, *_), result, err in progress(backend.run(task, items), total=len(items), desc="area weights",
+                                             enabled=progress_enabled, unit="tile"):
+        if err is not None:
+            run.failed_tiles[tile_name(*ij)] = _reason(err)
+        found.append(result)
+    return None if run.failed_tiles else found
 
 
 def run_in_tiles(pipeline, source, execution, *, n_points, work=None, outputs=()):
