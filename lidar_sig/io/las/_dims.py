@@ -68,17 +68,24 @@ def extend_ranges(ranges, header, points):
             if name not in points.array.dtype.names:
                 continue
             raw = np.asarray(points.array[name]).reshape(len(points), -1)
-            keep = ~np.isnan(raw) if raw.dtype.kind == "f" else np.ones(raw.shape, bool)
             no_data = record.no_data
-            if no_data is not None:
-                for i in range(raw.shape[1]):
-                    if not np.isnan(no_data[i]):
-                        keep[:, i] &= raw[:, i] != no_data[i]
-            for i in range(raw.shape[1]):
-                values = raw[keep[:, i], i]
-                if len(values):
-                    lo, hi = ranges.get((name, i), (values.min(), values.max()))
-                    ranges[(name, i)] = (min(lo, values.min()), max(hi, values.max()))
+            for i in range(raw.shape[1] if len(raw) else 0):
+                column = raw[:, i]
+                skip = None if no_data is None or np.isnan(no_data[i]) else no_data[i]
+                if column.dtype.kind == "f" and skip is None:  # fmin and fmax pass over NaN: no mask
+                    low, high = np.fmin.reduce(column), np.fmax.reduce(column)
+                    if np.isnan(low):
+                        continue
+                else:
+                    keep = column != skip if skip is not None else np.ones(len(column), bool)
+                    if column.dtype.kind == "f":
+                        keep &= ~np.isnan(column)
+                    values = column[keep]
+                    if not len(values):
+                        continue
+                    low, high = values.min(), values.max()
+                lo, hi = ranges.get((name, i), (low, high))
+                ranges[(name, i)] = (min(lo, low), max(hi, high))
 
 
 def set_extra_bytes_ranges(header, points, ranges=None):

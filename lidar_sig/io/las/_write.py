@@ -64,23 +64,28 @@ def write_las_chunks(path, source, saliency_chunks, *, scale_kind=None, scale_va
     with laspy.open(source) as reader:
         crs, units = las_units(reader.header, path=source)
         header, evlrs = reader.header, reader.header.evlrs
-        writer_cm = writer = None
+        writer_cm = writer = appended = None
         start = 0
         try:
             for chunk in reader.chunk_iterator(chunk_points):
                 stop = start + len(chunk)
-                part = laspy.LasData(header=copy.deepcopy(header), points=chunk)
-                cloud = PointCloud(np.column_stack([np.asarray(chunk.x), np.asarray(chunk.y), np.asarray(chunk.z)]),
-                                   source=part, path=str(source), crs=crs, units=units)
+                xyz = np.column_stack([np.asarray(chunk.x), np.asarray(chunk.y), np.asarray(chunk.z)])
                 fields = saliency_fields(saliency_chunks(start, stop), scale_kind, scale_values)
                 if extra is not None:
-                    fields.update(extra(cloud.xyz))
-                las, notes = with_fields(cloud, fields)
-                if writer is None:
-                    writer_cm = _las_writer(path, las.header, overwrite)
-                    writer = writer_cm.__enter__()
-                writer.write_points(las.points)
-                extend_ranges(ranges, las.header, las.points)
+                    fields.update(extra(xyz))
+                if appended is not None:  # the source's records as they are, the fields after them
+                    points = appended(chunk, fields)
+                else:
+                    part = laspy.LasData(header=copy.deepcopy(header), points=chunk)
+                    las, notes = with_fields(PointCloud(xyz, source=part, path=str(source), crs=crs, units=units),
+                                             fields)
+                    points = las.points
+                    if writer is None:
+                        writer_cm = _las_writer(path, las.header, overwrite)
+                        writer = writer_cm.__enter__()
+                        appended, out_header = _appender(chunk, las, fields), las.header
+                writer.write_points(points)
+                extend_ranges(ranges, out_header, points)
                 start = stop
                 stop_if_interrupted()  # a long streamed write ends soon after Ctrl-C or SIGTERM
             if writer is None:
@@ -95,6 +100,31 @@ def write_las_chunks(path, source, saliency_chunks, *, scale_kind=None, scale_va
         writer_cm.__exit__(None, None, None)
     for text in notes:
         warnings.warn(text, LidarSigWarning, stacklevel=2)
+
+
+def _appender(chunk, las, fields):
+    """``(chunk, fields) -> point record`` of a later chunk written as the first one, ``las``
+    (its LasData with the ``fields``), was, when that kept the source's point records byte for
+    byte and put the fields after them (a LAS 1.4 source without an earlier run's dimensions):
+    one copy of the records instead of laspy's field by field; None otherwise."""
+    src, out = chunk.array.dtype, las.points.array.dtype
+    added = [n for n in out.names if n not in src.names]
+    kept = all(n in out.names and out.fields[n][1] == src.fields[n][1] and out.fields[n][0] == src.fields[n][0]
+               for n in src.names)
+    if not kept or len(added) != len(fields) or out.itemsize != src.itemsize + sum(
+            out.fields[n][0].itemsize for n in added):
+        return None
+    names = dict(zip(fields, added))  # add_fields appends them in the fields' order
+    point_format = las.header.point_format
+
+    def appended(part, values):
+        array = np.empty(len(part), out)
+        source = np.ascontiguousarray(part.array).view(np.uint8).reshape(len(part), -1)
+        array.view(np.uint8).reshape(len(part), -1)[:, :src.itemsize] = source
+        for name, v in values.items():
+            array[names[name]] = v
+        return laspy.PackedPointRecord(array, point_format)
+    return appended
 
 
 @contextlib.contextmanager
