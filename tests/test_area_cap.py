@@ -1,10 +1,11 @@
-"""The area-weight cap above a million points, from a sample of windows (docs/method.md, "Area
-weights"): the same in one block and in any tiling, close to the median of every location, and
+"""The area-weight cap above a million points, from a sample of windows (docs/method.md,
+"Neighbour weights"): the same in one block and in any tiling, close to the median of every location, and
 a run in tiles searches only the sample's windows before its tiles."""
 import numpy as np
 import pytest
 
 import lidar_sig as ls
+from lidar_sig.base.errors import LidarSigWarning
 from lidar_sig.numerics import neighbors
 from lidar_sig.numerics.neighbors import CAP_WINDOW, cap_share, in_cap_windows
 from lidar_sig.pipeline import flow
@@ -17,16 +18,24 @@ from test_tiling import assert_same_saliency
 EPOCH = SAMPLES / "epoch1.laz"  # 41,507 points over 64 m x 64 m
 
 
+class CapsFound(list):
+    """The caps one-block runs found; ``taken``: per run, (locations in the sample, locations)
+    or None when every location gave it."""
+
+
 @pytest.fixture
 def sampled_cap(monkeypatch):
-    """The sample's rule on the small epoch: a share of 0.36 of the 20 m windows, and the caps
+    """The sample's rule on the small epoch: a share of 0.36 of the 10 m windows, and the caps
     the one-block runs find, recorded."""
     monkeypatch.setattr(neighbors, "CAP_POINTS", 15_000)
-    found = []
+    found = CapsFound()
 
-    def recorded(*args):
-        found.append(neighbors.set_area_cap(*args))
+    def recorded(second, sampled=None):
+        found.append(neighbors.set_area_cap(second, sampled))
+        taken.append(None if sampled is None else (int(sampled.sum()), len(sampled)))
         return found[-1]
+
+    taken = found.taken = []
 
     monkeypatch.setattr(flow, "set_area_cap", recorded)
     return found
@@ -58,7 +67,8 @@ def test_the_sampled_cap_does_not_move_with_the_points_order_and_is_near_every_l
     monkeypatch.setattr(neighbors, "CAP_POINTS", 10**9)  # every location
     pipe.saliency(cloud)
     every = sampled_cap[2]
-    assert sampled_cap[0] != every  # the sample was taken
+    (inside, locations), _, everywhere = sampled_cap.taken
+    assert 0 < inside < locations and everywhere is None  # the sample was taken, then every location
     assert abs(sampled_cap[0] / every - 1.0) < 0.1
 
 
@@ -75,3 +85,17 @@ def test_the_windows_picked_are_the_share_asked_and_the_reach_holds_every_point_
     for offset in ([3.0, 0.0], [-3.0, 0.0], [0.0, 3.0], [0.0, -3.0]):
         assert near[in_cap_windows(xy + offset, 0.05)].all()
     assert in_cap_windows(xy, 1.0).all()
+
+
+def test_a_resumed_run_takes_the_saved_cap_only_under_the_same_rule(tmp_path, sampled_cap, monkeypatch):
+    pipe = ls.Pipeline(progress=False)
+    work = tmp_path / "work"
+    first = run_set(pipe, [EPOCH], work=work, tile_size=25.0)
+    with pytest.warns(LidarSigWarning, match="resumed from"):
+        again = run_set(pipe, [EPOCH], work=work, tile_size=25.0, resume=True)
+    assert again.ctx.area_cap == first.ctx.area_cap and not again.plan.second_known  # as the pass left it
+    assert_same_saliency(again.saliency_of(again.sources[0]), first.saliency_of(first.sources[0]))
+    monkeypatch.setattr(neighbors, "CAP_POINTS", 10**9)  # another rule: the saved cap is not its
+    with pytest.warns(LidarSigWarning, match="resumed from"):
+        other = run_set(pipe, [EPOCH], work=work, tile_size=25.0, resume=True)
+    assert other.plan.second_known  # every location's pass ran again

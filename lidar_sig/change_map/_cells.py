@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..metrics import METRIC_KEYS, compare
+from ..numerics.hashing import below_share, hash2, mix64
 from ..method.signature_raster import Frame, Signature, point_codes
 from ._heights import HEIGHT, height_distance
 from ._lod import REPLICATES
@@ -101,11 +102,11 @@ def point_keys(xyz, labels=None):
     2^64 per pair): their order among themselves changes nothing."""
     q = np.rint(np.asarray(xyz, dtype=np.float64) / KEY_STEP).astype(np.int64).view(np.uint64)
     with np.errstate(over="ignore"):
-        key = _mix(q[:, 0]) ^ _mix(q[:, 1] + np.uint64(0x9E3779B97F4A7C15))
-        key = _mix(key ^ q[:, 2])
+        key = hash2(q[:, 0], q[:, 1])
+        key = mix64(key ^ q[:, 2])
         if labels is not None:  # an unlabelled cloud's points are class 0, as its staged records are
             key ^= np.asarray(labels).astype(np.int64).view(np.uint64)
-        return _mix(key)
+        return mix64(key)
 
 
 @dataclass(frozen=True)
@@ -130,14 +131,7 @@ def in_sample(xyz, labels, fraction, keys=None):
     if fraction >= 1.0:
         return None
     keys = point_keys(xyz, labels) if keys is None else keys
-    return keys < np.uint64(int(fraction * 2.0 ** 64))
-
-
-def _mix(x):
-    """splitmix64's finaliser: every bit of ``x`` (uint64) moves about half of the output's."""
-    x = (x ^ (x >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
-    x = (x ^ (x >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
-    return x ^ (x >> np.uint64(31))
+    return below_share(keys, fraction)
 
 
 def stable_order(keys, n_keys):

@@ -12,7 +12,7 @@ The index works on the points sorted by voxel: ``NeighborIndex.xyz`` is the sort
 
 Neighbours can be weighted by the area they stand for (``weights="area"``): the squared distance
 to a point's second-nearest other point, capped at ``AREA_CAP`` times the cloud's median of that
-distance. A neighbourhood's tensor then estimates the sampled surface rather than the scan
+distance (above ``CAP_POINTS`` points, the median of a sample of windows). A neighbourhood's tensor then estimates the sampled surface rather than the scan
 pattern: where points cluster (overlapping strips, a random thinning) each counts less, where
 they are sparse each counts more. The weights use distances only, so they are invariant to
 rotation, translation, uniform scaling and point order. docs/comparison.md has the measurements
@@ -152,7 +152,8 @@ def counts_within(d2, n, limits):
 #: plan-view windows of CAP_WINDOW metres that a hash of the window's place picks, a share
 #: CAP_POINTS / n of them, each distance taken up to CAP_REACH metres. The sample is a function of
 #: where the points are, so one block and any tiling find the same cap, and a run in tiles
-#: searches the second neighbours of the sample's few windows only (docs/method.md, "Area weights").
+#: searches the second neighbours of the sample's few windows only (docs/method.md, "Neighbour
+#: weights").
 CAP_POINTS = 1_000_000
 CAP_WINDOW = 10.0
 CAP_REACH = 5.0
@@ -173,30 +174,20 @@ def cap_share(n_points):
 def in_cap_windows(xy, share, reach=0.0):
     """(N,) True where the plan-view points ``xy`` (N, 2) (metres from the CRS's origin: the
     files' coordinates times metres per unit) lie within ``reach`` metres (less than
-    CAP_WINDOW) of a window of the cap's sample of ``share`` (:data:`CAP_POINTS`)."""
+    CAP_WINDOW) of a window of the cap's sample of ``share`` (:data:`CAP_POINTS`): a window
+    is in when the hash of its place is (:mod:`~lidar_sig.numerics.hashing`)."""
+    from .hashing import below_share, hash2
+
     xy = np.asarray(xy, dtype=np.float64)
     if share >= 1.0:
         return np.ones(len(xy), bool)
-    limit = np.uint64(min(int(share * 2.0**64), 2**64 - 1))
     lo = np.floor((xy - reach) / CAP_WINDOW).astype(np.int64)
-    hi = lo if reach == 0.0 else np.floor((xy + reach) / CAP_WINDOW).astype(np.int64)
-    out = np.zeros(len(xy), bool)
-    for ix, iy in {(0, 0), (0, 1), (1, 0), (1, 1)} if reach else {(0, 0)}:
-        out |= _window_hash((lo, hi)[ix][:, 0], (lo, hi)[iy][:, 1]) < limit
+    hi = np.floor((xy + reach) / CAP_WINDOW).astype(np.int64)
+    out = below_share(hash2(lo[:, 0], lo[:, 1]), share)
+    if reach:  # the reach may cross into the windows east, north and north-east
+        for ix, iy in ((hi, lo), (lo, hi), (hi, hi)):
+            out |= below_share(hash2(ix[:, 0], iy[:, 1]), share)
     return out
-
-
-def _window_hash(ix, iy):
-    """A 64-bit hash of windows' integer places (a mix of the two, then a finalizer), uniform
-    enough that a threshold on it picks a share of the windows."""
-    with np.errstate(over="ignore"):
-        h = (ix.astype(np.uint64) * np.uint64(0x9E3779B97F4A7C15)) ^ (iy.astype(np.uint64) * np.uint64(0xC2B2AE3D27D4EB4F))
-        h ^= h >> np.uint64(31)
-        h *= np.uint64(0xBF58476D1CE4E5B9)
-        h ^= h >> np.uint64(29)
-        h *= np.uint64(0x94D049BB133111EB)
-        h ^= h >> np.uint64(32)
-    return h
 
 
 def sampled_area_cap(second_distances):
@@ -208,13 +199,12 @@ def sampled_area_cap(second_distances):
     return area_cap(np.minimum(second_distances, CAP_REACH))
 
 
-def set_area_cap(second_distances, xy, n_points):
-    """The area-weight cap (metres) of a set of ``n_points`` points run as one block, from every
-    distinct location's second-neighbour distance and plan-view place ``xy`` (metres from the
-    CRS's origin; needed above CAP_POINTS points only): above :data:`CAP_POINTS` points from the locations in the sample's windows
-    (every location when those hold none), as a run in tiles finds it."""
-    share = cap_share(n_points)
-    cap = sampled_area_cap(second_distances[in_cap_windows(xy, share)]) if share < 1.0 else None
+def set_area_cap(second_distances, sampled=None):
+    """The area-weight cap (metres) of a set run as one block, from every distinct location's
+    second-neighbour distance and, above :data:`CAP_POINTS` points, the (L,) mask of the
+    locations in the sample's windows (:func:`in_cap_windows`): from those (every location when
+    they are none, or without a mask), as a run in tiles finds it."""
+    cap = None if sampled is None else sampled_area_cap(second_distances[sampled])
     return area_cap(second_distances) if cap is None else cap
 
 

@@ -17,7 +17,8 @@ from ..base.compile import COMMON, announce_compilation, load_kernels, warm_up
 from ..base.errors import FACE, LidarSigError, LidarSigWarning, a_kind, arg, counted
 from ..io.open3d import from_open3d, is_open3d
 from ..numerics.bounds import nan_rows
-from ..numerics.neighbors import WEIGHTS, NeighborIndex, Weights, cap_share, set_area_cap, unique_points
+from ..numerics.neighbors import (WEIGHTS, NeighborIndex, Weights, cap_share, in_cap_windows, set_area_cap,
+                                  unique_points)
 from ..plugins import get_descriptor, get_strategy
 from ..base.progress import step
 from .result import Result, TiledResult
@@ -249,14 +250,14 @@ class Pipeline:
         """The area weights of ``index``'s locations (``inverse``: each point's, or None), with the
         cap a run in tiles finds too (:func:`~lidar_sig.numerics.neighbors.set_area_cap`)."""
         second = index.second_distances()
-        xy = None
-        if cap_share(len(cloud)) < 1.0:  # the sample's windows are placed by each location's x, y
-            occurrence = np.arange(len(cloud))
-            if inverse is not None:  # a point of each location: copies share their coordinates
-                occurrence = np.empty(len(index.xyz), np.int64)
-                occurrence[inverse] = np.arange(len(cloud))
-            xy = cloud.xyz[occurrence[index.order], :2] * np.asarray(cloud.units.factors[:2])
-        return index.area_weights(set_area_cap(second, xy, len(cloud)), second)
+        sampled = None
+        share = cap_share(len(cloud))
+        if share < 1.0:  # the sample's windows are placed by each point's x, y; copies share theirs
+            inside = in_cap_windows(cloud.xyz[:, :2] * np.asarray(cloud.units.factors[:2]), share)
+            sampled = np.zeros(len(index.xyz), bool)
+            sampled[np.flatnonzero(inside) if inverse is None else inverse[inside]] = True
+            sampled = sampled[index.order]
+        return index.area_weights(set_area_cap(second, sampled), second)
 
     def _saliency(self, cloud, n_excluded, query=None):
         """(N, 3) saliency values and (N,) chosen scales (or None) of every point of ``cloud``

@@ -9,8 +9,10 @@ depends on must lie inside that block, and is checked per point rather than trus
   the point's distance to the halo's edge;
 - its neighbours' area weights (:mod:`lidar_sig.numerics.neighbors`): each neighbour's distance to its
   second-nearest other point (capped) must be shorter than that neighbour's distance to the
-  edge, unless those distances are the whole set's already (a set's run finds them in a first
-  pass, :func:`tile_second_distances`, checked the same way, and every tile takes them).
+  edge, unless those distances are the whole set's already (a set's run of up to CAP_POINTS
+  points finds them in a first pass, :func:`tile_second_distances`, checked the same way, and
+  every tile takes them; above, the first pass searches only the cap's sample,
+  :func:`tile_cap_sample`, and each tile its own points).
 
 A core point that fails either test is recomputed with a halo twice as wide, until it passes
 or the block holds the whole set. Sides of the halo beyond the set's extent are not edges.

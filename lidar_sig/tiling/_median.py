@@ -1,7 +1,7 @@
 """The exact median of values kept in several sorted files, without holding them: what
 ``numpy.median`` gives on their concatenation, from binary searches in the mapped files (the
-set's area-weight cap, :func:`lidar_sig.numerics.neighbors.area_cap`, over every distinct location of a
-set of any size)."""
+set's area-weight cap, :func:`lidar_sig.numerics.neighbors.area_cap`, over every distinct location
+of a set run in tiles up to CAP_POINTS points, or above when the cap's sample holds none)."""
 from __future__ import annotations
 
 import numpy as np

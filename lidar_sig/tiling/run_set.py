@@ -289,7 +289,9 @@ def _with_area_cap(plan, tiles, work, run, backend, resume, progress_enabled, n_
     over the tiles (or a resumed run's); None when a tile of that pass failed (recorded in
     ``run``)."""
     share = cap_share(n_points)
-    cap = saved_area_cap(work, plan.key()) if resume else None
+    key = cap_key(plan)
+    saved = saved_area_cap(work, key) if resume else None
+    cap, second_known = saved if saved is not None else (None, True)
     if cap is None:
         forget_area_cap(work)  # the distances it was found from are about to be replaced
         with step("area-weight cap", enabled=False, tiles=len(tiles)) as st:
@@ -304,12 +306,21 @@ def _with_area_cap(plan, tiles, work, run, backend, resume, progress_enabled, n_
                     return None
                 # the median over every distinct location, from the tiles' sorted files (not in memory)
                 cap = AREA_CAP * sorted_median([second_paths(work, ij)[0] for ij in tiles])
-                share = 1.0  # the tiles take the distances this pass kept
+            else:
+                second_known = False  # each tile searches its own
             st.note(cap=f"{cap:.4g} m")
-        save_area_cap(work, plan.key(), cap)
+        save_area_cap(work, key, cap, second_known)
     ctx = plan.ctx
     ctx = SetContext(ctx.centre, ctx.factors, ctx.lo, ctx.hi, ctx.scales, cap, ctx.density)
-    return replace(plan, ctx=ctx, second_known=share >= 1.0)
+    return replace(plan, ctx=ctx, second_known=second_known)
+
+
+def cap_key(plan):
+    """What a saved area-weight cap must match to be reused: the plan's key and the rule of the
+    cap's sample (a work folder an earlier rule left is not taken at its word)."""
+    from ..numerics import neighbors
+
+    return json.dumps([plan.key(), neighbors.CAP_POINTS, neighbors.CAP_WINDOW, neighbors.CAP_REACH])
 
 
 def _cap_pass(task, items, run, backend, progress_enabled):

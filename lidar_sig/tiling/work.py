@@ -225,17 +225,19 @@ def discard_work(work):
 
 
 def saved_area_cap(work, key):
-    """The area-weight cap an earlier run of the same set and method (``key``, see
-    :meth:`lidar_sig.tiling._tasks.Plan.key`) saved in ``work``, or None."""
+    """(cap, whether the tiles' second-neighbour distances were kept) of the area-weight cap an
+    earlier run of the same set, method and cap rule (``key``, see
+    :func:`lidar_sig.tiling.run_set.cap_key`) saved in ``work``, or None."""
     saved = read_record(Path(work) / AREA_CAP_FILE, work)
     if isinstance(saved, dict) and saved.get("key") == key and isinstance(saved.get("cap"), (int, float)):
-        return float(saved["cap"])
+        return float(saved["cap"]), bool(saved.get("second_known", True))
     return None
 
 
-def save_area_cap(work, key, cap):
-    """Keep the set's area-weight cap in ``work`` for a resumed run."""
-    (Path(work) / AREA_CAP_FILE).write_text(json.dumps({"key": key, "cap": cap}))
+def save_area_cap(work, key, cap, second_known):
+    """Keep the set's area-weight cap in ``work`` for a resumed run, and whether its pass kept
+    every core point's second-neighbour distance (``second_known``)."""
+    (Path(work) / AREA_CAP_FILE).write_text(json.dumps({"key": key, "cap": cap, "second_known": second_known}))
 
 
 def forget_area_cap(work):

@@ -71,19 +71,13 @@ def extend_ranges(ranges, header, points):
             no_data = record.no_data
             for i in range(raw.shape[1] if len(raw) else 0):
                 column = raw[:, i]
-                skip = None if no_data is None or np.isnan(no_data[i]) else no_data[i]
-                if column.dtype.kind == "f" and skip is None:  # fmin and fmax pass over NaN: no mask
-                    low, high = np.fmin.reduce(column), np.fmax.reduce(column)
-                    if np.isnan(low):
-                        continue
-                else:
-                    keep = column != skip if skip is not None else np.ones(len(column), bool)
-                    if column.dtype.kind == "f":
-                        keep &= ~np.isnan(column)
-                    values = column[keep]
-                    if not len(values):
-                        continue
-                    low, high = values.min(), values.max()
+                if no_data is not None and not np.isnan(no_data[i]):
+                    column = column[column != no_data[i]]
+                if not len(column):
+                    continue
+                low, high = np.fmin.reduce(column), np.fmax.reduce(column)  # NaN never counts
+                if column.dtype.kind == "f" and np.isnan(low):
+                    continue
                 lo, hi = ranges.get((name, i), (low, high))
                 ranges[(name, i)] = (min(lo, low), max(hi, high))
 

@@ -69,7 +69,9 @@ def write_las_chunks(path, source, saliency_chunks, *, scale_kind=None, scale_va
         try:
             for chunk in reader.chunk_iterator(chunk_points):
                 stop = start + len(chunk)
-                xyz = np.column_stack([np.asarray(chunk.x), np.asarray(chunk.y), np.asarray(chunk.z)])
+                xyz = None
+                if extra is not None or appended is None:  # the coordinates, where something reads them
+                    xyz = np.column_stack([np.asarray(chunk.x), np.asarray(chunk.y), np.asarray(chunk.z)])
                 fields = saliency_fields(saliency_chunks(start, stop), scale_kind, scale_values)
                 if extra is not None:
                     fields.update(extra(xyz))
@@ -109,8 +111,7 @@ def _appender(chunk, las, fields):
     one copy of the records instead of laspy's field by field; None otherwise."""
     src, out = chunk.array.dtype, las.points.array.dtype
     added = [n for n in out.names if n not in src.names]
-    kept = all(n in out.names and out.fields[n][1] == src.fields[n][1] and out.fields[n][0] == src.fields[n][0]
-               for n in src.names)
+    kept = all(n in out.names and out.fields[n][:2] == src.fields[n][:2] for n in src.names)
     if not kept or len(added) != len(fields) or out.itemsize != src.itemsize + sum(
             out.fields[n][0].itemsize for n in added):
         return None
@@ -118,6 +119,8 @@ def _appender(chunk, las, fields):
     point_format = las.header.point_format
 
     def appended(part, values):
+        if values.keys() != names.keys():  # every byte of a record is written: the same fields each chunk
+            raise RuntimeError(f"a chunk's fields {sorted(values)} differ from the first chunk's {sorted(names)}")
         array = np.empty(len(part), out)
         source = np.ascontiguousarray(part.array).view(np.uint8).reshape(len(part), -1)
         array.view(np.uint8).reshape(len(part), -1)[:, :src.itemsize] = source
