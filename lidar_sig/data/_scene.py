@@ -524,9 +524,16 @@ def to_las(pts, date, flight_line):
     # The aircraft flies north over the middle of the scene, so pulses are
     # fired in order of northing, at a fixed pulse rate. Returns of one pulse
     # share its time; a rank-based time keeps every pulse time distinct.
-    pulses = np.stack([pts["pulse_y"], pts["pulse_x"]], axis=1)
-    _, pulse_rank = np.unique(pulses, axis=0, return_inverse=True)
-    gps_time = adjusted_gps_time(date) + pulse_rank.ravel() / PULSE_RATE
+    # (The rank of each (pulse_y, pulse_x) among the distinct ones, by lexsort: np.unique(axis=0)
+    # compares rows as structured records, and numpy turns a Ctrl-C inside that comparison into
+    # a TypeError, which would end the command in a traceback instead of its one line.)
+    order = np.lexsort((pts["pulse_x"], pts["pulse_y"]))
+    y, x = pts["pulse_y"][order], pts["pulse_x"][order]
+    new = np.ones(len(order), bool)
+    new[1:] = (y[1:] != y[:-1]) | (x[1:] != x[:-1])
+    pulse_rank = np.empty(len(order), np.int64)
+    pulse_rank[order] = np.cumsum(new) - 1
+    gps_time = adjusted_gps_time(date) + pulse_rank / PULSE_RATE
     order = np.lexsort((pts["return_number"], gps_time))
 
     header = laspy.LasHeader(point_format=6, version="1.4")
