@@ -30,6 +30,7 @@ import numpy as np
 
 from ..method.saliency_map import geometric_entropy
 from ..method.signature_raster import Frame, point_codes
+from ..numerics.records import join, pick
 from ..tiling.work import UNITS, load_done, save_whole
 from ._cells import CHANGE_KEYS, Binned, null_metrics, observed_metrics, point_keys, stable_order
 from ._density import DENSITY_PIXEL, occupied_pixels
@@ -151,7 +152,7 @@ def code_task(uplan, epoch, ij, view_step):
     rec["height"] = raw[:, 2] * run.ctx.factors[2]
     unit = uplan.unit_of(rec["cell"])
     order = stable_order(unit, uplan.shape[0] * uplan.shape[1])
-    rec, unit = rec[order], unit[order]
+    rec, unit = pick(rec, order), unit[order]
     starts = np.flatnonzero(np.r_[True, unit[1:] != unit[:-1]]) if len(unit) else np.empty(0, np.int64)
     units = unit[starts]
     starts = np.r_[starts, len(rec)]
@@ -178,8 +179,8 @@ def unit_points(uplan, epoch, unit, tiles):
             mapped = np.load(points_path(path), mmap_mode="r")
             parts.append(np.array(mapped[starts[k]:starts[k + 1]]))
             del mapped  # unmapped: the pages read leave the process
-    rec = np.concatenate(parts) if parts else np.empty(0, CODED)
-    return rec[np.lexsort((rec["key"], rec["cell"]))]
+    rec = join(parts, CODED)
+    return pick(rec, np.lexsort((rec["key"], rec["cell"])))
 
 
 def binned_unit(rec, cells, n_classes):

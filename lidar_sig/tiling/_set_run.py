@@ -17,6 +17,7 @@ from ..base.errors import LidarSigError, counted
 from ..base.progress import step
 from ..method.saliency_map import Saliency
 from ..method.signature_raster import Signature
+from ..numerics.records import pick
 from ._core import SetContext, Tiling, tile_name
 from .sources import ID_BITS
 from ._tasks import Plan, points_paths, result_path
@@ -148,7 +149,7 @@ class SetRun:
         the first three."""
         plan = self.plan
         rec = self.box_points(ij)
-        rec = rec[plan.tiling.core(*plan.ctx.plan_view(rec["x"], rec["y"]), ij)]
+        rec = pick(rec, plan.tiling.core(*plan.ctx.plan_view(rec["x"], rec["y"]), ij))
         raw, ids, labels = np.column_stack([rec["x"], rec["y"], rec["z"]]), rec["id"], rec["label"]
         if plan.sample is not None:
             keep = plan.sample.mask(raw, labels)
