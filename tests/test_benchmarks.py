@@ -219,3 +219,22 @@ def test_the_copc_district_benchmark_runs_on_a_small_delivery(tmp_path):
     assert out["points_per_epoch"][0] >= 99_000 and 0 < out["bytes_read"] < sum(out["file_bytes"])
     assert out["district_points"] > 0 and out["copc_nodes"] > 0
     assert 0 < out["http_bytes_sent"] == out["http_bytes_fetched"] < sum(out["file_bytes"])
+
+
+def test_two_power_runs_are_compared_at_the_threshold_that_flags_no_more_unchanged_cells():
+    # issue 47: a change that moves a few cells near their level is judged where it is as often wrong
+    sys.path.insert(0, str(BENCH))
+    from power_compare import ALPHA, groups, threshold
+
+    null = [0.001, 0.01, 0.02, 0.2, 0.7]
+    assert threshold(null, 3) == ALPHA  # 3 below 0.05 already: never looser than 95%
+    assert threshold(null, 1) == 0.01  # p < 0.01 flags one cell, p < 0.02 two
+    assert sum(p < threshold(null, 1) for p in null) == 1
+    assert threshold(null, 0) == 0.001  # nothing is below the smallest
+    cells = [{"compared": True, "pair": "halves", "edit": None, "density": 2.0, "p": 0.01},
+             {"compared": True, "pair": "edited 1", "edit": "trees cut", "density": 2.0, "p": 0.001},
+             {"compared": True, "pair": "edited 1", "edit": None, "density": 2.0, "p": 0.5},  # not a null pair
+             {"compared": False, "pair": "copy", "edit": None, "density": 2.0, "p": None},
+             {"compared": True, "pair": "strips", "edit": None, "density": 1.0, "p": 0.3},
+             {"compared": True, "pair": "strips edited", "edit": "building added", "density": 1.0, "p": 0.04}]
+    assert groups(cells) == {("resampled", 2.0): ([0.001], [0.01]), ("strips", 1.0): ([0.04], [0.3])}
