@@ -227,10 +227,12 @@ def test_two_power_runs_are_compared_at_the_threshold_that_flags_no_more_unchang
     from power_compare import ALPHA, groups, threshold
 
     null = [0.001, 0.01, 0.02, 0.2, 0.7]
-    assert threshold(null, 3) == ALPHA  # 3 below 0.05 already: never looser than 95%
+    assert threshold(null, 3) == 0.2  # looser than 95% when the first run flagged more
     assert threshold(null, 1) == 0.01  # p < 0.01 flags one cell, p < 0.02 two
-    assert sum(p < threshold(null, 1) for p in null) == 1
+    for most in range(5):
+        assert sum(p < threshold(null, most) for p in null) == most
     assert threshold(null, 0) == 0.001  # nothing is below the smallest
+    assert threshold(null, 5) == 1.0 and ALPHA == 0.05
     cells = [{"compared": True, "pair": "halves", "edit": None, "density": 2.0, "p": 0.01},
              {"compared": True, "pair": "edited 1", "edit": "trees cut", "density": 2.0, "p": 0.001},
              {"compared": True, "pair": "edited 1", "edit": None, "density": 2.0, "p": 0.5},  # not a null pair
