@@ -30,7 +30,7 @@ from ..numerics.bounds import bounds
 from ..method.cloud import MAX_COORDINATE, check_magnitude, kept_points
 from ..base.errors import LidarSigError, arg, as_path, counted, reason, special_file
 from ..io import LAS_EXTENSIONS
-from ..numerics.records import join, pick
+from ..numerics.records import join, pick, stable_order
 from ..io.tile_lists import check_distinct, tile_list
 from .work import STAGED, read_record
 
@@ -297,14 +297,11 @@ def stage_part(work, source, part, start, stop, cells, noise_codes=None):
 
 def _by_cell(ci, cj):
     """The order that sorts points by staging cell (i, then j), each cell's points in their
-    order: one stable sort of one key, 16-bit (numpy's radix sort) where a chunk's cells allow
-    (a chunk covers a few of them)."""
+    order: one stable sort of one key (by radix where a chunk's few cells allow)."""
     di, dj = ci - ci.min(initial=0), cj - cj.min(initial=0)
     span = int(dj.max(initial=0)) + 1
     key = di * span + dj
-    if int(key.max(initial=0)) < 2 ** 16:
-        key = key.astype(np.uint16)
-    return np.argsort(key, kind="stable")
+    return stable_order(key, int(key.max(initial=0)) + 1)
 
 
 def densest(records, cells, factors):
