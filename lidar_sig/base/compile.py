@@ -14,12 +14,13 @@ import warnings
 _ANNOUNCED = False
 # Background loads started (warm_up), by kind of run: one per kind and process.
 _WARMING = {}
-#: Kernels every run calls (module, function names): the neighbour search and saliency from
-#: eigenvalues. The others are declared where they belong: a descriptor's and a strategy's on the
+#: Kernels every run calls (module, function names): the voxel grid, the neighbour search and
+#: saliency from eigenvalues (the radix sort of :mod:`lidar_sig.numerics.sorting`, for large
+#: clouds only, is compiled at its first call). The others are declared where they belong: a descriptor's and a strategy's on the
 #: plugin (``kernels``), the search's for radius scales on the Scales, the area weights' in
 #: :mod:`lidar_sig.numerics.neighbors`; a run gathers them (``Pipeline.kernels``). The functions they call
 #: are compiled and cached with them.
-COMMON = (("lidar_sig.numerics._voxels", ("nearest",)),
+COMMON = (("lidar_sig.numerics._voxels", ("nearest", "_sort_keys", "_voxel_runs")),
           ("lidar_sig.numerics.kernels", ("saliency_rows", "entropy_rows", "order_eigenvalues")))
 # numba modules that build an error message when imported, which numba colours through colorama
 # by setting sys.stderr and back; numba imports them at its first load of a cached kernel, so

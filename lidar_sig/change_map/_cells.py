@@ -12,7 +12,7 @@ import numpy as np
 
 from ..metrics import METRIC_KEYS, compare
 from ..numerics.hashing import below_share, hash2, mix64
-from ..numerics.records import stable_order
+from ..numerics.sorting import stable_order
 from ..method.signature_raster import Frame, Signature, point_codes
 from ._heights import HEIGHT, height_distance
 from ._lod import REPLICATES

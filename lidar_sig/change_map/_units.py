@@ -30,7 +30,8 @@ import numpy as np
 
 from ..method.saliency_map import geometric_entropy
 from ..method.signature_raster import Frame, point_codes
-from ..numerics.records import join, pick, stable_order
+from ..numerics.records import join, pick
+from ..numerics.sorting import stable_order
 from ..tiling.work import UNITS, load_done, save_whole
 from ._cells import CHANGE_KEYS, Binned, null_metrics, observed_metrics, point_keys
 from ._density import DENSITY_PIXEL, occupied_pixels

@@ -25,6 +25,7 @@ import numpy as np
 from numba import get_num_threads, njit, parallel_chunksize, prange
 
 from .bounds import column_max, column_min
+from .sorting import stable_order
 
 # Hot loops index with unsigned integers (_U): numba wraps a negative signed index around (one
 # compare per access), which an unsigned index cannot need. The same arithmetic, to the bit, in
@@ -595,6 +596,45 @@ def _morton_table():
 _MORTON = _morton_table()
 
 
+@njit(cache=True)
+def _sort_keys(xyz, origin, cell, dims, morton, out):
+    """Each point's voxel key i + nx (j + ny k) times 64 plus its sub-voxel's Morton code, into
+    ``out``: the arithmetic of ``floor((xyz - origin) / cell)`` and of four times it, to the bit."""
+    for p in range(xyz.shape[0]):
+        key = 0
+        sub = 0
+        scale = 1
+        for a in range(3):
+            f = (xyz[p, a] - origin[a]) / cell
+            v = np.int64(np.floor(f))
+            s = np.int64(np.floor(f * 4.0)) - 4 * v
+            sub += min(max(s, 0), 3) * (1 << (2 * a))
+            key += v * scale
+            scale *= dims[a]
+        out[p] = key * 64 + morton[sub]
+
+
+@njit(cache=True)
+def _voxel_runs(xyz, sort_key, order, points, cell_of):
+    """Points in ``order`` into ``points``, each one's voxel run into ``cell_of``; returns the
+    first position of each run (the keys in order, less their sub-voxel)."""
+    n = len(order)
+    starts = np.empty(n, np.int64)
+    runs = 0
+    last = -1
+    for i in range(n):
+        j = order[i]
+        for a in range(3):
+            points[i, a] = xyz[j, a]
+        voxel = sort_key[j] >> 6
+        if i == 0 or voxel != last:
+            starts[runs] = i
+            runs += 1
+            last = voxel
+        cell_of[i] = runs - 1
+    return starts[:runs]
+
+
 #: Most voxels of a grid's box: each has its key i + nx (j + ny k), and points are sorted by key
 #: times 64 plus their sub-voxel, within int64.
 KEY_VOXELS = 2.0**56
@@ -619,28 +659,26 @@ class VoxelGrid:
     the input index of sorted point i."""
 
     def __init__(self, xyz, cell):
-        xyz = np.asarray(xyz, dtype=np.float64)
+        xyz = np.ascontiguousarray(xyz, dtype=np.float64)
         self.origin = column_min(xyz)
-        self.cell = key_cell(column_max(xyz) - self.origin, cell) if len(xyz) else float(cell)
-        f = (xyz - self.origin) / self.cell  # voxel units
-        ijk = np.floor(f).astype(np.int64)
-        self.dims = column_max(ijk) + 1
-        key = ijk[:, 0] + self.dims[0] * (ijk[:, 1] + self.dims[1] * ijk[:, 2])
-        # Within a voxel, order points along a Morton curve of 4 x 4 x 4 sub-voxels, so that
+        top = column_max(xyz)
+        self.cell = key_cell(top - self.origin, cell) if len(xyz) else float(cell)
+        # floor is monotonic: the largest voxel index is that of the largest coordinate
+        self.dims = (np.floor((top - self.origin) / self.cell).astype(np.int64) + 1 if len(xyz)
+                     else np.ones(3, np.int64))
+        # Within a voxel, points go along a Morton curve of 4 x 4 x 4 sub-voxels, so that
         # consecutive queries are close and each can bound its search by its predecessor's.
-        f *= 4.0
-        sub = np.clip(np.floor(f).astype(np.int64) - 4 * ijk, 0, 3)
-        self.order = np.argsort(key * 64 + _MORTON[sub[:, 0] + 4 * sub[:, 1] + 16 * sub[:, 2]], kind="stable")
-        key = key[self.order]
-        self.points = np.take(xyz, self.order, axis=0)  # a third of xyz[order]'s time
-        # key is sorted: its voxels start where it changes (no np.unique, which sorts again)
-        first = np.ones(len(key), bool)
-        np.not_equal(key[1:], key[:-1], out=first[1:])
-        starts = np.flatnonzero(first)
-        self.cell_keys = key[starts]
-        self.cell_start = np.append(starts, len(key)).astype(np.int64)
-        self.cell_of = np.cumsum(first, dtype=np.int64) - 1
-        self.cell_ijk = np.ascontiguousarray(ijk[self.order[starts]])
+        sort_key = np.empty(len(xyz), np.int64)
+        _sort_keys(xyz, self.origin, self.cell, self.dims, _MORTON, sort_key)
+        self.order = stable_order(sort_key)
+        self.points = np.empty_like(xyz)
+        self.cell_of = np.empty(len(xyz), np.int64)
+        # the keys sorted: voxels start where they change (no np.unique, which sorts again)
+        starts = _voxel_runs(xyz, sort_key, self.order, self.points, self.cell_of)
+        self.cell_keys = sort_key[self.order[starts]] >> 6
+        self.cell_start = np.append(starts, len(xyz)).astype(np.int64)
+        d0, d1 = int(self.dims[0]), int(self.dims[1])
+        self.cell_ijk = np.column_stack([self.cell_keys % d0, self.cell_keys // d0 % d1, self.cell_keys // (d0 * d1)])
         # A dense voxel -> occupied-voxel table makes look-ups O(1); skipped when the box is
         # huge and sparse (outliers far away), where a binary search over keys serves.
         n_cells = int(np.prod(self.dims.astype(np.float64)))

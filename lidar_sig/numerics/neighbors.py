@@ -28,6 +28,8 @@ from enum import StrEnum
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .sorting import stable_order
+
 # Bytes of neighbour lists (squared distance + index) held at once; bounds memory per block. Small
 # enough that the descriptor reads a block's lists from the cache the search wrote them to
 # (larger blocks were slower: docs/performance.md).
@@ -540,7 +542,7 @@ def unique_points(xyz):
     with np.errstate(over="ignore"):
         key = ((bits[:, 0] * np.uint64(0x9E3779B97F4A7C15)) ^ (bits[:, 1] * np.uint64(0xC2B2AE3D27D4EB4F))
                ^ (bits[:, 2] * np.uint64(0x165667B19E3779F9)))
-    order = np.argsort(key, kind="stable")
+    order = stable_order(key)
     key = key[order]
     candidates = np.flatnonzero(key[1:] == key[:-1]) + 1
     if not len(candidates):

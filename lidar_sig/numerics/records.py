@@ -1,8 +1,8 @@
 """Selecting and joining structured record arrays (the work folder's staged and coded points)
 as whole records: numpy copies a structured array's elements field by field when it indexes,
 masks or joins them, three to ten times slower than the same bytes taken as one opaque item
-each (docs/performance.md, "The change map at survey scale"); and the stable order that sorts
-them by a small integer key."""
+each (docs/performance.md, "The change map at survey scale"). Their stable order by a key is
+:func:`lidar_sig.numerics.sorting.stable_order`."""
 from __future__ import annotations
 
 import numpy as np
@@ -25,9 +25,3 @@ def join(parts, dtype):
         return np.empty(0, dtype)
     return np.concatenate([_opaque(p) for p in parts]).view(dtype)
 
-
-def stable_order(keys, n_keys):
-    """The stable argsort of int ``keys`` in [0, ``n_keys``): numpy sorts 16-bit keys by radix,
-    seven times faster than 64-bit ones, in the same order (records by cell or by work unit)."""
-    keys = np.asarray(keys)
-    return np.argsort(keys.astype(np.int16) if n_keys <= np.iinfo(np.int16).max else keys, kind="stable")

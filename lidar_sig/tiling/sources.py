@@ -30,7 +30,8 @@ from ..numerics.bounds import bounds
 from ..method.cloud import MAX_COORDINATE, check_magnitude, kept_points
 from ..base.errors import LidarSigError, arg, as_path, counted, reason, special_file
 from ..io import LAS_EXTENSIONS
-from ..numerics.records import join, pick, stable_order
+from ..numerics.records import join, pick
+from ..numerics.sorting import stable_order
 from ..io.tile_lists import check_distinct, tile_list
 from .work import STAGED, read_record
 
