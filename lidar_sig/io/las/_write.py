@@ -3,6 +3,7 @@ chunk by chunk, atomically; a failed write (a full disk) is reported as such."""
 from __future__ import annotations
 
 import contextlib
+from concurrent.futures import ThreadPoolExecutor
 import copy
 import warnings
 
@@ -61,10 +62,10 @@ def write_las_chunks(path, source, saliency_chunks, *, scale_kind=None, scale_va
     Memory is bounded by the chunk, whatever the file's size."""
     notes = []
     ranges = {}
-    with laspy.open(source) as reader:
+    with laspy.open(source) as reader, ThreadPoolExecutor(1, thread_name_prefix="lidar-sig laz") as compressing:
         crs, units = las_units(reader.header, path=source)
         header, evlrs = reader.header, reader.header.evlrs
-        writer_cm = writer = appended = None
+        writer_cm = writer = appended = pending = None
         start = 0
         try:
             for chunk in reader.chunk_iterator(chunk_points):
@@ -86,16 +87,24 @@ def write_las_chunks(path, source, saliency_chunks, *, scale_kind=None, scale_va
                         writer_cm = _las_writer(path, las.header, overwrite)
                         writer = writer_cm.__enter__()
                         appended, out_header = _appender(chunk, las, fields), las.header
-                writer.write_points(points)
+                # compressed in a thread while the next chunk is read and filled (lazrs releases
+                # the GIL): one chunk at a time in flight, in order
+                if pending is not None:
+                    pending.result()
+                pending = compressing.submit(writer.write_points, points)
                 extend_ranges(ranges, out_header, points)
                 start = stop
                 stop_if_interrupted()  # a long streamed write ends soon after Ctrl-C or SIGTERM
+            if pending is not None:
+                pending.result()
             if writer is None:
                 raise LidarSigError("the file holds no points; give a file with points", path=source)
             if evlrs:
                 writer.write_evlrs(without_copc(evlrs))
             set_extra_bytes_ranges(writer.header, None, ranges)
         except BaseException as exc:
+            if pending is not None:  # the writer is closed only once its last chunk is done
+                pending.exception()
             if writer_cm is not None:
                 writer_cm.__exit__(type(exc), exc, exc.__traceback__)
             raise
