@@ -8,8 +8,8 @@ of benchmarks/bench_change_scale.py), in work units in this process (``workers=1
 ``--points b.laz`` written as the command line writes it, and counts:
 
 - **written**: the size of every file the run leaves in its work folder, by kind (staged
-  records, second-neighbour distances, per-point saliency, coded records, the top view, the
-  units' results), measured once the map and its per-point change are written;
+  records, second-neighbour distances, per-point saliency, the tiles' sample points, coded
+  records, the top view, the units' results), measured once the map and its per-point change are written;
 - **read**: the bytes of every array the run takes back from the work folder: whole files read
   with ``numpy.fromfile`` or ``numpy.load``, and the slices taken from memory-mapped files (a
   binary search's few pages are not counted).
@@ -33,9 +33,15 @@ sys.path.insert(0, str(HERE))
 #: Kinds of file by the folder they lie in (see lidar_sig.tiling and lidar_sig.change_map._units).
 KINDS = (("stage", "staged records"), ("second", "second-neighbour distances"), ("tiles", "per-point saliency"),
          ("coded", "coded records"), ("view", "top view"), ("units", "units' results"))
+#: Kinds of file by the end of their name, before their folder's: a tile's sample points
+#: (lidar_sig.tiling._tasks.sample_path), which the coding reads instead of staged records.
+NAMED = ((".sample.npy", "sample points"),)
 
 
 def kind_of(path, work):
+    for end, name in NAMED:
+        if str(path).endswith(end):
+            return name
     parts = Path(path).resolve().relative_to(work).parts
     for folder, name in KINDS:
         if folder in parts:
@@ -122,7 +128,7 @@ def main():
           f"{', '.join(f'{d:.3g}' for d in cm.density)} points/m², samples "
           f"{', '.join(f'{d:.3g}' for d in getattr(cm, 'sampled', cm.density))}; {cm.timings['units']['units']} work units")
     print(f"{'kind':<28} {'written B/point':>16} {'read B/point':>13}")
-    for _, name in KINDS + (("other", "other"),):
+    for _, name in KINDS + NAMED + (("other", "other"),):
         if written[name] or reads.bytes[name]:
             print(f"{name:<28} {written[name] / staged:>16.1f} {reads.bytes[name] / staged:>13.1f}")
     print(f"{'all':<28} {sum(written.values()) / staged:>16.1f} {sum(reads.bytes.values()) / staged:>13.1f}"

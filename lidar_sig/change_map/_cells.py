@@ -114,13 +114,20 @@ def point_keys(xyz, labels=None):
 class Sample:
     """The sample of an epoch's points whose saliency a change map computes and whose cells'
     signatures take them (:func:`in_sample` of share ``fraction``): small, sent to the tiles of
-    a run in work units."""
+    a run in work units (a fraction of 1: every point). Its tiles keep the sample's points
+    coded for the cells (:data:`lidar_sig.tiling._tasks.SAMPLE_POINTS`), keys included."""
 
     fraction: float
 
-    def mask(self, xyz, labels):
-        """(N,) bool: the points of coordinates ``xyz`` (N, 3, CRS units) and class codes in the sample."""
-        inside = in_sample(xyz, labels, self.fraction)
+    @staticmethod
+    def keys(xyz, labels):
+        """(N,) :func:`point_keys` of the points of coordinates ``xyz`` (N, 3, CRS units) and class codes."""
+        return point_keys(xyz, labels)
+
+    def mask(self, xyz, labels, keys=None):
+        """(N,) bool: the points of coordinates ``xyz`` (N, 3, CRS units) and class codes in the
+        sample (``keys``: their :meth:`keys`, when computed already)."""
+        inside = in_sample(xyz, labels, self.fraction, keys)
         return np.ones(len(xyz), bool) if inside is None else inside
 
 

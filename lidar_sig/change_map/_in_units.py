@@ -241,12 +241,12 @@ def _check_headers(scanned, names, execution, settings):
 def _sample(run, tiles, backend, most):
     """The :class:`~lidar_sig.change_map._cells.Sample` of an epoch's tiled ``run``, staged and
     tiled (``tiles``), from its density (kept as ``run.density``) and the sample's ``most``
-    points per m² (None: every point), or None for every point: what its tiles compute
-    (:func:`lidar_sig.tiling.run_set.run_set`'s ``sample``)."""
+    points per m² (None: every point, a fraction of 1): what its tiles compute and keep coded
+    for the cells (:func:`lidar_sig.tiling.run_set.run_set`'s ``sample``)."""
     run.density = _densities(run, tiles, backend)
     fraction = sample_fraction(run.density, most)
     run.sampled = run.density * fraction
-    return Sample(fraction) if fraction < 1.0 else None
+    return Sample(fraction)
 
 
 def _frame(runs, names, s):

@@ -33,7 +33,7 @@ from ..method.signature_raster import Frame, point_codes
 from ..numerics.records import join, pick
 from ..numerics.sorting import stable_order
 from ..tiling.work import UNITS, load_done, save_whole
-from ._cells import CHANGE_KEYS, Binned, null_metrics, observed_metrics, point_keys
+from ._cells import CHANGE_KEYS, Binned, null_metrics, observed_metrics
 from ._density import DENSITY_PIXEL, occupied_pixels
 
 #: One coded point of a work unit: its flat cell on the map's grid, its key
@@ -142,13 +142,14 @@ def code_task(uplan, epoch, ij, view_step):
     if done is not None:
         return dict(zip(done["units"].tolist(), np.diff(done["starts"]).tolist()))
     run = uplan.epochs[epoch]
-    raw, ids, labels, values = run.core_points(ij)  # of the epoch's sample, the points its cells take
-    codes = labels if uplan.labelled else np.zeros(len(ids), np.int64)
+    kept = run.sample_points(ij)  # of the epoch's sample, the points its cells take
+    raw, values = np.column_stack([kept["x"], kept["y"], kept["z"]]), kept["values"]
+    codes = kept["label"] if uplan.labelled else np.zeros(len(kept), np.int64)
     cls = uplan.classes.index(codes)
     pixel, egeom_bin = point_codes(values, cls, uplan.frame, egeom=geometric_entropy(values))
-    rec = np.empty(len(ids), CODED)
+    rec = np.empty(len(kept), CODED)
     rec["cell"] = uplan.grid.cell_of(raw[:, :2])
-    rec["key"] = point_keys(raw, labels)
+    rec["key"] = kept["key"]
     rec["pixel"], rec["egeom"], rec["cls"] = pixel, egeom_bin, cls
     rec["height"] = raw[:, 2] * run.ctx.factors[2]
     unit = uplan.unit_of(rec["cell"])
@@ -181,7 +182,10 @@ def unit_points(uplan, epoch, unit, tiles):
             parts.append(np.array(mapped[starts[k]:starts[k + 1]]))
             del mapped  # unmapped: the pages read leave the process
     rec = join(parts, CODED)
-    return pick(rec, np.lexsort((rec["key"], rec["cell"])))
+    # np.lexsort((key, cell)) as two stable radix sorts: by key, then by cell
+    by_key = stable_order(rec["key"])
+    cell = rec["cell"][by_key]
+    return pick(rec, by_key[stable_order(cell - cell.min(initial=0))])
 
 
 def binned_unit(rec, cells, n_classes):

@@ -17,10 +17,9 @@ from ..base.errors import LidarSigError, counted
 from ..base.progress import step
 from ..method.saliency_map import Saliency
 from ..method.signature_raster import Signature
-from ..numerics.records import pick
-from ._core import SetContext, Tiling, tile_name
+from ._core import SetContext, Tiling
 from .sources import ID_BITS
-from ._tasks import Plan, points_paths, result_path
+from ._tasks import Plan, points_paths, result_path, sample_path
 
 
 @dataclass(repr=False)
@@ -141,27 +140,12 @@ class SetRun:
         m = 0.01 * plan.tiling.size  # the core is decided by the index, not the box's round-off
         return load_cells(plan.files, plan.cells, plan._raw((x0 - m, y0 - m, x1 + m, y1 + m)))
 
-    def core_points(self, ij: tuple[int, int], values: bool = True) -> tuple[Any, ...]:
-        """(raw coordinates (N, 3) in the files' units, identifiers, class codes, (Cl, Cs, Cp))
-        of tile ``ij``'s core points, as the run staged and computed them: the staged points
-        whose tile by the tiling's own index is ``ij`` (a change map's work units code them),
-        those of the run's sample alone when it has one (``plan.sample``); without ``values``,
-        the first three."""
-        plan = self.plan
-        rec = self.box_points(ij)
-        rec = pick(rec, plan.tiling.core(*plan.ctx.plan_view(rec["x"], rec["y"]), ij))
-        raw, ids, labels = np.column_stack([rec["x"], rec["y"], rec["z"]]), rec["id"], rec["label"]
-        if plan.sample is not None:
-            keep = plan.sample.mask(raw, labels)
-            raw, ids, labels = raw[keep], ids[keep], labels[keep]
-        if not values:
-            return raw, ids, labels
-        ids_path, values_path = points_paths(plan.work, ij)
-        known = np.load(ids_path)
-        at = np.searchsorted(known, ids)
-        if len(known) != len(ids) or (len(ids) and not np.array_equal(known[np.minimum(at, len(known) - 1)], ids)):
-            raise RuntimeError(f"{tile_name(*ij)}: its staged points and its saliency differ")
-        return raw, ids, labels, np.load(values_path)["values"][at]
+    def sample_points(self, ij: tuple[int, int]) -> Any:
+        """Tile ``ij``'s core points of the run's sample (``plan.sample``; a change map's work
+        units code them), as its tile kept them (records of
+        :data:`~lidar_sig.tiling._tasks.SAMPLE_POINTS`: raw coordinates in the files' units,
+        class code, key, (Cl, Cs, Cp))."""
+        return np.load(sample_path(self.plan.work, ij))
 
     def saliency_of(self, source: Any) -> Saliency | None:
         """Saliency of one input file's points, in its point order (in memory); None when a

@@ -13,6 +13,8 @@ from pathlib import Path
 import numpy as np
 
 from ..method.signature_raster import Signature
+from ..numerics.records import pick
+from ..numerics.sorting import stable_order
 from ._core import SetContext, Tiling, tile_cap_sample, tile_name, tile_saliency, tile_second_distances
 from .sources import Cells, load_cells, source_of, stage_part
 from .work import FINISHED, load_done, save_whole
@@ -20,6 +22,11 @@ from .work import FINISHED, load_done, save_whole
 
 #: Per-point results: (Cl, Cs, Cp) and the chosen scale index (-1: none or undefined).
 POINT_VALUES = np.dtype([("values", "f8", 3), ("chosen", "i8")])
+#: A tile's points of a sample (a change map's), as the cells take them: raw coordinates (the
+#: files' units), class code, the sample's key of the point and (Cl, Cs, Cp); written by the
+#: tile, which has them at hand, so that coding them for the cells reads no staged point again.
+SAMPLE_POINTS = np.dtype([("x", "f8"), ("y", "f8"), ("z", "f8"), ("label", "i2"), ("key", "u8"),
+                          ("values", "f8", 3)])
 
 
 @dataclass(frozen=True)
@@ -34,9 +41,10 @@ class Plan:
     files: dict
     classes: object
     staged: str = ""
-    #: The points whose saliency is asked for, a sample (``sample.mask(raw xyz, class codes)``
-    #: -> (N,) bool, or None for all; a change map's, :class:`lidar_sig.change_map.Sample`);
-    #: None: every point.
+    #: The points whose saliency is asked for, a sample (``sample.keys(raw xyz, class codes)``
+    #: -> (N,) keys, ``sample.mask(raw xyz, class codes, keys)`` -> (N,) bool; a change map's,
+    #: :class:`lidar_sig.change_map.Sample`), whose points the tiles keep (:data:`SAMPLE_POINTS`);
+    #: None: every point, none kept.
     sample: object = None
     #: True when the cap's pass kept every core point's second-neighbour distance
     #: (:func:`second_task`), which the tiles then take; False when the cap came from a sample
@@ -109,6 +117,11 @@ def points_paths(work, ij):
     return folder / f"{tile_name(*ij)}.ids.npy", folder / f"{tile_name(*ij)}.values.npy"
 
 
+def sample_path(work, ij):
+    """The file of tile ``ij``'s points of the run's sample (records of :data:`SAMPLE_POINTS`)."""
+    return Path(work) / FINISHED / f"{tile_name(*ij)}.sample.npy"
+
+
 def second_paths(work, ij):
     """The files of tile ``ij``'s second-neighbour distances: one per distinct location of its
     core points, ascending (for the set's median); its core points' identifiers, ascending; and
@@ -122,6 +135,21 @@ def stage_task(work, source, part, start, stop, cells, noise_codes):
     """Stage one part of one file (a task), leaving out withheld and noise points
     (``noise_codes``, None for none)."""
     return stage_part(work, source, part, start, stop, cells, noise_codes)
+
+
+def _sample_points(first, core, values):
+    """The :data:`SAMPLE_POINTS` of a tile's core points in its sample, ordered by key: whatever
+    the files' order, cut or listing, so that what is drawn from them in order (the report's
+    top view) is too (``first``: the first block's raw coordinates, class codes, keys and
+    sample; ``core``: its core points; ``values``: the sample's saliency, in that block's order)."""
+    at = np.flatnonzero(core)[first["sampled"][core]] if "sampled" in first else np.empty(0, np.int64)
+    out = np.empty(len(at), SAMPLE_POINTS)
+    if len(at):
+        raw = first["raw"][at]
+        out["x"], out["y"], out["z"] = raw[:, 0], raw[:, 1], raw[:, 2]
+        out["label"], out["key"] = first["labels"][at], first["keys"][at]
+    out["values"] = values
+    return pick(out, stable_order(out["key"]))
 
 
 def second_task(plan, ij):
@@ -148,7 +176,8 @@ def tile_task(plan, ij):
     """Saliency and signature of one tile's core points, written to the work folder (a task);
     returns the tile's statistics. A result of the same set and method is reused."""
     path = result_path(plan.work, ij)
-    done = load_done(path, plan.key(), plan.work, extra=points_paths(plan.work, ij))
+    sample_file = (sample_path(plan.work, ij),) if plan.sample is not None else ()
+    done = load_done(path, plan.key(), plan.work, extra=points_paths(plan.work, ij) + sample_file)
     if done is not None:
         return {**json.loads(str(done["stats"])), "resumed": True}
     key = plan.key()  # another run's result, or a damaged one, is gone: its per-point files are replaced
@@ -162,10 +191,16 @@ def tile_task(plan, ij):
         return xyz, ids
 
     second_of = plan.second_of if plan.ctx.area_cap is not None and plan.second_known else None  # the cap pass's
-    sampled = None if plan.sample is None else lambda: first.setdefault("sampled", plan.sample.mask(first["raw"],
-                                                                                                    first["labels"]))
-    r = tile_saliency(plan.pipeline, load, plan.tiling, ij, plan.ctx, second_of=second_of, sampled=sampled)
-    codes = np.empty(0, np.int64)
+
+    def sampled():  # the sample's keys, kept for its points' file
+        if "sampled" not in first:
+            first["keys"] = plan.sample.keys(first["raw"], first["labels"])
+            first["sampled"] = plan.sample.mask(first["raw"], first["labels"], first["keys"])
+        return first["sampled"]
+
+    r = tile_saliency(plan.pipeline, load, plan.tiling, ij, plan.ctx, second_of=second_of,
+                      sampled=None if plan.sample is None else sampled)
+    codes, core = np.empty(0, np.int64), np.zeros(0, bool)
     if first:  # core points in the order of the first block, as tile_saliency lists them
         core = plan.tiling.core(first["xyz"][:, 0], first["xyz"][:, 1], ij)
         codes = first["labels"][core]
@@ -187,6 +222,8 @@ def tile_task(plan, ij):
     ids_path, values_path = points_paths(plan.work, ij)
     save_whole(ids_path, ids[order])
     save_whole(values_path, rec)
+    if plan.sample is not None:
+        save_whole(sample_path(plan.work, ij), _sample_points(first, core, values))
     save_whole(path, counts_at=nz, counts=flat[nz], egeom_counts=sig.egeom_counts, class_totals=sig.class_totals,
                has_chosen=np.array(r.chosen is not None), key=np.array(key),
                stats=np.array(json.dumps(stats)))  # last: a tile's result exists whole or not at all
