@@ -16,7 +16,8 @@ _ANNOUNCED = False
 _WARMING = {}
 #: Kernels every run calls (module, function names): the voxel grid, the neighbour search and
 #: saliency from eigenvalues (the radix sort of :mod:`lidar_sig.numerics.sorting`, for large
-#: clouds only, is compiled at its first call). The others are declared where they belong: a descriptor's and a strategy's on the
+#: clouds only, and a tile's load, :mod:`lidar_sig.tiling._load`, are compiled at their first
+#: call). The others are declared where they belong: a descriptor's and a strategy's on the
 #: plugin (``kernels``), the search's for radius scales on the Scales, the area weights' in
 #: :mod:`lidar_sig.numerics.neighbors`; a run gathers them (``Pipeline.kernels``). The functions they call
 #: are compiled and cached with them.

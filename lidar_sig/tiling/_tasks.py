@@ -67,13 +67,18 @@ class Plan:
     def load(self, bounds, *, raw=False):
         """(xyz centred metres, ids, labels) of the staged points within plan-view ``bounds``,
         and with ``raw`` their coordinates in the files' units last."""
+        from ._load import metres_within  # numba: loaded by the tasks that load, not on import
+
         x0, y0, x1, y1 = bounds
         rec = load_cells(self.files, self.cells, self._raw(bounds))
-        coords = np.column_stack([rec["x"], rec["y"], rec["z"]])
-        xyz = self.ctx.metric(coords)
-        inside = (xyz[:, 0] >= x0) & (xyz[:, 0] <= x1) & (xyz[:, 1] >= y0) & (xyz[:, 1] <= y1)
-        out = xyz[inside], rec["id"][inside], rec["label"][inside]
-        return (*out, coords[inside]) if raw else out
+        n = len(rec)
+        xyz, coords = np.empty((n, 3)), np.empty((n, 3))
+        ids, labels = np.empty(n, rec.dtype["id"]), np.empty(n, rec.dtype["label"])
+        m = metres_within(rec["x"], rec["y"], rec["z"], rec["id"], rec["label"],
+                          np.asarray(self.ctx.centre, dtype=np.float64), np.asarray(self.ctx.factors, dtype=np.float64),
+                          float(x0), float(y0), float(x1), float(y1), xyz, coords, ids, labels)
+        out = xyz[:m], ids[:m], labels[:m]
+        return (*out, coords[:m]) if raw else out
 
     def load_points(self, bounds):
         xyz, ids, _ = self.load(bounds)
