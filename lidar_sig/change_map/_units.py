@@ -185,7 +185,7 @@ def unit_points(uplan, epoch, unit, tiles):
     # np.lexsort((key, cell)) as two stable radix sorts: by key, then by cell
     by_key = stable_order(rec["key"])
     cell = rec["cell"][by_key]
-    return pick(rec, by_key[stable_order(cell - cell.min(initial=0))])
+    return pick(rec, by_key[stable_order(cell - cell.min() if len(cell) else cell)])  # the unit's few cells: 16 bits
 
 
 def binned_unit(rec, cells, n_classes):

@@ -1,8 +1,8 @@
-"""The stable order of non-negative integer keys, by radix (docs/performance.md, "Sorting"):
-numpy sorts 16-bit keys by radix but wider ones by timsort, three to eight times slower than a
-radix pass over only the bits the keys use. The order is the one ``np.argsort(keys,
-kind="stable")`` gives, to the element: records by cell or by work unit, points by voxel, by
-the hash of their coordinates or by identifier."""
+"""The stable order of non-negative integer keys, by radix (docs/performance.md, "Sorting and
+loading"): numpy sorts 16-bit keys by radix but wider ones by timsort, two to eight times
+slower than a radix pass over only the bits the keys use. The order is the one
+``np.argsort(keys, kind="stable")`` gives, to the element: records by cell or by work unit,
+points by voxel or by the hash of their coordinates."""
 from __future__ import annotations
 
 import numpy as np
@@ -14,11 +14,11 @@ _SMALL = 4096
 
 
 def stable_order(keys, n_keys=None):
-    """``np.argsort(keys, kind="stable")`` of integer ``keys`` in [0, ``n_keys``) (default: up
-    to their largest; unsigned 64-bit keys may use every bit)."""
+    """``np.argsort(keys, kind="stable")`` of non-negative integer ``keys`` below ``n_keys``
+    (default: their largest plus one; unsigned 64-bit keys may use every bit)."""
     keys = np.asarray(keys)
-    if n_keys is None:
-        n_keys = 2**64 if keys.dtype == np.uint64 else int(keys.max(initial=0)) + 1
+    # a bound below the largest key would cut its top bits off: the keys' own serves then
+    n_keys = max(int(n_keys or 0), int(keys.max(initial=0)) + 1)
     if n_keys <= np.iinfo(np.int16).max:
         return np.argsort(keys.astype(np.int16), kind="stable")  # numpy's own radix sort
     if len(keys) < _SMALL:

@@ -56,7 +56,8 @@ class Plan:
         points), its context, the method, the points left out, the tiling and the sample."""
         return json.dumps([self.staged, self.ctx.key(), self.pipeline.method(), self.classes.name,
                            self.pipeline.noise_codes(), self.pipeline.frame.size, self.tiling.size,
-                           repr(self.sample)], default=str)
+                           repr(self.sample), None if self.sample is None else SAMPLE_POINTS.descr],
+                          default=str)  # a tile of a sample keeps its points: a folder without them is another
 
     def _raw(self, bounds):
         """Plan-view ``bounds`` (x0, y0, x1, y1 in centred metres) in the files' coordinates."""
@@ -67,18 +68,16 @@ class Plan:
     def load(self, bounds, *, raw=False):
         """(xyz centred metres, ids, labels) of the staged points within plan-view ``bounds``,
         and with ``raw`` their coordinates in the files' units last."""
-        from ._load import metres_within  # numba: loaded by the tasks that load, not on import
+        from ._load import count_within, metres_within  # numba: loaded by the tasks that load, not on import
 
-        x0, y0, x1, y1 = bounds
         rec = load_cells(self.files, self.cells, self._raw(bounds))
-        n = len(rec)
-        xyz, coords = np.empty((n, 3)), np.empty((n, 3))
-        ids, labels = np.empty(n, rec.dtype["id"]), np.empty(n, rec.dtype["label"])
-        m = metres_within(rec["x"], rec["y"], rec["z"], rec["id"], rec["label"],
-                          np.asarray(self.ctx.centre, dtype=np.float64), np.asarray(self.ctx.factors, dtype=np.float64),
-                          float(x0), float(y0), float(x1), float(y1), xyz, coords, ids, labels)
-        out = xyz[:m], ids[:m], labels[:m]
-        return (*out, coords[:m]) if raw else out
+        frame = (np.asarray(self.ctx.centre, dtype=np.float64), np.asarray(self.ctx.factors, dtype=np.float64),
+                 *(float(b) for b in bounds))
+        m = count_within(rec["x"], rec["y"], *frame)  # the outputs' size: the staged box holds more
+        xyz, coords = np.empty((m, 3)), np.empty((m, 3))
+        ids, labels = np.empty(m, rec.dtype["id"]), np.empty(m, rec.dtype["label"])
+        metres_within(rec["x"], rec["y"], rec["z"], rec["id"], rec["label"], *frame, xyz, coords, ids, labels)
+        return (xyz, ids, labels, coords) if raw else (xyz, ids, labels)
 
     def load_points(self, bounds):
         xyz, ids, _ = self.load(bounds)

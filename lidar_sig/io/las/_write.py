@@ -3,9 +3,9 @@ chunk by chunk, atomically; a failed write (a full disk) is reported as such."""
 from __future__ import annotations
 
 import contextlib
-from concurrent.futures import ThreadPoolExecutor
 import copy
 import warnings
+from concurrent.futures import ThreadPoolExecutor
 
 import laspy
 import numpy as np
