@@ -365,3 +365,20 @@ def test_a_set_of_tiles_may_be_named_by_a_glob_pattern_or_a_virtual_point_cloud(
     assert expand([folder / "*.laz"]) == expand([folder]) == expand([vpc])
     with pytest.raises(ls.LidarSigError, match="matches no point-cloud file"):
         expand([folder / "*.las"])
+
+
+def test_a_result_of_another_run_is_replaced_quietly_and_a_damaged_one_is_noted(tmp_path):
+    # a tile of an earlier version wrote other files beside its result (no sample points): a
+    # resumed run recomputes it as another run's, not as a damaged file
+    from lidar_sig.tiling.work import damaged, load_done, save_whole
+
+    path, extra = tmp_path / "tile_0_0.npz", tmp_path / "tile_0_0.sample.npy"
+    save_whole(path, key=np.array("earlier method"))
+    assert load_done(path, "this method", tmp_path, extra=(extra,)) is None
+    assert not path.exists() and damaged(tmp_path) == []
+    save_whole(path, key=np.array("this method"))  # this run's result, a file it wrote missing
+    assert load_done(path, "this method", tmp_path, extra=(extra,)) is None
+    assert not path.exists() and damaged(tmp_path) == [str(path)]
+    save_whole(path, key=np.array("this method"))
+    save_whole(extra, np.zeros(3))
+    assert str(load_done(path, "this method", tmp_path, extra=(extra,))["key"]) == "this method"

@@ -270,7 +270,9 @@ def load_done(path, key, work, extra=()):
     """The arrays of the finished result ``path`` when it was written from ``key``, else None:
     absent, another run's (removed), or damaged (removed and noted in ``work``, :func:`damaged`,
     so that a resumed run recomputes it and says so, where it would otherwise fail the same way
-    at every attempt). ``extra``: files written with it (.npy) whose headers must read too."""
+    at every attempt). ``extra``: files written with it (.npy) whose headers must read too; a
+    result of another run (another method, or an earlier version that wrote other files) is
+    not taken for damaged because its files differ."""
     import numpy as np
 
     if not path.is_file():
@@ -278,9 +280,9 @@ def load_done(path, key, work, extra=()):
     try:
         with np.load(path) as done:
             arrays = {k: done[k] for k in done.files}
-        for other in extra:
-            np.load(other, mmap_mode="r")  # the header only: a damaged or missing file fails here
         if str(arrays["key"]) == key:
+            for other in extra:
+                np.load(other, mmap_mode="r")  # the header only: a damaged or missing file fails here
             return arrays
     except Exception:  # numpy, zipfile and pickle raise many kinds on a damaged file
         with contextlib.suppress(OSError):
