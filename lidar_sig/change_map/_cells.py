@@ -157,7 +157,7 @@ def bin_points(epoch, grid, classes, labelled, frame=CELL_FRAME):
     cells = epoch_cells(epoch, grid)
     codes = epoch.cloud.labels if labelled else np.zeros(len(epoch.cloud), np.int64)
     index = classes.index(codes)
-    order = stable_order(cells, n_cells + 1)
+    order = stable_order(cells)
     starts = np.searchsorted(cells[order], np.arange(n_cells + 1))
     counts = np.bincount(cells * n_classes + index, minlength=(n_cells + 1) * n_classes)[:n_cells * n_classes]
     undefined = np.bincount(cells[~epoch.saliency.defined], minlength=n_cells + 1)[:n_cells]

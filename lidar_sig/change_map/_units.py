@@ -153,7 +153,7 @@ def code_task(uplan, epoch, ij, view_step):
     rec["pixel"], rec["egeom"], rec["cls"] = pixel, egeom_bin, cls
     rec["height"] = raw[:, 2] * run.ctx.factors[2]
     unit = uplan.unit_of(rec["cell"])
-    order = stable_order(unit, uplan.shape[0] * uplan.shape[1])
+    order = stable_order(unit)
     rec, unit = pick(rec, order), unit[order]
     starts = np.flatnonzero(np.r_[True, unit[1:] != unit[:-1]]) if len(unit) else np.empty(0, np.int64)
     units = unit[starts]

@@ -13,12 +13,11 @@ DIGIT = 13
 _SMALL = 4096
 
 
-def stable_order(keys, n_keys=None):
-    """``np.argsort(keys, kind="stable")`` of non-negative integer ``keys`` below ``n_keys``
-    (default: their largest plus one; unsigned 64-bit keys may use every bit)."""
+def stable_order(keys):
+    """``np.argsort(keys, kind="stable")`` of non-negative integer ``keys`` (unsigned 64-bit
+    keys may use every bit); the passes cover the bits of the largest key."""
     keys = np.asarray(keys)
-    # a bound below the largest key would cut its top bits off: the keys' own serves then
-    n_keys = max(int(n_keys or 0), int(keys.max(initial=0)) + 1)
+    n_keys = int(keys.max(initial=0)) + 1
     if n_keys <= np.iinfo(np.int16).max:
         return np.argsort(keys.astype(np.int16), kind="stable")  # numpy's own radix sort
     if len(keys) < _SMALL:

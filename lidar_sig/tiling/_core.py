@@ -86,12 +86,9 @@ class SetContext:
     area_cap: float | None = None
     density: float = 1.0
 
-    def metric(self, xyz):
-        """(N, 3) coordinates in the files' units -> centred metres (as for one cloud)."""
-        return (np.asarray(xyz, dtype=np.float64) - np.asarray(self.centre)) * np.asarray(self.factors)
-
     def plan_view(self, x, y):
-        """(x, y) in the files' units -> centred metres, as :meth:`metric` gives them."""
+        """(x, y) in the files' units -> centred metres, ``(c - centre) * factors`` (as for one
+        cloud; a tile's load converts its points the same way, :mod:`lidar_sig.tiling._load`)."""
         return ((np.asarray(x, dtype=np.float64) - self.centre[0]) * self.factors[0],
                 (np.asarray(y, dtype=np.float64) - self.centre[1]) * self.factors[1])
 

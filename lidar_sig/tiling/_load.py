@@ -8,15 +8,20 @@ from numba import njit
 
 
 @njit(cache=True)
+def _metres(x, y, i, centre, factors, x0, y0, x1, y1):
+    """Record ``i``'s plan-view centred metres and whether they lie within [x0, x1] x [y0, y1]."""
+    mx = (x[i] - centre[0]) * factors[0]
+    my = (y[i] - centre[1]) * factors[1]
+    return mx, my, mx >= x0 and mx <= x1 and my >= y0 and my <= y1
+
+
+@njit(cache=True)
 def count_within(x, y, centre, factors, x0, y0, x1, y1):
     """How many records of coordinates ``x``, ``y`` (the files' units) lie within [x0, x1] x
     [y0, y1] in centred metres: the size of :func:`metres_within`'s outputs."""
     m = 0
     for i in range(len(x)):
-        mx = (x[i] - centre[0]) * factors[0]
-        my = (y[i] - centre[1]) * factors[1]
-        if mx >= x0 and mx <= x1 and my >= y0 and my <= y1:
-            m += 1
+        m += _metres(x, y, i, centre, factors, x0, y0, x1, y1)[2]
     return m
 
 
@@ -27,9 +32,8 @@ def metres_within(x, y, z, ids, labels, centre, factors, x0, y0, x1, y1, xyz, ra
     ``raw`` (the files' units), ``ids_out`` and ``labels_out``, each of that size."""
     m = 0
     for i in range(len(x)):
-        mx = (x[i] - centre[0]) * factors[0]
-        my = (y[i] - centre[1]) * factors[1]
-        if mx >= x0 and mx <= x1 and my >= y0 and my <= y1:
+        mx, my, inside = _metres(x, y, i, centre, factors, x0, y0, x1, y1)
+        if inside:
             xyz[m, 0], xyz[m, 1], xyz[m, 2] = mx, my, (z[i] - centre[2]) * factors[2]
             raw[m, 0], raw[m, 1], raw[m, 2] = x[i], y[i], z[i]
             ids_out[m], labels_out[m] = ids[i], labels[i]

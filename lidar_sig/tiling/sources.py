@@ -302,7 +302,7 @@ def _by_cell(ci, cj):
     di, dj = ci - ci.min(initial=0), cj - cj.min(initial=0)
     span = int(dj.max(initial=0)) + 1
     key = di * span + dj
-    return stable_order(key, int(key.max(initial=0)) + 1)
+    return stable_order(key)
 
 
 def densest(records, cells, factors):
