@@ -58,16 +58,21 @@ def add_fields(las, fields, *, path=None):
     return notes
 
 
-def extend_ranges(ranges, header, points):
+def extend_ranges(ranges, header, points, columns=None):
     """Widen ``ranges`` ({(name, element): (min, max)}) by each extra dimension's values in
     ``points`` that are not its no-data value (NaN never counts), as
-    :func:`set_extra_bytes_ranges` keeps them: over the chunks of a file written in parts."""
+    :func:`set_extra_bytes_ranges` keeps them: over the chunks of a file written in parts.
+    ``columns`` ({dimension name: values}, optional) are the values of some dimensions as the
+    points hold them, read instead: a column of packed records is read with a stride of a
+    record, tens of times slower."""
+    columns = columns or {}
     for vlr in header.vlrs.get("ExtraBytesVlr"):
         for record in vlr.extra_bytes_structs:
             name = record.format_name()
             if name not in points.array.dtype.names:
                 continue
-            raw = np.asarray(points.array[name]).reshape(len(points), -1)
+            kind = points.array.dtype[name].base  # a column as the records keep it (no copy when it is)
+            raw = np.asarray(columns[name] if name in columns else points.array[name], kind).reshape(len(points), -1)
             no_data = record.no_data
             for i in range(raw.shape[1] if len(raw) else 0):
                 column = raw[:, i]

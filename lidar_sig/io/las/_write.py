@@ -78,6 +78,7 @@ def write_las_chunks(path, source, saliency_chunks, *, scale_kind=None, scale_va
                     fields.update(extra(xyz))
                 if appended is not None:  # the source's records as they are, the fields after them
                     points = appended(chunk, fields)
+                    columns = {names[name]: values for name, values in fields.items()}
                 else:
                     part = laspy.LasData(header=copy.deepcopy(header), points=chunk)
                     las, notes = with_fields(PointCloud(xyz, source=part, path=str(source), crs=crs, units=units),
@@ -86,13 +87,14 @@ def write_las_chunks(path, source, saliency_chunks, *, scale_kind=None, scale_va
                     if writer is None:
                         writer_cm = _las_writer(path, las.header, overwrite)
                         writer = writer_cm.__enter__()
-                        appended, out_header = _appender(chunk, las, fields), las.header
+                        (appended, names), out_header = _appender(chunk, las, fields), las.header
+                    columns = {}
                 # compressed in a thread while the next chunk is read and filled (lazrs releases
                 # the GIL): one chunk at a time in flight, in order
                 if pending is not None:
                     pending.result()
                 pending = compressing.submit(writer.write_points, points)
-                extend_ranges(ranges, out_header, points)
+                extend_ranges(ranges, out_header, points, columns)
                 start = stop
                 stop_if_interrupted()  # a long streamed write ends soon after Ctrl-C or SIGTERM
             if pending is not None:
@@ -117,13 +119,14 @@ def _appender(chunk, las, fields):
     """``(chunk, fields) -> point record`` of a later chunk written as the first one, ``las``
     (its LasData with the ``fields``), was, when that kept the source's point records byte for
     byte and put the fields after them (a LAS 1.4 source without an earlier run's dimensions):
-    one copy of the records instead of laspy's field by field; None otherwise."""
+    one copy of the records instead of laspy's field by field; None otherwise. With it, the
+    fields' names in the records (field -> dimension name)."""
     src, out = chunk.array.dtype, las.points.array.dtype
     added = [n for n in out.names if n not in src.names]
     kept = all(n in out.names and out.fields[n][:2] == src.fields[n][:2] for n in src.names)
     if not kept or len(added) != len(fields) or out.itemsize != src.itemsize + sum(
             out.fields[n][0].itemsize for n in added):
-        return None
+        return None, None
     names = dict(zip(fields, added))  # add_fields appends them in the fields' order
     point_format = las.header.point_format
 
@@ -136,7 +139,7 @@ def _appender(chunk, las, fields):
         for name, v in values.items():
             array[names[name]] = v
         return laspy.PackedPointRecord(array, point_format)
-    return appended
+    return appended, names
 
 
 @contextlib.contextmanager
