@@ -127,6 +127,7 @@ def _through_tiles(path, pipeline, work):
 
     import laspy
 
+    from ..io.las import las_xyz
     from ..tiling.backends import InProcess
     from ..tiling.run_set import run_set
     from ..tiling.work import remove_work
@@ -144,7 +145,7 @@ def _through_tiles(path, pipeline, work):
     with laspy.open(path) as reader:
         lo, hi = reader.header.mins, reader.header.maxs
         for chunk in reader.chunk_iterator(500_000):
-            hulls.append(convex_hull(np.column_stack([np.asarray(chunk.x), np.asarray(chunk.y)])))
+            hulls.append(convex_hull(las_xyz(chunk)[:, :2]))
     remove_work(sub)
     source = run.sources[0]
     bounds = (float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1]))

@@ -223,6 +223,8 @@ def stage_part(work, source, part, start, stop, cells, noise_codes=None):
     ``counts``). Raises LidarSigError naming the file when it cannot be read."""
     import laspy
 
+    from ..io.las import las_xyz
+
     out = part_dir(work, source.id, part)
     shutil.rmtree(out, ignore_errors=True)  # an interrupted earlier attempt
     out.mkdir(parents=True)
@@ -238,8 +240,7 @@ def stage_part(work, source, part, start, stop, cells, noise_codes=None):
                 take = min(len(chunk), stop - start - n)
                 if take <= 0:
                     break
-                xyz = np.column_stack([np.asarray(chunk.x)[:take], np.asarray(chunk.y)[:take],
-                                       np.asarray(chunk.z)[:take]])
+                xyz = las_xyz(chunk, take)
                 check_magnitude(xyz, source.factors, path=source.path, start=start + n)
                 rec = np.empty(take, RECORD)
                 rec["x"], rec["y"], rec["z"] = xyz[:, 0], xyz[:, 1], xyz[:, 2]

@@ -11,11 +11,11 @@ earlier run are replaced, a user's own dimension of the same name never is
 from ..fields import saliency_fields
 from ._lasdata import check_las_output, las_scaling, to_lasdata
 from ._dims import SALIENCY_DIMS, is_ours, lidar_sig_dims, set_extra_bytes_ranges
-from ._read import LAS_EXTENSIONS, read_las
+from ._read import LAS_EXTENSIONS, las_xyz, read_las
 from ._upgrade import upgrade_to_14
 from ._write import write_las, write_las_chunks
 from ._copc import drop_copc, without_copc
 
-__all__ = ["LAS_EXTENSIONS", "SALIENCY_DIMS", "check_las_output", "drop_copc", "is_ours", "las_scaling", "lidar_sig_dims",
+__all__ = ["LAS_EXTENSIONS", "SALIENCY_DIMS", "check_las_output", "drop_copc", "is_ours", "las_scaling", "las_xyz", "lidar_sig_dims",
            "read_las", "saliency_fields", "set_extra_bytes_ranges", "to_lasdata", "upgrade_to_14", "without_copc", "write_las",
            "write_las_chunks"]

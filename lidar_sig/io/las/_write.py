@@ -15,6 +15,7 @@ from ...method.crs import las_units
 from ...base.errors import LidarSigError, LidarSigWarning
 from ..atomic import atomic_output, stop_if_interrupted
 from ._lasdata import check_las_output, to_lasdata
+from ._read import las_xyz
 from ._copc import without_copc
 from ..fields import saliency_fields
 from ._dims import add_fields, extend_ranges, set_extra_bytes_ranges
@@ -72,7 +73,7 @@ def write_las_chunks(path, source, saliency_chunks, *, scale_kind=None, scale_va
                 stop = start + len(chunk)
                 xyz = None
                 if extra is not None or appended is None:  # the coordinates, where something reads them
-                    xyz = np.column_stack([np.asarray(chunk.x), np.asarray(chunk.y), np.asarray(chunk.z)])
+                    xyz = las_xyz(chunk)
                 fields = saliency_fields(saliency_chunks(start, stop), scale_kind, scale_values)
                 if extra is not None:
                     fields.update(extra(xyz))
