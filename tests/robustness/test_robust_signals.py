@@ -256,13 +256,25 @@ def _after_the_package_starts(count):
 def test_a_signal_while_the_package_loads_is_one_line(tmp_path, signum, count, delay):
     # Ctrl-C while lidar_sig/__init__.py loaded lazy_loader was a KeyboardInterrupt traceback, and
     # SIGTERM until __main__ installed its handler ended the process silently (status -15)
-    out = tmp_path / "sample"
-    proc = start("sample", out, python=("-X", "importtime"))
-    read = wait_for_lines(proc, _after_the_package_starts(count))
-    time.sleep(delay)
+    for attempt in range(3):
+        out = tmp_path / f"sample{attempt}"
+        proc = start("sample", out, python=("-X", "importtime"))
+        read = wait_for_lines(proc, _after_the_package_starts(count))
+        time.sleep(delay)
+        if sent_while_running(proc, signum):
+            assert_interrupted(proc, signum, read)
+            assert not out.exists()
+            return
+        finish(proc, read)
+    pytest.skip("the command ended before the signal in 3 runs: the machine was too busy to aim at its start")
+
+
+def sent_while_running(proc, signum):
+    """Send ``signum`` to the child; False when it had ended before (Popen then sends nothing). On
+    a busy machine a command of half a second can end before this test has read the line it
+    waits for: that run says nothing of the signal (it once ended with status 0 so, 2026-12-06)."""
     proc.send_signal(signum)
-    assert_interrupted(proc, signum, read)
-    assert not out.exists()
+    return proc.returncode is None
 
 
 WORKER_MASK = """import multiprocessing, signal, sys
