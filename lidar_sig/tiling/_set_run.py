@@ -39,7 +39,7 @@ class SetRun:
     labelled: bool = False  # some point has a class code
     records: dict = field(default_factory=dict)  # (source, part) -> its staged part's record
     reused_parts: int = 0  # staged parts a resumed run reused
-    restaged: list = field(default_factory=list)  # files a resumed run staged again (edited since)
+    restaged: list = field(default_factory=list)  # files a resumed run staged again, each with why: "a.laz (edited since)"
     seconds: float = 0.0
     execution: str = ""
     density: float | None = None  # points per m², when a run's ``sample`` measured it

@@ -147,7 +147,7 @@ def _run_set(pipeline, inputs, *, work, tile_size, backend, resume, progress_ena
     if resume:
         resumed_note(work, [f"{run.reused_parts} of {counted(len(records), 'staged part')}",
                             f"{sum(bool(t.get('resumed')) for t in run.tile_stats.values())} of "
-                            f"{counted(len(tiles), 'tile')}"], [f"{name} (edited since)" for name in run.restaged])
+                            f"{counted(len(tiles), 'tile')}"], run.restaged)
     return run
 
 
@@ -254,12 +254,16 @@ def _stage(work, good, sources, cells, run, backend, resume, noise_codes, progre
     todo = []
     for s in good:
         parts = s.parts(backend.workers)
-        infos = [staged(work, s, part, first, stop, cells, noise_codes) if resume else None
+        found = [staged(work, s, part, first, stop, cells, noise_codes) if resume else (None, None)
                  for part, (first, stop) in enumerate(parts)]
+        infos = [info for info, _ in found]
+        why = [reason for _, reason in found if reason]
         if any(infos) and (infos[0] is None or infos[0].get("sha256") != sha256_of(s.path)):
             # a file edited in place keeps its size and time: its content is what tells
             infos = [None] * len(parts)
-            run.restaged.append(s.name)
+            why = why or ["edited since"]
+        if why:
+            run.restaged.append(f"{s.name} ({why[0]})")
         for part, ((first, stop), info) in enumerate(zip(parts, infos)):
             if info is None:
                 todo.append((str(work), s, part, first, stop, cells, noise_codes))

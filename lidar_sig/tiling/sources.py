@@ -201,14 +201,22 @@ def file_identity(path):
 
 
 def staged(work, source, part, start, stop, cells, noise_codes=None):
-    """The record of a part staged from the file as it is now on the grid ``cells``, leaving
-    out the same points (``noise_codes``, as for :func:`stage_part`), or None."""
+    """(record, None) of a part staged from the file as it is now, points [start, stop), on
+    the grid ``cells``, leaving out the same points (``noise_codes``, as for
+    :func:`stage_part`); else (None, why the part found there does not serve: a few words for a
+    resumed run's note), or (None, None) where none is there."""
     info = read_record(part_record(work, source.id, part), work)
-    if not isinstance(info, dict) or (info.get("identity") != file_identity(source.path) or info.get("path") != source.path
-            or info.get("range") != [start, stop] or info.get("grid") != cells.record()
-            or info.get("noise_codes", "?") != _codes_record(noise_codes)):
-        return None
-    return info
+    if not isinstance(info, dict):
+        return None, None  # none, or a damaged one (the work folder notes those)
+    if info.get("identity") != file_identity(source.path) or info.get("path") != source.path:
+        return None, "edited since"
+    if info.get("range") != [start, stop]:  # a file is cut into parts by the number of workers
+        return None, "cut into other parts: another --workers"
+    if info.get("grid") != cells.record():
+        return None, "staged on another grid: another tile size"
+    if info.get("noise_codes", "?") != _codes_record(noise_codes):
+        return None, "other points left out"
+    return info, None
 
 
 def _codes_record(noise_codes):

@@ -375,6 +375,26 @@ def test_resume_finds_a_file_edited_in_place_with_the_same_size_and_time(tmp_pat
     assert cells(proc) == from_the_start(a, b)  # the edited file's map, as a run from the start gives
 
 
+def test_resume_says_why_it_stages_a_file_again(tmp_path, monkeypatch):
+    # parts cut otherwise (a file is cut by the number of workers) were staged again without a
+    # word: the note said "reused 0 of 2 staged parts" and nothing of why
+    from lidar_sig.tiling import sources
+
+    a, b, work = kept_work(tmp_path)
+    # the sample's epochs (41,507 points) in parts of 20,000 points, as a resume with more workers cuts a large file
+    monkeypatch.setattr(sources, "PART_POINTS", 20_000)
+    monkeypatch.setattr(sources, "CHUNK_POINTS", 10_000)
+    with pytest.warns(ls.LidarSigWarning) as notes:
+        resumed = ls.changes(a, b, execution=ls.Execution(tile_size=50, workers=1), work=work, resume=True)
+    said = [str(n.message) for n in notes if "resumed from" in str(n.message)]
+    assert any("recomputed a.laz (cut into other parts: another --workers)" in n for n in said), said
+    assert any("recomputed b.laz (cut into other parts: another --workers)" in n for n in said), said
+    monkeypatch.undo()
+    again = ls.changes(a, b, execution=ls.Execution(tile_size=50, workers=1))
+    # the same map from parts of another cut: every cell, its values, levels, p-values and ranks
+    assert json.dumps(resumed.to_dict(n=1000), default=str) == json.dumps(again.to_dict(n=1000), default=str)
+
+
 # -- 7. work folders: two runs in one folder, an interrupt names one -------------------------------
 
 def test_a_second_run_in_the_same_default_work_folder_is_told_of_work_dir(tmp_path):
