@@ -382,3 +382,41 @@ def test_a_result_of_another_run_is_replaced_quietly_and_a_damaged_one_is_noted(
     save_whole(path, key=np.array("this method"))
     save_whole(extra, np.zeros(3))
     assert str(load_done(path, "this method", tmp_path, extra=(extra,))["key"]) == "this method"
+
+
+def test_a_resumed_staging_says_why_it_stages_a_file_again(tmp_path, monkeypatch):
+    # a run interrupted while staging leaves later parts finished and the first (which also
+    # hashes the file) not: the file is staged again whole, and that was said as "edited since"
+    from lidar_sig.tiling import sources as staging
+    from lidar_sig.tiling._set_run import SetRun
+    from lidar_sig.tiling.backends import InProcess
+    from lidar_sig.tiling.run_set import _stage
+
+    monkeypatch.setattr(staging, "PART_POINTS", 12_000)  # the sample's 41,507 points in 4 parts
+    monkeypatch.setattr(staging, "CHUNK_POINTS", 5_000)
+    path = tmp_path / "epoch1.laz"
+    shutil.copy(SAMPLES / "epoch1.laz", path)
+    (source,) = staging.scan([path])
+    cells = staging.Cells(tuple(float(v) for v in source.lo[:2]), 10.0)
+    parts = source.parts(1)
+    assert len(parts) == 4
+    work = tmp_path / "work"
+
+    def resumed():
+        run = SetRun([source])
+        records = _stage(work, [source], [source], cells, run, InProcess(), True, None, False)
+        return run, records
+
+    for part in (1, 2):
+        staging.stage_part(work, source, part, *parts[part], cells)
+    run, records = resumed()
+    assert run.restaged == ["epoch1.laz (its first part unfinished: an interrupted staging)"]
+    assert run.reused_parts == 0 and len(records) == 4
+    run, _ = resumed()  # now whole: every part reused, nothing said
+    assert run.restaged == [] and run.reused_parts == 4
+    other = tmp_path / "other.laz"  # another file where this one was in the set's list
+    shutil.copy(path, other)
+    (moved,) = staging.scan([other])
+    run = SetRun([moved])
+    _stage(work, [moved], [moved], cells, run, InProcess(), True, None, False)
+    assert run.restaged == ["other.laz (another file in its place: the set's files changed)"]

@@ -258,10 +258,13 @@ def _stage(work, good, sources, cells, run, backend, resume, noise_codes, progre
                  for part, (first, stop) in enumerate(parts)]
         infos = [info for info, _ in found]
         why = [reason for _, reason in found if reason]
-        if any(infos) and (infos[0] is None or infos[0].get("sha256") != sha256_of(s.path)):
+        if any(infos) and infos[0] is None:  # the first part holds the file's SHA-256: none to check the others by
+            infos = [None] * len(parts)
+            why = why or ["its first part unfinished: an interrupted staging"]
+        elif infos[0] is not None and infos[0].get("sha256") != sha256_of(s.path):
             # a file edited in place keeps its size and time: its content is what tells
             infos = [None] * len(parts)
-            why = why or ["edited since"]
+            why = ["edited since"]
         if why:
             run.restaged.append(f"{s.name} ({why[0]})")
         for part, ((first, stop), info) in enumerate(zip(parts, infos)):

@@ -208,12 +208,14 @@ def staged(work, source, part, start, stop, cells, noise_codes=None):
     info = read_record(part_record(work, source.id, part), work)
     if not isinstance(info, dict):
         return None, None  # none, or a damaged one (the work folder notes those)
-    if info.get("identity") != file_identity(source.path) or info.get("path") != source.path:
+    if info.get("path") != source.path:  # a file's number is its place in the set's list
+        return None, "another file in its place: the set's files changed"
+    if info.get("identity") != file_identity(source.path):
         return None, "edited since"
     if info.get("range") != [start, stop]:  # a file is cut into parts by the number of workers
         return None, "cut into other parts: another --workers"
-    if info.get("grid") != cells.record():
-        return None, "staged on another grid: another tile size"
+    if info.get("grid") != cells.record():  # from the tile size (--tile-size, or --memory and --workers) and extent
+        return None, "staged on another grid: another tile size or extent"
     if info.get("noise_codes", "?") != _codes_record(noise_codes):
         return None, "other points left out"
     return info, None

@@ -62,9 +62,9 @@ def extend_ranges(ranges, header, points, columns=None):
     """Widen ``ranges`` ({(name, element): (min, max)}) by each extra dimension's values in
     ``points`` that are not its no-data value (NaN never counts), as
     :func:`set_extra_bytes_ranges` keeps them: over the chunks of a file written in parts.
-    ``columns`` ({dimension name: values}, optional) are the values of some dimensions as the
-    points hold them, read instead: a column of packed records is read with a stride of a
-    record, tens of times slower."""
+    ``columns`` ({dimension name: values}, optional) are the values of some dimensions, read
+    instead of the points' (cast to the dimension's type, as the records hold them): a column
+    of packed records is read with a stride of a record, tens of times slower."""
     columns = columns or {}
     for vlr in header.vlrs.get("ExtraBytesVlr"):
         for record in vlr.extra_bytes_structs:

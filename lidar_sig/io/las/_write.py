@@ -120,8 +120,8 @@ def _appender(chunk, las, fields):
     """``(chunk, fields) -> point record`` of a later chunk written as the first one, ``las``
     (its LasData with the ``fields``), was, when that kept the source's point records byte for
     byte and put the fields after them (a LAS 1.4 source without an earlier run's dimensions):
-    one copy of the records instead of laspy's field by field; None otherwise. With it, the
-    fields' names in the records (field -> dimension name)."""
+    one copy of the records instead of laspy's field by field, and the fields' names in the
+    records (field -> dimension name); (None, None) otherwise."""
     src, out = chunk.array.dtype, las.points.array.dtype
     added = [n for n in out.names if n not in src.names]
     kept = all(n in out.names and out.fields[n][:2] == src.fields[n][:2] for n in src.names)
