@@ -33,7 +33,7 @@ And a last one (:func:`print_equal_flags`): the edits each tool finds at the rul
 most 5%, 10% and 25% of each kind's unchanged cells, the change map's confidence and M3C2's
 share each matched to those cells.
 
-    python benchmarks/change_power.py [--quick] [--pairs 4] [--densities 0.1 0.25 0.5 1 2 5 10]
+    python benchmarks/change_power.py [--quick] [--seed N] [--pairs 4] [--densities 0.1 0.25 0.5 1 2 5 10]
         [--surveys ign ahn3] [--dump cells.json]
 
 About 9 minutes on a shared 2-core machine; ``--quick`` (densities 0.5, 2 and 10, one edited
@@ -122,13 +122,14 @@ def m3c2_flags(pool, a, b, grid, density):
     return n, np.where(n > 0, k / np.maximum(n, 1), 0.0)
 
 
-def run_pair(pool, epoch_a, b, moved, pipeline, density, class_map=None):
+def run_pair(pool, epoch_a, b, moved, pipeline, density, class_map=None, seed=None):
     """Both tools on one pair: the change map (on B as it is, with ``class_map`` where the
-    epochs' class schemes differ), and M3C2's core points and share of them changed per cell
-    (on B registered: the move taken back)."""
+    epochs' class schemes differ; ``seed``: its resamples' seed, None for the default), and
+    M3C2's core points and share of them changed per cell (on B registered: the move taken back)."""
     import lidar_sig as ls
 
-    cm = ls.changes(epoch_a, b, pipeline=pipeline, class_map=class_map)
+    cm = ls.changes(epoch_a, b, pipeline=pipeline, class_map=class_map,
+                    **({} if seed is None else {"seed": seed}))
     registered = b.xyz - np.asarray(SHIFT) if moved else b.xyz
     n_core, share = m3c2_flags(pool, epoch_a.cloud.xyz, registered, cm.grid, density)
     return cm, n_core, share
@@ -144,6 +145,9 @@ def main():
     parser.add_argument("--kinds", nargs="+", choices=("resampled", "campaigns"), default=["resampled", "campaigns"],
                         help="resampled: halves, copy and edited copies of one flight; campaigns: strip pairs and "
                              "modelled campaign differences, each null and edited (benchmarks/campaigns.py)")
+    parser.add_argument("--seed", type=int, default=None,
+                        help="the change map's resamples' seed (default: the map's own): how far the draws "
+                             "alone move a row (docs/changes.md, \"Rerun with the sample\")")
     args = parser.parse_args()
     if args.dump and not Path(args.dump).resolve().parent.is_dir():  # said now, not after the run
         parser.error(f"--dump {args.dump}: its folder does not exist; create it or give another path")
@@ -196,7 +200,7 @@ def main():
                 if epoch is None:
                     continue
                 t0 = time.perf_counter()
-                cm, n_core, share = run_pair(pool, epoch, b, moved, pipeline, d, class_map)
+                cm, n_core, share = run_pair(pool, epoch, b, moved, pipeline, d, class_map, args.seed)
                 edit_of = {}
                 for name, (i, j) in edits.items():
                     centre = np.array([[(i + 0.5) * 25.0, (j + 0.5) * 25.0]])
