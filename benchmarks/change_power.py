@@ -122,14 +122,13 @@ def m3c2_flags(pool, a, b, grid, density):
     return n, np.where(n > 0, k / np.maximum(n, 1), 0.0)
 
 
-def run_pair(pool, epoch_a, b, moved, pipeline, density, class_map=None, seed=None):
+def run_pair(pool, epoch_a, b, moved, pipeline, density, class_map, seed):
     """Both tools on one pair: the change map (on B as it is, with ``class_map`` where the
-    epochs' class schemes differ; ``seed``: its resamples' seed, None for the default), and
-    M3C2's core points and share of them changed per cell (on B registered: the move taken back)."""
+    epochs' class schemes differ, its resamples drawn from ``seed``), and M3C2's core points and
+    share of them changed per cell (on B registered: the move taken back)."""
     import lidar_sig as ls
 
-    cm = ls.changes(epoch_a, b, pipeline=pipeline, class_map=class_map,
-                    **({} if seed is None else {"seed": seed}))
+    cm = ls.changes(epoch_a, b, pipeline=pipeline, class_map=class_map, seed=seed)
     registered = b.xyz - np.asarray(SHIFT) if moved else b.xyz
     n_core, share = m3c2_flags(pool, epoch_a.cloud.xyz, registered, cm.grid, density)
     return cm, n_core, share
@@ -157,11 +156,12 @@ def main():
     from power_edits import EDITS, edit_block
 
     from lidar_sig.change_map import density as density_of
-    from lidar_sig.change_map import compute_epoch, read_epoch
+    from lidar_sig.change_map import SEED, compute_epoch, read_epoch
     from lidar_sig.base.errors import LidarSigWarning
 
     warnings.simplefilter("ignore", LidarSigWarning)
     pipeline = ls.Pipeline(progress=False)
+    seed = SEED if args.seed is None else args.seed
     cells = []  # one record per evaluated cell
     start = time.perf_counter()
     pool = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"), max_tasks_per_child=1)
@@ -200,7 +200,7 @@ def main():
                 if epoch is None:
                     continue
                 t0 = time.perf_counter()
-                cm, n_core, share = run_pair(pool, epoch, b, moved, pipeline, d, class_map, args.seed)
+                cm, n_core, share = run_pair(pool, epoch, b, moved, pipeline, d, class_map, seed)
                 edit_of = {}
                 for name, (i, j) in edits.items():
                     centre = np.array([[(i + 0.5) * 25.0, (j + 0.5) * 25.0]])
